@@ -1,0 +1,290 @@
+"""How a BRDF model is declared, registered and bound to parameter values.
+
+A model is declared once, in its own module under ``core/models/``: its parameters, its traits and its
+numba kernels. Everything else (the property editor, the samplers, the renderer, the tests) reads the
+declaration and needs no per-model code.
+
+Kernel conventions (all in the local shading frame, z = normal; directions are 3-tuples of float64):
+
+``eval(wi, wo, p) -> (r, g, b)``
+    the BRDF value ``f_r`` for incident ``wi`` and outgoing ``wo`` (the seed's ``v`` and ``u``). ``p`` is the
+    float64 kernel parameter vector (see :meth:`Model.kernel_params`). Must return finite, non-negative
+    values for every pair of unit vectors, zero when either lies below the horizon.
+``sample(wo, p, u1, u2, u3) -> (x, y, z, pdf)``
+    an analytic importance sample ``wi`` for outgoing ``wo`` from three uniforms in [0, 1), with its density
+    per unit solid angle. The density may put mass below the horizon (such samples carry no energy); it must
+    equal ``pdf(wo, wi, p)`` at the returned direction.
+``pdf(wo, wi, p) -> float``
+    the density of ``sample`` per unit solid angle at any unit vector ``wi`` (either hemisphere).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from core.errors import ParameterError, UnknownNameError
+
+ParamValue = float | tuple[float, float, float]
+
+
+class Traits(enum.Flag):
+    """Physical properties a model guarantees for every parameter setting within its bounds."""
+
+    NONE = 0
+    ISOTROPIC = enum.auto()
+    """Invariant under a common rotation of ``wi`` and ``wo`` about the normal."""
+    RECIPROCAL = enum.auto()
+    """``f(wi, wo) == f(wo, wi)``."""
+    ENERGY_CONSERVING = enum.auto()
+    """Directional albedo ``rho(wo) <= 1`` for every ``wo``."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One user-facing parameter of a model.
+
+    ``kind`` is ``"float"`` (one slot in the kernel vector), ``"color"`` (three slots, linear RGB, each channel
+    within ``[lo, hi]``) or ``"bool"`` (one slot, 0 or 1).
+    """
+
+    name: str
+    default: ParamValue
+    lo: float = 0.0
+    hi: float = 1.0
+    unit: str = ""
+    label: str = ""
+    log: bool = False
+    kind: Literal["float", "color", "bool"] = "float"
+    doc: str = ""
+
+    @property
+    def size(self) -> int:
+        return 3 if self.kind == "color" else 1
+
+    def range_text(self) -> str:
+        if self.kind == "bool":
+            return "true or false"
+        return f"[{self.lo:g}, {self.hi:g}]"
+
+    def validate(self, model_name: str, value: Any) -> ParamValue:
+        """Return ``value`` normalized (colors as 3-tuples), or raise :class:`ParameterError`."""
+        where = f"parameter '{self.name}' of model '{model_name}'"
+        if self.kind == "bool":
+            if isinstance(value, str):
+                low = value.strip().lower()
+                if low in ("true", "1", "yes", "on"):
+                    return 1.0
+                if low in ("false", "0", "no", "off"):
+                    return 0.0
+                raise ParameterError(f"{where} must be true or false, got {value!r}")
+            try:
+                f = float(value)
+            except (TypeError, ValueError):
+                raise ParameterError(f"{where} must be true or false, got {value!r}") from None
+            if f not in (0.0, 1.0):
+                raise ParameterError(f"{where} must be true or false, got {value!r}")
+            return f
+        if self.kind == "color":
+            if isinstance(value, str):
+                value = [v for v in value.replace(";", ",").split(",") if v.strip()]
+            if np.ndim(value) == 0:
+                value = (value, value, value)
+            vals = list(value)
+            if len(vals) == 1:
+                vals = vals * 3
+            if len(vals) != 3:
+                raise ParameterError(f"{where} is an RGB color: give one number or three, got {len(vals)}")
+            return tuple(self._check_number(where, v) for v in vals)  # type: ignore[return-value]
+        return self._check_number(where, value)
+
+    def _check_number(self, where: str, v: Any) -> float:
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{where} must be a number in {self.range_text()}, got {v!r}") from None
+        if not math.isfinite(f):
+            raise ParameterError(f"{where} must be a finite number in {self.range_text()}, got {f}")
+        if not (self.lo <= f <= self.hi):
+            raise ParameterError(f"{where} = {f:g} is outside its allowed range {self.range_text()}")
+        return f
+
+
+@dataclass(frozen=True)
+class Model:
+    """A BRDF model: its declaration and its kernels. Create with :func:`register` in the model's module."""
+
+    name: str
+    label: str
+    citation: str
+    params: tuple[Param, ...]
+    traits: Traits
+    eval: Callable[..., tuple[float, float, float]]
+    sample: Callable[..., tuple[float, float, float, float]] | None = None
+    pdf: Callable[..., float] | None = None
+    derive: Callable[[np.ndarray], np.ndarray] | None = None
+    """Optional: maps the user parameter vector to the full kernel vector (appending tables or constants)."""
+    doc: str = ""
+    notes: str = ""
+    """How a shading model becomes a BRDF, known limits, and the like."""
+    measured: bool = False
+    defaults_override: Mapping[str, ParamValue] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        names = [p.name for p in self.params]
+        if len(set(names)) != len(names):
+            raise ValueError(f"model {self.name}: duplicate parameter names")
+
+    @property
+    def isotropic(self) -> bool:
+        return Traits.ISOTROPIC in self.traits
+
+    @property
+    def reciprocal(self) -> bool:
+        return Traits.RECIPROCAL in self.traits
+
+    @property
+    def energy_conserving(self) -> bool:
+        return Traits.ENERGY_CONSERVING in self.traits
+
+    def param(self, name: str) -> Param:
+        for p in self.params:
+            if p.name == name:
+                return p
+        allowed = ", ".join(p.name for p in self.params) or "(none)"
+        raise ParameterError(f"model '{self.name}' has no parameter '{name}'; its parameters are: {allowed}")
+
+    def defaults(self) -> dict[str, ParamValue]:
+        return {p.name: self.defaults_override.get(p.name, p.default) for p in self.params}
+
+    def resolve(self, values: Mapping[str, Any] | None = None) -> dict[str, ParamValue]:
+        """Defaults updated with ``values``, every entry validated."""
+        out = self.defaults()
+        for name, value in (values or {}).items():
+            out[name] = self.param(name).validate(self.name, value)
+        return {p.name: p.validate(self.name, out[p.name]) for p in self.params}
+
+    def user_vector(self, values: Mapping[str, ParamValue]) -> np.ndarray:
+        flat: list[float] = []
+        for p in self.params:
+            v = values[p.name]
+            flat.extend(v if isinstance(v, tuple) else (v,))
+        return np.asarray(flat, dtype=np.float64)
+
+    def kernel_params(self, values: Mapping[str, Any] | None = None) -> np.ndarray:
+        """The float64 vector the kernels take: user parameters in declaration order, then derived data."""
+        vec = self.user_vector(self.resolve(values))
+        if self.derive is not None:
+            vec = np.ascontiguousarray(self.derive(vec), dtype=np.float64)
+        return vec
+
+    def bind(self, values: Mapping[str, Any] | None = None, **kwargs: Any) -> BRDF:
+        """A :class:`BRDF`: this model with validated parameter values."""
+        merged = dict(values or {})
+        merged.update(kwargs)
+        return BRDF(self, self.resolve(merged))
+
+
+class BRDF:
+    """A model bound to parameter values; vectorized evaluation in the local frame.
+
+    Note the argument order of the Python API, ``eval(wo, wi)``: the outgoing (view) direction first, as the
+    samplers take it; the kernels take ``(wi, wo, p)``.
+    """
+
+    def __init__(self, model: Model, values: Mapping[str, ParamValue], params: np.ndarray | None = None):
+        self.model = model
+        self.values = dict(values)
+        self.params = params if params is not None else model.kernel_params(values)
+
+    @property
+    def name(self) -> str:
+        return self.model.name
+
+    def key(self) -> str:
+        """A stable text key of model and parameter values (for caches)."""
+        items = ",".join(f"{k}={v!r}" for k, v in sorted(self.values.items()))
+        return f"{self.model.name}({items})"
+
+    def eval(self, wo: np.ndarray, wi: np.ndarray, threads: bool = False) -> np.ndarray:
+        """``f_r`` as RGB, shape ``(n, 3)``, for directions ``wo`` and ``wi`` of shape ``(3,)`` or ``(n, 3)``."""
+        from core.kernels import eval_batch
+
+        wo, wi = _as_pairs(wo, wi)
+        return eval_batch(self.model, wi, wo, self.params, threads=threads)
+
+    def luminance(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """Scalar ``f_r`` (Rec. 709 luminance of the RGB value), shape ``(n,)``."""
+        return luminance(self.eval(wo, wi))
+
+    def __repr__(self) -> str:
+        return f"BRDF({self.key()})"
+
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    return np.asarray(rgb) @ LUMINANCE
+
+
+def _as_pairs(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = np.atleast_2d(np.asarray(a, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(b, dtype=np.float64))
+    a, b = np.broadcast_arrays(a, b)
+    return np.ascontiguousarray(a), np.ascontiguousarray(b)
+
+
+_REGISTRY: dict[str, Model] = {}
+
+
+def register(model: Model) -> Model:
+    """Add ``model`` to the registry (by its ``name``) and return it."""
+    if model.name in _REGISTRY:
+        raise ValueError(f"model '{model.name}' registered twice")
+    _REGISTRY[model.name] = model
+    return model
+
+
+def _load_models() -> None:
+    import core.models  # noqa: F401  (registers every model module)
+
+
+def all_models() -> list[Model]:
+    """Every registered model, in registration order."""
+    _load_models()
+    return list(_REGISTRY.values())
+
+
+def get_model(name: str) -> Model:
+    _load_models()
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown model '{name}'; known models: {', '.join(sorted(_REGISTRY))}"
+        ) from None
+
+
+def make_brdf(name: str, params: Mapping[str, Any] | Sequence[str] | None = None) -> BRDF:
+    """A BRDF from a model name and parameters (a mapping, or ``["k=v", ...]`` strings as the CLI takes)."""
+    return get_model(name).bind(parse_assignments(params))
+
+
+def parse_assignments(params: Mapping[str, Any] | Sequence[str] | None) -> dict[str, Any]:
+    if params is None:
+        return {}
+    if isinstance(params, Mapping):
+        return dict(params)
+    out: dict[str, Any] = {}
+    for item in params:
+        if "=" not in item:
+            raise ParameterError(f"parameter '{item}' must be written name=value")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out

@@ -1,0 +1,47 @@
+"""Lambert's ideal diffuse reflector (J. H. Lambert, *Photometria*, 1760).
+
+``f_r = kd / pi``: the same radiance in every direction. Sampled by the cosine-weighted hemisphere
+(Malley's method), whose density ``cos(theta_i) / pi`` makes ``f cos / pdf = kd`` constant.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from core.model import Model, Param, Traits, register
+from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+
+INV_PI = 0.3183098861837907
+
+
+@njit(nogil=True, cache=True)
+def eval_lambert(wi, wo, p):
+    if wi[2] <= 0.0 or wo[2] <= 0.0:
+        return 0.0, 0.0, 0.0
+    return p[0] * INV_PI, p[1] * INV_PI, p[2] * INV_PI
+
+
+@njit(nogil=True, cache=True)
+def sample_lambert(wo, p, u1, u2, u3):
+    x, y, z = cosine_hemisphere(u1, u2)
+    return x, y, z, cosine_hemisphere_pdf(z)
+
+
+@njit(nogil=True, cache=True)
+def pdf_lambert(wo, wi, p):
+    return cosine_hemisphere_pdf(wi[2])
+
+
+LAMBERT = register(
+    Model(
+        name="lambert",
+        label="Lambert (1760)",
+        citation="J. H. Lambert, Photometria, 1760.",
+        params=(Param("kd", (0.8, 0.8, 0.8), 0.0, 1.0, label="Diffuse albedo", kind="color"),),
+        traits=Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
+        eval=eval_lambert,
+        sample=sample_lambert,
+        pdf=pdf_lambert,
+        doc=__doc__ or "",
+    )
+)
