@@ -1,7 +1,8 @@
 """The ``brdf-studio`` command: subcommands for the library, the renderer and the desktop app.
 
-Each subcommand lives in its own module under ``app/commands/`` with two functions, ``add_parser(subparsers)``
-and ``run(args) -> int``; list it in ``COMMANDS``. Errors a user can cause (``BrdfStudioError``) print one
+Each subcommand lives in its own module under ``app/commands/`` with two functions,
+``add_parser(subparsers) -> list[str]`` (the command names it adds) and ``run(args) -> int``; modules are found
+by name, so adding a command is adding a file. Errors a user can cause (``BrdfStudioError``) print one
 clear line and exit with its code; nothing the user does shows a traceback.
 """
 
@@ -16,9 +17,18 @@ from collections.abc import Sequence
 
 from core.errors import BrdfStudioError
 
-COMMANDS = [
-    "app.commands.models",
-]
+
+def _command_modules() -> list[str]:
+    import pkgutil
+
+    import app.commands
+
+    return [
+        f"app.commands.{m.name}"
+        for m in pkgutil.iter_modules(app.commands.__path__)
+        if not m.name.startswith("_")
+    ]
+
 
 EXIT_INTERNAL = 70
 
@@ -31,7 +41,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
     parser.add_argument("--debug", action="store_true", help="show the full traceback of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     handlers: dict[str, object] = {}
-    for name in COMMANDS:
+    for name in _command_modules():
         module = importlib.import_module(name)
         for cmd in module.add_parser(sub):
             handlers[cmd] = module

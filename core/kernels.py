@@ -33,7 +33,9 @@ def _eval_parallel(kernel, wi, wo, p, out):
         out[i, 2] = b
 
 
-def eval_batch(model: Model, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, threads: bool = False) -> np.ndarray:
+def eval_batch(
+    model: Model, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, threads: bool = False
+) -> np.ndarray:
     """``f_r(wi[k], wo[k])`` for every row; ``wi, wo (n, 3)`` float64 contiguous; returns ``(n, 3)``."""
     out = np.empty((wi.shape[0], 3), dtype=np.float64)
     (_eval_parallel if threads else _eval_serial)(model.eval, wi, wo, p, out)

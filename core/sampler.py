@@ -193,10 +193,6 @@ def applicable_samplers(brdf: BRDF) -> list[str]:
 
 def _load_samplers() -> None:
     """Import the modules that register further strategies (kept lazy: they are heavier)."""
-    import importlib
+    from core.samplers import load_all
 
-    for mod in _EXTRA_SAMPLER_MODULES:
-        importlib.import_module(mod)
-
-
-_EXTRA_SAMPLER_MODULES: list[str] = []
+    load_all()

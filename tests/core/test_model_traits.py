@@ -60,7 +60,9 @@ def test_zero_below_the_horizon(model):
     assert np.all(brdf.eval(np.tile(w, (len(below), 1)), np.repeat(below, len(w), axis=0)) == 0.0)
 
 
-@pytest.mark.parametrize("model", [m for m in MODELS if m.reciprocal], ids=[m.name for m in MODELS if m.reciprocal])
+@pytest.mark.parametrize(
+    "model", [m for m in MODELS if m.reciprocal], ids=[m.name for m in MODELS if m.reciprocal]
+)
 def test_reciprocal(model, rng):
     wo, wi = all_pairs(direction_grid())
     for values in _settings(model, rng):
@@ -70,7 +72,9 @@ def test_reciprocal(model, rng):
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12, err_msg=f"{model.name} {values}")
 
 
-@pytest.mark.parametrize("model", [m for m in MODELS if m.isotropic], ids=[m.name for m in MODELS if m.isotropic])
+@pytest.mark.parametrize(
+    "model", [m for m in MODELS if m.isotropic], ids=[m.name for m in MODELS if m.isotropic]
+)
 def test_isotropic_under_rotation_about_the_normal(model, rng):
     wo, wi = all_pairs(direction_grid())
     for values in _settings(model, rng):
@@ -91,7 +95,9 @@ def test_parameter_validation_names_the_parameter(model):
                 model.bind({p.name: "maybe"})
             continue
         for bad in (float("nan"), float("inf"), p.lo - 1.0 - abs(p.lo), p.hi + 1.0 + abs(p.hi)):
-            with pytest.raises(ParameterError, match=rf"'{p.name}'.*\[{p.lo:g}, {p.hi:g}\]|'{p.name}'.*finite"):
+            with pytest.raises(
+                ParameterError, match=rf"'{p.name}'.*\[{p.lo:g}, {p.hi:g}\]|'{p.name}'.*finite"
+            ):
                 model.bind({p.name: bad})
     with pytest.raises(ParameterError, match="no parameter 'not_a_parameter'"):
         model.bind({"not_a_parameter": 1.0})
