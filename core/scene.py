@@ -1,0 +1,427 @@
+"""The scene (project) file: a versioned JSON schema, loading with readable errors, atomic saving.
+
+Plain data only: this module knows nothing of the renderer. The desktop app edits a :class:`Scene` and saves
+it; the renderer loads meshes and images from the paths it names. Paths are relative to the scene file.
+
+A minimal scene::
+
+    {
+      "version": 1,
+      "camera": {"position": [0, 1, 4], "target": [0, 0.5, 0], "up": [0, 1, 0], "fov_deg": 40},
+      "materials": [{"name": "white", "model": "lambert", "params": {"kd": 0.8}}],
+      "meshes": [{"path": "floor.obj", "material": "white"}],
+      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [10, 10, 10]}],
+      "environment": {"type": "constant", "radiance": [0.2, 0.2, 0.2]},
+      "render": {"width": 256, "height": 256, "spp": 64, "sampler": "analytic"}
+    }
+
+Conventions: right-handed world, y is up for the environment map (lat-long: ``theta`` measured from +y,
+``phi = atan2(z, x)``); lengths in scene units; radiance and intensity in linear RGB.
+
+Errors name the file and the field: ``scene.json: materials[2].params.n: ...``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator
+
+from core.errors import BrdfStudioError, FileFormatError
+from core.io import atomic_write_text
+
+SCENE_VERSION = 1
+MESH_FORMATS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+MEASURED_FORMATS = (".binary",)
+ENVMAP_FORMATS = (".exr",)
+
+
+class SceneError(FileFormatError):
+    """A scene file is unreadable, invalid, or names something that does not exist."""
+
+
+NonNeg = Annotated[float, Field(ge=0.0)]
+Vec3 = tuple[float, float, float]
+RGB = tuple[NonNeg, NonNeg, NonNeg]
+
+
+class _Strict(BaseModel):
+    """Base: unknown keys are errors (a typo must not be silently ignored); no NaN or infinity."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_assignment=True)
+
+
+def _rgb(v: Any) -> Any:
+    """Accept one number as a grey RGB value."""
+    if isinstance(v, int | float) and not isinstance(v, bool):
+        return (v, v, v)
+    return v
+
+
+class Transform(_Strict):
+    """Applied to mesh vertices in the order scale, rotate (about x, then y, then z), translate."""
+
+    translate: Vec3 = (0.0, 0.0, 0.0)
+    rotate_deg: Vec3 = (0.0, 0.0, 0.0)
+    scale: tuple[Annotated[float, Field(gt=0.0)], ...] | Annotated[float, Field(gt=0.0)] = 1.0
+
+    @field_validator("scale")
+    @classmethod
+    def _scale_len(cls, v: Any) -> Any:
+        if isinstance(v, tuple) and len(v) != 3:
+            raise ValueError("scale is one positive number or three")
+        return v
+
+    def matrix(self) -> list[list[float]]:
+        """The 4x4 affine matrix (row-major, acting on column vectors)."""
+        sx, sy, sz = self.scale if isinstance(self.scale, tuple) else (self.scale,) * 3
+        ax, ay, az = (math.radians(a) for a in self.rotate_deg)
+        cx, sxr = math.cos(ax), math.sin(ax)
+        cy, syr = math.cos(ay), math.sin(ay)
+        cz, szr = math.cos(az), math.sin(az)
+        rx = [[1, 0, 0], [0, cx, -sxr], [0, sxr, cx]]
+        ry = [[cy, 0, syr], [0, 1, 0], [-syr, 0, cy]]
+        rz = [[cz, -szr, 0], [szr, cz, 0], [0, 0, 1]]
+
+        def mul(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
+            return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+        r = mul(rz, mul(ry, rx))
+        s = (sx, sy, sz)
+        m = [[r[i][j] * s[j] for j in range(3)] + [self.translate[i]] for i in range(3)]
+        return [*m, [0.0, 0.0, 0.0, 1.0]]
+
+
+class Mesh(_Strict):
+    """A mesh file (OBJ, PLY, STL, OFF, GLB/GLTF), relative to the scene file.
+
+    ``material`` applies to the whole file; ``group_materials`` overrides it per group (an OBJ ``g``/``o``
+    group or a GLTF node/geometry name). ``smooth`` interpolates vertex normals for shading.
+    """
+
+    name: str = ""
+    path: str
+    material: str
+    group_materials: dict[str, str] = Field(default_factory=dict)
+    transform: Transform = Field(default_factory=Transform)
+    smooth: bool = False
+
+
+class Material(_Strict):
+    """An analytic model with parameters, or a measured (MERL ``.binary``) file; optionally emissive.
+
+    An emissive material turns every mesh that uses it into an area light of radiance ``emission``
+    (emitting on the side its triangles' normals point to).
+    """
+
+    name: str = Field(min_length=1)
+    model: str | None = None
+    params: dict[str, Any] = Field(default_factory=dict)
+    measured: str | None = None
+    emission: RGB = (0.0, 0.0, 0.0)
+
+    _rgb_emission = field_validator("emission", mode="before")(_rgb)
+
+    @property
+    def emissive(self) -> bool:
+        return max(self.emission) > 0.0
+
+
+class PointLight(_Strict):
+    """An isotropic point light; ``intensity`` in W/sr (radiance at distance d is intensity / d^2)."""
+
+    type: Literal["point"]
+    position: Vec3
+    intensity: RGB
+
+    _rgb_intensity = field_validator("intensity", mode="before")(_rgb)
+
+
+class QuadLight(_Strict):
+    """A parallelogram ``corner + s edge1 + t edge2`` (s, t in [0, 1]) emitting ``radiance`` on the side of
+    ``edge1 x edge2`` (both sides if ``two_sided``). It is visible to camera rays and blocks light."""
+
+    type: Literal["quad"]
+    corner: Vec3
+    edge1: Vec3
+    edge2: Vec3
+    radiance: RGB
+    two_sided: bool = False
+
+    _rgb_radiance = field_validator("radiance", mode="before")(_rgb)
+
+
+Light = Annotated[PointLight | QuadLight, Field(discriminator="type")]
+
+
+class ConstantEnvironment(_Strict):
+    """The same radiance from every direction at infinity."""
+
+    type: Literal["constant"]
+    radiance: RGB
+
+    _rgb_radiance = field_validator("radiance", mode="before")(_rgb)
+
+
+class MapEnvironment(_Strict):
+    """An HDR lat-long (equirectangular) EXR: row 0 looks up (+y), columns run with ``phi = atan2(z, x)``."""
+
+    type: Literal["map"]
+    path: str
+    scale: NonNeg = 1.0
+    rotate_deg: float = 0.0
+    """Rotation about +y applied to the map."""
+
+
+Environment = Annotated[ConstantEnvironment | MapEnvironment, Field(discriminator="type")]
+
+
+class Camera(_Strict):
+    """A pinhole camera looking from ``position`` at ``target``; ``fov_deg`` is the vertical field of view."""
+
+    position: Vec3 = (0.0, 1.0, 4.0)
+    target: Vec3 = (0.0, 0.0, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] = 40.0
+
+
+class RenderSettings(_Strict):
+    """How to render: image size, budget (samples per pixel, or seconds if ``time_s`` is set), path length,
+    the BRDF sampling strategy and its options, the MIS heuristic, and the seed."""
+
+    width: Annotated[int, Field(ge=1, le=16384)] = 512
+    height: Annotated[int, Field(ge=1, le=16384)] = 512
+    spp: Annotated[int, Field(ge=1)] = 64
+    time_s: Annotated[float, Field(gt=0.0)] | None = None
+    max_depth: Annotated[int, Field(ge=1, le=1000)] = 8
+    rr_depth: Annotated[int, Field(ge=1)] = 3
+    sampler: str = "analytic"
+    sampler_options: dict[str, Any] = Field(default_factory=dict)
+    mis: Literal["power", "balance"] = "power"
+    seed: Annotated[int, Field(ge=0)] = 0
+
+
+class Scene(_Strict):
+    """A whole scene. ``version`` is the schema version (currently 1)."""
+
+    version: int = SCENE_VERSION
+    name: str = ""
+    camera: Camera = Field(default_factory=Camera)
+    materials: list[Material] = Field(default_factory=list)
+    meshes: list[Mesh] = Field(default_factory=list)
+    lights: list[Light] = Field(default_factory=list)
+    environment: Environment | None = None
+    render: RenderSettings = Field(default_factory=RenderSettings)
+
+    _base_dir: Path = PrivateAttr(default_factory=Path.cwd)
+    _source: str = PrivateAttr(default="scene")
+
+    @property
+    def base_dir(self) -> Path:
+        """The folder relative paths are resolved against (the scene file's folder)."""
+        return self._base_dir
+
+    @property
+    def source(self) -> str:
+        """How errors name this scene (its file name)."""
+        return self._source
+
+    def set_origin(self, base_dir: str | os.PathLike[str], source: str = "scene") -> Scene:
+        self._base_dir = Path(base_dir)
+        self._source = source
+        return self
+
+    def resolve(self, relative: str) -> Path:
+        """An absolute path for a path written in the scene (relative to the scene file)."""
+        p = Path(relative).expanduser()
+        return p if p.is_absolute() else (self._base_dir / p)
+
+    def material_index(self, name: str) -> int:
+        for i, m in enumerate(self.materials):
+            if m.name == name:
+                return i
+        raise SceneError(f"{self._source}: no material named '{name}'")
+
+    def error(self, where: str, message: str) -> SceneError:
+        """A :class:`SceneError` naming this scene and the field ``where``."""
+        return SceneError(f"{self._source}: {where}: {message}")
+
+
+# --------------------------------------------------------------------------------------------- loading
+
+
+def _loc_text(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif part in ("point", "quad", "constant", "map") and out.startswith(("lights", "environment")):
+            continue  # pydantic adds the discriminator value as a path step; it is not a field
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+def _format_validation(source: str, exc: ValidationError) -> str:
+    lines = []
+    for err in exc.errors()[:6]:
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            msg = "unknown field (check the spelling)"
+        elif err["type"] == "missing":
+            msg = "required field is missing"
+        lines.append(f"{source}: {_loc_text(tuple(err['loc']))}: {msg}")
+    more = len(exc.errors()) - len(lines)
+    if more > 0:
+        lines.append(f"... and {more} more problem(s)")
+    return "\n".join(lines)
+
+
+def scene_from_dict(
+    data: Any, source: str = "scene", base_dir: str | os.PathLike[str] | None = None, check_files: bool = True
+) -> Scene:
+    """Validate a parsed JSON object and return a :class:`Scene`; raises :class:`SceneError`."""
+    if not isinstance(data, dict):
+        raise SceneError(f"{source}: a scene file holds a JSON object {{...}}, got {type(data).__name__}")
+    version = data.get("version", None)
+    if version is None:
+        raise SceneError(f"{source}: version: required field is missing (this program writes version 1)")
+    if version != SCENE_VERSION:
+        raise SceneError(
+            f"{source}: version: schema version {version!r} is not supported (this program reads version "
+            f"{SCENE_VERSION})"
+        )
+    try:
+        scene = Scene.model_validate(data)
+    except ValidationError as exc:
+        raise SceneError(_format_validation(source, exc)) from None
+    scene.set_origin(base_dir if base_dir is not None else Path.cwd(), source)
+    validate_scene(scene, check_files=check_files)
+    return scene
+
+
+def validate_scene(scene: Scene, check_files: bool = True) -> None:
+    """Checks beyond the field types: models and their parameters, names that refer to each other,
+    samplers, and (with ``check_files``) that every referenced file exists with a known extension."""
+    from core.model import get_model
+    from core.sampler import sampler_names
+
+    names: dict[str, int] = {}
+    for i, mat in enumerate(scene.materials):
+        where = f"materials[{i}]"
+        if mat.name in names:
+            raise scene.error(
+                f"{where}.name", f"'{mat.name}' is already the name of materials[{names[mat.name]}]"
+            )
+        names[mat.name] = i
+        if (mat.model is None) == (mat.measured is None):
+            raise scene.error(
+                where, "give either 'model' (with 'params') or 'measured' (a MERL file), not both"
+            )
+        if mat.model is not None:
+            try:
+                model = get_model(mat.model)
+            except BrdfStudioError as exc:
+                raise scene.error(f"{where}.model", str(exc)) from None
+            for key, value in mat.params.items():
+                try:
+                    model.param(key).validate(model.name, value)
+                except BrdfStudioError as exc:
+                    raise scene.error(f"{where}.params.{key}", str(exc)) from None
+        else:
+            if mat.params:
+                raise scene.error(f"{where}.params", "a measured material takes no parameters")
+            _check_file(scene, f"{where}.measured", mat.measured or "", MEASURED_FORMATS, check_files)
+
+    for i, mesh in enumerate(scene.meshes):
+        where = f"meshes[{i}]"
+        if mesh.material not in names:
+            raise scene.error(f"{where}.material", _unknown_material(mesh.material, names))
+        for group, mname in mesh.group_materials.items():
+            if mname not in names:
+                raise scene.error(f"{where}.group_materials.{group}", _unknown_material(mname, names))
+        _check_file(scene, f"{where}.path", mesh.path, MESH_FORMATS, check_files)
+
+    for i, light in enumerate(scene.lights):
+        if isinstance(light, QuadLight):
+            e1, e2 = light.edge1, light.edge2
+            cross = (
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            )
+            if math.sqrt(sum(c * c for c in cross)) <= 1e-12:
+                raise scene.error(f"lights[{i}]", "edge1 and edge2 span no area (zero or parallel edges)")
+
+    if isinstance(scene.environment, MapEnvironment):
+        _check_file(scene, "environment.path", scene.environment.path, ENVMAP_FORMATS, check_files)
+
+    cam = scene.camera
+    view = tuple(t - p for t, p in zip(cam.target, cam.position, strict=True))
+    if math.sqrt(sum(v * v for v in view)) <= 1e-12:
+        raise scene.error("camera.target", "the target coincides with the camera position")
+    cross = (
+        view[1] * cam.up[2] - view[2] * cam.up[1],
+        view[2] * cam.up[0] - view[0] * cam.up[2],
+        view[0] * cam.up[1] - view[1] * cam.up[0],
+    )
+    if math.sqrt(sum(c * c for c in cross)) <= 1e-12 * max(1e-300, math.sqrt(sum(v * v for v in view))):
+        raise scene.error("camera.up", "the up vector is zero or parallel to the viewing direction")
+
+    if scene.render.sampler not in sampler_names():
+        raise scene.error(
+            "render.sampler",
+            f"unknown sampler '{scene.render.sampler}'; known samplers: {', '.join(sampler_names())}",
+        )
+
+
+def _unknown_material(name: str, names: dict[str, int]) -> str:
+    known = ", ".join(f"'{n}'" for n in names) or "(none defined)"
+    return f"no material named '{name}'; materials defined: {known}"
+
+
+def _check_file(scene: Scene, where: str, rel: str, formats: tuple[str, ...], check_files: bool) -> None:
+    if not rel:
+        raise scene.error(where, "a file path is required")
+    if Path(rel).suffix.lower() not in formats:
+        raise scene.error(
+            where, f"'{rel}' has an unsupported extension; expected one of {', '.join(formats)}"
+        )
+    if check_files:
+        full = scene.resolve(rel)
+        if not full.is_file():
+            raise scene.error(where, f"file '{rel}' not found (looked for {full})")
+
+
+def load_scene(path: str | os.PathLike[str], check_files: bool = True) -> Scene:
+    """Read and validate a scene file; raises :class:`SceneError` with the file and field at fault."""
+    p = Path(path)
+    source = p.name
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder, not a scene file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise SceneError(
+            f"{source}: line {exc.lineno}, column {exc.colno}: invalid JSON: {exc.msg}"
+        ) from None
+    return scene_from_dict(data, source=source, base_dir=p.resolve().parent, check_files=check_files)
+
+
+def scene_to_dict(scene: Scene) -> dict[str, Any]:
+    return scene.model_dump(mode="json")
+
+
+def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:
+    """Write ``scene`` as indented JSON, atomically (a crash never leaves a half-written file)."""
+    atomic_write_text(path, json.dumps(scene_to_dict(scene), indent=2) + "\n")

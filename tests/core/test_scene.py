@@ -1,0 +1,137 @@
+"""The scene file: round trip, and every kind of bad file gives an error naming the file and the field."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from core.scene import Scene, SceneError, load_scene, save_scene, scene_from_dict
+
+
+def _write(folder: Path, data: object, name: str = "scene.json") -> Path:
+    p = folder / name
+    p.write_text(json.dumps(data) if not isinstance(data, str) else data)
+    return p
+
+
+def _base(tmp_path: Path) -> dict:
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    return {
+        "version": 1,
+        "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40},
+        "materials": [
+            {"name": "white", "model": "lambert", "params": {"kd": 0.5}},
+            {"name": "lamp", "model": "lambert", "params": {"kd": 0.0}, "emission": 4.0},
+        ],
+        "meshes": [{"path": "tri.obj", "material": "white"}],
+        "lights": [
+            {"type": "point", "position": [0, 2, 0], "intensity": [1, 2, 3]},
+            {"type": "quad", "corner": [0, 2, 0], "edge1": [1, 0, 0], "edge2": [0, 0, 1], "radiance": 5},
+        ],
+        "environment": {"type": "constant", "radiance": [0.1, 0.2, 0.3]},
+        "render": {"width": 16, "height": 8, "spp": 4, "sampler": "cosine"},
+    }
+
+
+def test_valid_scene_loads_and_round_trips(tmp_path: Path) -> None:
+    p = _write(tmp_path, _base(tmp_path))
+    scene = load_scene(p)
+    assert scene.materials[1].emission == (4.0, 4.0, 4.0)  # one number means grey
+    assert scene.resolve("tri.obj") == tmp_path.resolve() / "tri.obj"
+    out = tmp_path / "copy.json"
+    save_scene(scene, out)
+    again = load_scene(out)
+    assert again.model_dump() == scene.model_dump()
+    assert not list(tmp_path.glob(".copy.json.*"))  # the atomic write left no temporary file
+
+
+def test_transform_matrix_rotates_then_translates() -> None:
+    from core.scene import Transform
+
+    m = Transform(translate=(1, 2, 3), rotate_deg=(0, 0, 90), scale=2.0).matrix()
+    # (1, 0, 0) scaled by 2 -> (2, 0, 0), rotated 90 deg about z -> (0, 2, 0), translated -> (1, 4, 3)
+    x = [sum(m[i][j] * v for j, v in enumerate((1.0, 0.0, 0.0, 1.0))) for i in range(3)]
+    assert x == pytest.approx([1.0, 4.0, 3.0])
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (lambda d: d["materials"][0]["params"].update(kd=2.0), "materials[0].params.kd"),
+        (lambda d: d["materials"][0]["params"].update(shininess=3), "materials[0].params.shininess"),
+        (lambda d: d["materials"][1].update(model="no-such-model"), "materials[1].model: unknown model"),
+        (lambda d: d["materials"][1].update(name="white"), "materials[1].name"),
+        (lambda d: d["materials"][0].update(colour=1), "materials[0].colour: unknown field"),
+        (lambda d: d["materials"][0].update(measured="x.binary"), "materials[0]: give either"),
+        (lambda d: d["meshes"][0].update(path="missing.obj"), "meshes[0].path: file 'missing.obj' not found"),
+        (lambda d: d["meshes"][0].update(path="tri.xyz"), "meshes[0].path: 'tri.xyz' has an unsupported"),
+        (lambda d: d["meshes"][0].update(material="gold"), "meshes[0].material: no material named 'gold'"),
+        (lambda d: d["meshes"][0].update(group_materials={"g": "x"}), "meshes[0].group_materials.g"),
+        (
+            lambda d: d["lights"][0].update(intensity=[1, -1, 1]),
+            "lights[0].intensity[1]: Input should be greater than or equal to 0",
+        ),
+        (lambda d: d["lights"][1].update(edge2=[2, 0, 0]), "lights[1]: edge1 and edge2 span no area"),
+        (lambda d: d["lights"].append({"type": "spot"}), "lights[2]"),
+        (
+            lambda d: d.update(environment={"type": "map", "path": "sky.exr"}),
+            "environment.path: file 'sky.exr'",
+        ),
+        (lambda d: d["camera"].update(fov_deg=180), "camera.fov_deg"),
+        (lambda d: d["camera"].update(target=[0, 0, 3]), "camera.target"),
+        (lambda d: d["camera"].update(up=[0, 0, 1]), "camera.up"),
+        (lambda d: d["render"].update(sampler="magic"), "render.sampler: unknown sampler 'magic'"),
+        (lambda d: d["render"].update(spp=0), "render.spp"),
+        (lambda d: d.pop("version"), "version: required"),
+        (lambda d: d.update(version=99), "version: schema version 99"),
+    ],
+)
+def test_bad_field_is_named(tmp_path: Path, edit, expected: str) -> None:
+    data = _base(tmp_path)
+    edit(data)
+    p = _write(tmp_path, data)
+    with pytest.raises(SceneError) as info:
+        load_scene(p)
+    message = str(info.value)
+    assert message.startswith("scene.json: ")
+    assert expected in message
+
+
+def test_nan_parameter_is_rejected(tmp_path: Path) -> None:
+    # json.dumps writes NaN as a bare token, which Python's json (and hand-edited files) accept
+    data = _base(tmp_path)
+    data["materials"][0]["params"]["kd"] = float("nan")
+    with pytest.raises(SceneError, match=r"materials\[0\]\.params\.kd: .*finite"):
+        load_scene(_write(tmp_path, data))
+
+
+def test_broken_json_gives_line_and_column(tmp_path: Path) -> None:
+    p = _write(tmp_path, '{\n  "version": 1,\n  "camera": {,}\n}')
+    with pytest.raises(SceneError, match=r"scene\.json: line 3, column 14: invalid JSON"):
+        load_scene(p)
+
+
+@pytest.mark.parametrize("content", ["[1, 2]", "42", '"scene"'])
+def test_non_object_json(tmp_path: Path, content: str) -> None:
+    with pytest.raises(SceneError, match="JSON object"):
+        load_scene(_write(tmp_path, content))
+
+
+def test_missing_scene_file(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match="scene file not found"):
+        load_scene(tmp_path / "nope.json")
+
+
+def test_files_need_not_exist_when_not_checked(tmp_path: Path) -> None:
+    data = _base(tmp_path)
+    data["meshes"][0]["path"] = "later.obj"
+    scene = scene_from_dict(data, "draft.json", base_dir=tmp_path, check_files=False)
+    assert scene.meshes[0].path == "later.obj"
+
+
+def test_default_scene_is_valid_data() -> None:
+    scene = Scene()
+    again = scene_from_dict(scene.model_dump(mode="json"), check_files=False)
+    assert again == scene
