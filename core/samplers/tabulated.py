@@ -1,0 +1,315 @@
+"""Tabulated-CDF baselines: UniformCDF (Matusik et al. 2003) and CompressCDF (Lawrence et al. 2005).
+
+For each incident-angle bin (isotropic BRDFs: bins over ``theta_o``, rotated by ``phi_o``; anisotropic ones:
+bins over ``(theta_o, phi_o)``) the luminance of ``f cos`` is tabulated on a grid of cells uniform in
+``theta_i`` and ``phi_i`` (each cell value the mean of stratified sub-samples). The marginal CDF over
+``theta_i`` and one conditional CDF over ``phi_i`` per row are inverted; within a cell (or a compressed
+segment) directions are uniform in solid angle (uniform in ``cos theta`` and ``phi``).
+
+CompressCDF replaces each CDF curve by the Douglas-Peucker simplification of its polyline (abscissa
+``-cos theta`` for the marginal, ``phi`` for the conditionals) with tolerance ``tol`` in CDF units; sampling is
+a binary search and a linear inversion. Both densities are exact: ``pdf`` evaluates the same piecewise
+constant density the sampler draws from.
+
+Unbiasedness: a cell whose sub-samples all miss a sharp peak would get zero probability while ``f > 0``
+there. Every cell is floored at ``defensive`` times the mean cell value, so the density is positive wherever
+the BRDF can be (a defensive mixture; it costs at most that fraction of the samples).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from core.errors import ParameterError
+from core.kernels import eval_batch
+from core.model import BRDF, LUMINANCE
+from core.sampler import Sampler, register_sampler
+
+HALF_PI = 0.5 * math.pi
+TWO_PI = 2.0 * math.pi
+
+
+def douglas_peucker(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
+    """Indices of the points kept by Douglas-Peucker simplification of the polyline ``(x, y)``.
+
+    The error is measured vertically (in ``y``, the CDF value), which bounds the CDF error of the
+    piecewise-linear curve through the kept points. Endpoints are always kept.
+    """
+    n = len(x)
+    keep = np.zeros(n, dtype=bool)
+    keep[0] = keep[-1] = True
+    stack = [(0, n - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            continue
+        xs = x[a + 1 : b]
+        t = (xs - x[a]) / (x[b] - x[a]) if x[b] != x[a] else np.zeros_like(xs)
+        err = np.abs(y[a + 1 : b] - (y[a] + t * (y[b] - y[a])))
+        k = int(np.argmax(err))
+        if err[k] > tol:
+            m = a + 1 + k
+            keep[m] = True
+            stack.append((a, m))
+            stack.append((m, b))
+    return np.flatnonzero(keep)
+
+
+def _bin_directions(n_theta_o: int, n_phi_o: int) -> np.ndarray:
+    """Centre ``wo`` of every incident-angle bin, ``(n_theta_o * n_phi_o, 3)``."""
+    th = (np.arange(n_theta_o) + 0.5) * HALF_PI / n_theta_o
+    ph = (np.arange(n_phi_o) + 0.5) * TWO_PI / n_phi_o if n_phi_o > 1 else np.zeros(1)
+    t, p = np.meshgrid(th, ph, indexing="ij")
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _bin_of(wo, n_theta_o, n_phi_o):
+    """Bin index of ``wo`` and the azimuth the table is relative to (``phi_o`` for isotropic tables)."""
+    cz = min(1.0, max(-1.0, wo[2]))
+    theta = math.acos(cz)
+    phi = math.atan2(wo[1], wo[0])
+    if phi < 0.0:
+        phi += TWO_PI
+    it = min(int(theta / HALF_PI * n_theta_o), n_theta_o - 1)
+    if n_phi_o == 1:
+        return it, phi
+    ip = min(int(phi / TWO_PI * n_phi_o), n_phi_o - 1)
+    return it * n_phi_o + ip, 0.0
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _search(cdf, lo, hi, u):
+    """Largest ``k`` in ``[lo, hi - 1)`` with ``cdf[k] <= u`` (``cdf[lo] = 0``, ``cdf[hi - 1] = 1``)."""
+    a = lo
+    b = hi - 1
+    while b - a > 1:
+        m = (a + b) // 2
+        if cdf[m] <= u:
+            a = m
+        else:
+            b = m
+    return a
+
+
+@njit(nogil=True, cache=True)
+def _sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, wi_out, pdf_out):
+    """Draw one direction per row of ``wo``; the layout is explained in :class:`CDFSampler`."""
+    for i in range(wo.shape[0]):
+        w = (wo[i, 0], wo[i, 1], wo[i, 2])
+        if w[2] <= 0.0:
+            wi_out[i, 0] = 0.0
+            wi_out[i, 1] = 0.0
+            wi_out[i, 2] = 1.0
+            pdf_out[i] = 0.0
+            continue
+        b, phi_ref = _bin_of(w, n_theta_o, n_phi_o)
+        lo = moff[b]
+        hi = moff[b + 1]
+        k = _search(mf, lo, hi, u[i, 0])
+        dF = mf[k + 1] - mf[k]
+        dx = mx[k + 1] - mx[k]
+        x = mx[k] + (u[i, 0] - mf[k]) / dF * dx if dF > 0.0 else mx[k]
+        x = min(max(x, mx[k]), mx[k + 1])
+        cos_t = -x
+        theta = math.acos(min(1.0, max(0.0, cos_t)))
+        row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+        c = b * n_rows + row
+        clo = coff[c]
+        chi = coff[c + 1]
+        j = _search(cf, clo, chi, u[i, 1])
+        dG = cf[j + 1] - cf[j]
+        dphi = cx[j + 1] - cx[j]
+        phi = cx[j] + (u[i, 1] - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
+        phi += phi_ref
+        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+        wi_out[i, 0] = sin_t * math.cos(phi)
+        wi_out[i, 1] = sin_t * math.sin(phi)
+        wi_out[i, 2] = cos_t
+        pdf_out[i] = (dF / dx) * (dG / dphi)
+
+
+@njit(nogil=True, cache=True)
+def _pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, out):
+    for i in range(wo.shape[0]):
+        w = (wo[i, 0], wo[i, 1], wo[i, 2])
+        if w[2] <= 0.0 or wi[i, 2] <= 0.0:
+            out[i] = 0.0
+            continue
+        b, phi_ref = _bin_of(w, n_theta_o, n_phi_o)
+        cos_t = min(1.0, wi[i, 2])
+        x = -cos_t
+        lo = moff[b]
+        hi = moff[b + 1]
+        k = _search(mx, lo, hi, x)
+        dx = mx[k + 1] - mx[k]
+        dF = mf[k + 1] - mf[k]
+        theta = math.acos(cos_t)
+        row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+        phi = math.atan2(wi[i, 1], wi[i, 0]) - phi_ref
+        phi = phi - TWO_PI * math.floor(phi / TWO_PI)
+        c = b * n_rows + row
+        clo = coff[c]
+        chi = coff[c + 1]
+        j = _search(cx, clo, chi, phi)
+        dphi = cx[j + 1] - cx[j]
+        dG = cf[j + 1] - cf[j]
+        out[i] = (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0
+
+
+class CDFSampler(Sampler):
+    """Tabulated marginal/conditional CDFs per incident-angle bin; ``tol > 0`` compresses them.
+
+    Layout (flat arrays so that numba kernels need no per-bin objects): the marginal of bin ``b`` is the
+    polyline ``(mx, mf)[moff[b]:moff[b+1]]`` with ``mx = -cos theta_i`` increasing; the conditional of row
+    ``r`` of bin ``b`` is ``(cx, cf)[coff[b*n_rows+r]:coff[b*n_rows+r+1]]`` with ``cx = phi_i`` (relative to
+    ``phi_o`` for isotropic BRDFs).
+    """
+
+    name = "uniform_cdf"
+
+    def __init__(
+        self,
+        brdf: BRDF,
+        n_theta_o: int = 32,
+        n_phi_o: int | None = None,
+        n_theta: int = 64,
+        n_phi: int = 128,
+        substeps: int = 3,
+        tol: float = 0.0,
+        defensive: float = 1e-3,
+    ):
+        super().__init__(brdf)
+        for label, v in (
+            ("n_theta_o", n_theta_o),
+            ("n_theta", n_theta),
+            ("n_phi", n_phi),
+            ("substeps", substeps),
+        ):
+            if int(v) < 1:
+                raise ParameterError(f"{label} must be a positive integer, got {v}")
+        if not (0.0 <= tol < 1.0) or not (0.0 < defensive < 1.0):
+            raise ParameterError("tol must be in [0, 1) and defensive in (0, 1)")
+        if n_phi_o is None:
+            n_phi_o = 1 if brdf.model.isotropic else 16
+        self.n_theta_o, self.n_phi_o = int(n_theta_o), int(n_phi_o)
+        self.n_theta, self.n_phi, self.substeps = int(n_theta), int(n_phi), int(substeps)
+        self.tol, self.defensive = float(tol), float(defensive)
+        t0 = time.perf_counter()
+        self._build()
+        self.build_seconds = time.perf_counter() - t0
+
+    def _cell_values(self, wo: np.ndarray) -> np.ndarray:
+        """Mean luminance of ``f cos`` over each ``(theta_i, phi_i)`` cell for one ``wo``: ``(n_theta, n_phi)``."""
+        s = self.substeps
+        nt, nph = self.n_theta, self.n_phi
+        # Sub-samples uniform in solid angle within each cell: cos theta stratified, phi stratified.
+        r = (np.arange(nt)[:, None] + (np.arange(s)[None, :] + 0.5) / s).ravel()  # fractional row
+        c_edges_hi = np.cos(np.floor(r) * HALF_PI / nt)
+        c_edges_lo = np.cos((np.floor(r) + 1) * HALF_PI / nt)
+        frac = r - np.floor(r)
+        cos_t = c_edges_hi + frac * (c_edges_lo - c_edges_hi)
+        phi = (np.arange(nph * s) + 0.5) * TWO_PI / (nph * s)
+        ct, ph = np.meshgrid(cos_t, phi, indexing="ij")
+        st = np.sqrt(np.maximum(0.0, 1.0 - ct * ct))
+        wi = np.stack([st * np.cos(ph), st * np.sin(ph), ct], axis=-1).reshape(-1, 3)
+        wo_rep = np.broadcast_to(wo, wi.shape)
+        f = eval_batch(
+            self.brdf.model, np.ascontiguousarray(wi), np.ascontiguousarray(wo_rep), self.brdf.params
+        )
+        g = (f @ LUMINANCE) * wi[:, 2]
+        g = np.maximum(g, 0.0).reshape(nt, s, nph, s).mean(axis=(1, 3))
+        return g
+
+    def _build(self) -> None:
+        nt, nph = self.n_theta, self.n_phi
+        theta_edges = np.arange(nt + 1) * HALF_PI / nt
+        x_edges = -np.cos(theta_edges)
+        x_edges[-1] = 0.0
+        phi_edges = np.arange(nph + 1) * TWO_PI / nph
+        solid = np.diff(x_edges)[:, None] * np.diff(phi_edges)[None, :]  # cell solid angles
+        mx, mf, moff = [], [], [0]
+        cx, cf, coff = [], [], [0]
+        for wo in _bin_directions(self.n_theta_o, self.n_phi_o):
+            if self.n_phi_o == 1:
+                wo = np.array([math.sqrt(1.0 - wo[2] ** 2), 0.0, wo[2]])  # isotropic: table relative to phi_o
+            g = self._cell_values(wo)
+            mean = float(g.mean())
+            floor = self.defensive * mean if mean > 0.0 else 1.0
+            mass = np.maximum(g, floor) * solid  # probability mass per cell (unnormalized)
+            row_mass = mass.sum(axis=1)
+            F = np.concatenate([[0.0], np.cumsum(row_mass)])
+            F /= F[-1]
+            keep = douglas_peucker(x_edges, F, self.tol) if self.tol > 0 else np.arange(nt + 1)
+            mx.append(x_edges[keep])
+            mf.append(F[keep])
+            moff.append(moff[-1] + len(keep))
+            for r in range(nt):
+                G = np.concatenate([[0.0], np.cumsum(mass[r])])
+                G /= G[-1]
+                keep = douglas_peucker(phi_edges, G, self.tol) if self.tol > 0 else np.arange(nph + 1)
+                cx.append(phi_edges[keep])
+                cf.append(G[keep])
+                coff.append(coff[-1] + len(keep))
+        self._mx, self._mf = np.concatenate(mx), np.concatenate(mf)
+        self._cx, self._cf = np.concatenate(cx), np.concatenate(cf)
+        self._moff = np.asarray(moff, dtype=np.int64)
+        self._coff = np.asarray(coff, dtype=np.int64)
+
+    def _tables(self) -> tuple[Any, ...]:
+        return (
+            self.n_theta_o,
+            self.n_phi_o,
+            self.n_theta,
+            self._mx,
+            self._mf,
+            self._moff,
+            self._cx,
+            self._cf,
+            self._coff,
+        )
+
+    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        _sample_rows(wo, u, *self._tables(), wi, pdf)
+        return wi, pdf
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        out = np.empty(wo.shape[0])
+        _pdf_rows(wo, wi, *self._tables(), out)
+        return out
+
+    def memory_bytes(self) -> int:
+        return int(sum(a.nbytes for a in (self._mx, self._mf, self._cx, self._cf, self._moff, self._coff)))
+
+    def info(self) -> dict[str, Any]:
+        return {
+            "sampler": self.name,
+            "memory_bytes": self.memory_bytes(),
+            "build_seconds": self.build_seconds,
+            "bins": self.n_theta_o * self.n_phi_o,
+            "grid": f"{self.n_theta}x{self.n_phi}",
+            "tol": self.tol,
+            "knots": int(len(self._mx) + len(self._cx)),
+        }
+
+
+class CompressedCDFSampler(CDFSampler):
+    """CompressCDF: the CDF curves simplified by Douglas-Peucker (default tolerance 1e-3 in CDF units)."""
+
+    name = "compress_cdf"
+
+    def __init__(self, brdf: BRDF, tol: float = 1e-3, **options: Any):
+        if not (0.0 < float(tol) < 1.0):
+            raise ParameterError(f"compress_cdf needs a tolerance in (0, 1), got {tol}")
+        super().__init__(brdf, tol=tol, **options)
+
+
+register_sampler("uniform_cdf", lambda brdf, **o: CDFSampler(brdf, **o))
+register_sampler("compress_cdf", lambda brdf, **o: CompressedCDFSampler(brdf, **o))
