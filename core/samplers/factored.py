@@ -1,0 +1,357 @@
+"""Factored BRDF importance sampling (Lawrence, Rusinkiewicz & Ramamoorthi 2004).
+
+``f cos`` is tabulated for a set of outgoing directions ``wo_v`` (rows) against a 2-D parameterization
+``(theta_p, phi_p)`` of ``wi`` (columns): the half vector when ``reparam`` is on, ``wi`` itself otherwise.
+Non-negative matrix factorization gives ``Y ~ sum_j F_j(wo) G_j(theta_p, phi_p)``; each ``G_j`` is factored
+again as ``sum_k u_jk(theta_p) v_jk(phi_p)``. Sampling picks a term ``(j, k)`` with probability
+``F_j(wo) * w_jk`` (normalized), then ``theta_p`` from the piecewise-constant ``u_jk`` and ``phi_p`` from
+``v_jk``, uniform in solid angle inside a cell. The density is the exact mixture of all terms,
+
+``pdf_p(theta_p, phi_p) = sum_jk P(j, k | wo) u_jk(theta_p) v_jk(phi_p) / sin(theta_p)``,
+
+converted to ``wi`` by the half-vector Jacobian ``1 / (4 |wo . h|)`` when reparameterized. Every 1-D factor
+is floored at ``defensive`` of its mean so the density is positive wherever the BRDF can be.
+
+Resolutions and ``J x K`` per model follow the seed's table (slide "We adjust manually the seven parameters");
+isotropic BRDFs use outgoing bins over ``theta_o`` only (rotated by ``phi_o``) instead of the seed's 16 x 16.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from core.errors import ParameterError
+from core.kernels import eval_batch
+from core.model import BRDF, LUMINANCE
+from core.sampler import Sampler, register_sampler
+
+HALF_PI = 0.5 * math.pi
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class FactorSettings:
+    n_theta_o: int = 16
+    n_phi_o: int = 16
+    n_theta_p: int = 32
+    n_phi_p: int = 16
+    terms_j: int = 2
+    terms_k: int = 2
+    reparam: bool = False
+
+
+# The seed's table: N_theta_p x N_phi_p, J x K and the half-angle reparameterization flag per model.
+SEED_SETTINGS: dict[str, FactorSettings] = {
+    "ashikhmin_shirley": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=2),
+    "beard_maxwell": FactorSettings(n_theta_p=100, n_phi_p=32, terms_j=2, terms_k=3),
+    "blinn": FactorSettings(n_theta_p=100, n_phi_p=32, terms_j=3, terms_k=3, reparam=True),
+    "coupled": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=3),
+    "he": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=2, terms_k=1),
+    "lafortune": FactorSettings(n_theta_p=100, n_phi_p=32, terms_j=2, terms_k=2, reparam=True),
+    "lewis": FactorSettings(n_theta_p=100, n_phi_p=32, terms_j=2, terms_k=2, reparam=True),
+    "minnaert": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=2),
+    "oren_nayar": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=3),
+    "phong": FactorSettings(n_theta_p=100, n_phi_p=32, terms_j=2, terms_k=2, reparam=True),
+    "poulin_fournier": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=2, terms_k=2),
+    "schlick_d": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=3, reparam=True),
+    "schlick_s": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=2, terms_k=3),
+    "strauss": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=3, terms_k=3),
+    "cook_torrance": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=1, terms_k=1),
+    "ward": FactorSettings(n_theta_p=32, n_phi_p=16, terms_j=2, terms_k=2, reparam=True),
+}
+
+
+def nmf(Y: np.ndarray, rank: int, iterations: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Non-negative ``W (m, rank)``, ``H (rank, n)`` with ``W @ H ~ Y`` (Lee & Seung multiplicative updates,
+    Euclidean loss). Deterministic for a given ``seed``."""
+    rng = np.random.default_rng(seed)
+    m, n = Y.shape
+    scale = math.sqrt(max(Y.mean(), 1e-300) / rank)
+    W = rng.uniform(0.5, 1.5, (m, rank)) * scale
+    H = rng.uniform(0.5, 1.5, (rank, n)) * scale
+    eps = 1e-300
+    for _ in range(iterations):
+        H *= (W.T @ Y) / (W.T @ W @ H + eps)
+        W *= (Y @ H.T) / (W @ (H @ H.T) + eps)
+    return W, H
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _search(cdf, lo, hi, u):
+    a = lo
+    b = hi - 1
+    while b - a > 1:
+        m = (a + b) // 2
+        if cdf[m] <= u:
+            a = m
+        else:
+            b = m
+    return a
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _view_bin(wo, n_theta_o, n_phi_o):
+    theta = math.acos(min(1.0, max(-1.0, wo[2])))
+    phi = math.atan2(wo[1], wo[0])
+    if phi < 0.0:
+        phi += TWO_PI
+    it = min(int(theta / HALF_PI * n_theta_o), n_theta_o - 1)
+    if n_phi_o == 1:
+        return it, phi
+    ip = min(int(phi / TWO_PI * n_phi_o), n_phi_o - 1)
+    return it * n_phi_o + ip, 0.0
+
+
+@njit(nogil=True, cache=True)
+def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
+    """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
+    n_terms = u_pdf.shape[0]
+    it = min(int(theta_p / HALF_PI * n_tp), n_tp - 1)
+    ip = min(int(phi_p / TWO_PI * n_pp), n_pp - 1)
+    total = 0.0
+    for t in range(n_terms):
+        w = term_cdf[b, t + 1] - term_cdf[b, t]
+        total += w * u_pdf[t, it] * v_pdf[t, ip]
+    return total
+
+
+@njit(nogil=True, cache=True)
+def _sample_rows(wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, wi_out, pdf_out):
+    n_terms = u_cdf.shape[0]
+    n_tp = u_cdf.shape[1] - 1
+    n_pp = v_cdf.shape[1] - 1
+    d_theta = HALF_PI / n_tp
+    d_phi = TWO_PI / n_pp
+    for i in range(wo.shape[0]):
+        w = (wo[i, 0], wo[i, 1], wo[i, 2])
+        if w[2] <= 0.0:
+            wi_out[i, 0] = 0.0
+            wi_out[i, 1] = 0.0
+            wi_out[i, 2] = 1.0
+            pdf_out[i] = 0.0
+            continue
+        b, phi_ref = _view_bin(w, n_theta_o, n_phi_o)
+        t = _search(term_cdf[b], 0, n_terms + 1, u[i, 0])
+        # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
+        v1 = u[i, 1]
+        it = _search(u_cdf[t], 0, n_tp + 1, v1)
+        c0 = u_cdf[t, it]
+        c1 = u_cdf[t, it + 1]
+        frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
+        frac = min(max(frac, 0.0), 1.0)
+        ca = math.cos(it * d_theta)
+        cb = math.cos((it + 1) * d_theta)
+        cos_p = ca + frac * (cb - ca)
+        v2 = u[i, 2]
+        ip = _search(v_cdf[t], 0, n_pp + 1, v2)
+        g0 = v_cdf[t, ip]
+        g1 = v_cdf[t, ip + 1]
+        fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
+        phi_p = (ip + min(max(fr2, 0.0), 1.0)) * d_phi
+        sin_p = math.sqrt(max(0.0, 1.0 - cos_p * cos_p))
+        phi_w = phi_p + phi_ref
+        d = (sin_p * math.cos(phi_w), sin_p * math.sin(phi_w), cos_p)
+        pdf_d = _param_pdf(math.acos(min(1.0, cos_p)), phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+        if reparam:
+            dh = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
+            x = 2.0 * dh * d[0] - w[0]
+            y = 2.0 * dh * d[1] - w[1]
+            z = 2.0 * dh * d[2] - w[2]
+            pdf = pdf_d / (4.0 * abs(dh)) if dh != 0.0 else 0.0
+        else:
+            x, y, z = d
+            pdf = pdf_d
+        wi_out[i, 0] = x
+        wi_out[i, 1] = y
+        wi_out[i, 2] = z
+        pdf_out[i] = pdf
+
+
+@njit(nogil=True, cache=True)
+def _pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
+    for i in range(wo.shape[0]):
+        w = (wo[i, 0], wo[i, 1], wo[i, 2])
+        if w[2] <= 0.0:
+            out[i] = 0.0
+            continue
+        b, phi_ref = _view_bin(w, n_theta_o, n_phi_o)
+        if reparam:
+            hx = wi[i, 0] + w[0]
+            hy = wi[i, 1] + w[1]
+            hz = wi[i, 2] + w[2]
+            norm = math.sqrt(hx * hx + hy * hy + hz * hz)
+            if norm == 0.0:
+                out[i] = 0.0
+                continue
+            hx /= norm
+            hy /= norm
+            hz /= norm
+            if hz < 0.0:  # a half vector with wo.h < 0 reflects to this wi too
+                hx, hy, hz = -hx, -hy, -hz
+            dh = hx * w[0] + hy * w[1] + hz * w[2]
+            d = (hx, hy, hz)
+            jac = 1.0 / (4.0 * abs(dh)) if dh != 0.0 else 0.0
+        else:
+            if wi[i, 2] <= 0.0:
+                out[i] = 0.0
+                continue
+            d = (wi[i, 0], wi[i, 1], wi[i, 2])
+            jac = 1.0
+        theta_p = math.acos(min(1.0, d[2]))
+        phi_p = math.atan2(d[1], d[0]) - phi_ref
+        phi_p = phi_p - TWO_PI * math.floor(phi_p / TWO_PI)
+        out[i] = _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
+
+
+class FactoredSampler(Sampler):
+    """Lawrence et al. 2004: sample the NMF factors of ``f cos``; exact mixture pdf."""
+
+    name = "factored"
+
+    def __init__(
+        self, brdf: BRDF, settings: FactorSettings | None = None, defensive: float = 1e-3, **options: Any
+    ):
+        super().__init__(brdf)
+        base = settings or SEED_SETTINGS.get(brdf.model.name, FactorSettings())
+        if brdf.model.isotropic:
+            base = FactorSettings(**{**base.__dict__, "n_phi_o": 1})
+        fields = set(FactorSettings.__dataclass_fields__)
+        unknown = set(options) - fields
+        if unknown:
+            raise ParameterError(f"unknown factored-sampler option(s): {', '.join(sorted(unknown))}")
+        s = FactorSettings(**{**base.__dict__, **options})
+        for k, v in s.__dict__.items():
+            if k != "reparam" and int(v) < 1:
+                raise ParameterError(f"factored-sampler option {k} must be a positive integer, got {v}")
+        self.settings = s
+        self.defensive = float(defensive)
+        t0 = time.perf_counter()
+        self._build()
+        self.build_seconds = time.perf_counter() - t0
+
+    def _views(self) -> np.ndarray:
+        s = self.settings
+        th = (np.arange(s.n_theta_o) + 0.5) * HALF_PI / s.n_theta_o
+        ph = (np.arange(s.n_phi_o) + 0.5) * TWO_PI / s.n_phi_o if s.n_phi_o > 1 else np.zeros(1)
+        t, p = np.meshgrid(th, ph, indexing="ij")
+        return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+
+    def _param_grid(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-centre parameter directions ``(n_tp * n_pp, 3)`` and cell solid angles ``(n_tp, 1)``."""
+        s = self.settings
+        edges = np.arange(s.n_theta_p + 1) * HALF_PI / s.n_theta_p
+        cos_c = 0.5 * (np.cos(edges[:-1]) + np.cos(edges[1:]))  # centre in solid angle
+        th = np.arccos(cos_c)
+        ph = (np.arange(s.n_phi_p) + 0.5) * TWO_PI / s.n_phi_p
+        t, p = np.meshgrid(th, ph, indexing="ij")
+        d = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+        solid = (np.cos(edges[:-1]) - np.cos(edges[1:]))[:, None] * (TWO_PI / s.n_phi_p)
+        return d, solid
+
+    def _matrix(self) -> np.ndarray:
+        """``Y[view, param cell]``: luminance of ``f cos`` per unit solid angle of the parameter direction."""
+        s = self.settings
+        d, _ = self._param_grid()
+        rows = []
+        for wo in self._views():
+            wo_rep = np.broadcast_to(wo, d.shape)
+            if s.reparam:
+                dh = d @ wo
+                wi = 2.0 * dh[:, None] * d - wo_rep
+                jac = 4.0 * np.abs(dh)  # d(omega_i) = 4 |wo.h| d(omega_h)
+            else:
+                wi = d
+                jac = np.ones(len(d))
+            f = eval_batch(
+                self.brdf.model, np.ascontiguousarray(wi), np.ascontiguousarray(wo_rep), self.brdf.params
+            )
+            g = np.maximum(f @ LUMINANCE, 0.0) * np.maximum(wi[:, 2], 0.0) * jac
+            rows.append(g)
+        return np.asarray(rows)
+
+    def _build(self) -> None:
+        s = self.settings
+        Y = self._matrix()
+        _, solid = self._param_grid()
+        F, G = nmf(Y, s.terms_j)
+        terms_u, terms_v, term_w = [], [], []
+        for j in range(s.terms_j):
+            Gj = G[j].reshape(s.n_theta_p, s.n_phi_p) * solid  # mass per cell
+            U, V = nmf(Gj, s.terms_k, seed=j + 1)
+            for k in range(s.terms_k):
+                u = U[:, k]
+                v = V[k]
+                mass_u, mass_v = u.sum(), v.sum()
+                if mass_u <= 0 or mass_v <= 0:
+                    u, v = np.ones_like(u), np.ones_like(v)
+                    mass_u, mass_v = u.sum(), v.sum()
+                u = np.maximum(u / mass_u, self.defensive / len(u))
+                v = np.maximum(v / mass_v, self.defensive / len(v))
+                terms_u.append(u / u.sum())
+                terms_v.append(v / v.sum())
+                term_w.append((j, mass_u * mass_v))
+        n_terms = len(terms_u)
+        P = np.zeros((len(F), n_terms))
+        for t, (j, w) in enumerate(term_w):
+            P[:, t] = F[:, j] * w
+        P = np.maximum(P, 0.0)
+        totals = P.sum(axis=1, keepdims=True)
+        P = np.where(totals > 0, P / np.where(totals > 0, totals, 1.0), 1.0 / n_terms)
+        P = np.maximum(P, self.defensive / n_terms)
+        P /= P.sum(axis=1, keepdims=True)
+        self._term_cdf = np.concatenate([np.zeros((len(P), 1)), np.cumsum(P, axis=1)], axis=1)
+        self._term_cdf[:, -1] = 1.0
+        U = np.asarray(terms_u)
+        V = np.asarray(terms_v)
+        self._u_cdf = np.concatenate([np.zeros((n_terms, 1)), np.cumsum(U, axis=1)], axis=1)
+        self._v_cdf = np.concatenate([np.zeros((n_terms, 1)), np.cumsum(V, axis=1)], axis=1)
+        self._u_cdf[:, -1] = 1.0
+        self._v_cdf[:, -1] = 1.0
+        # Densities per unit solid angle: cell mass / cell solid angle, split into theta and phi factors.
+        edges = np.arange(s.n_theta_p + 1) * HALF_PI / s.n_theta_p
+        d_cos = np.cos(edges[:-1]) - np.cos(edges[1:])
+        self._u_pdf = U / d_cos[None, :]
+        self._v_pdf = V / (TWO_PI / s.n_phi_p)
+        self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
+
+    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = self.settings
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        _sample_rows(
+            wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
+            self._v_cdf, self._v_pdf, wi, pdf,
+        )  # fmt: skip
+        return wi, pdf
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        s = self.settings
+        out = np.empty(wo.shape[0])
+        _pdf_rows(
+            wo, wi, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_pdf, self._v_pdf,
+            s.n_theta_p, s.n_phi_p, out,
+        )  # fmt: skip
+        return out
+
+    def info(self) -> dict[str, Any]:
+        s = self.settings
+        mem = sum(a.nbytes for a in (self._term_cdf, self._u_cdf, self._u_pdf, self._v_cdf, self._v_pdf))
+        return {
+            "sampler": self.name,
+            "memory_bytes": int(mem),
+            "build_seconds": self.build_seconds,
+            "views": f"{s.n_theta_o}x{s.n_phi_o}",
+            "param_grid": f"{s.n_theta_p}x{s.n_phi_p}",
+            "terms": f"{s.terms_j}x{s.terms_k}",
+            "reparam": s.reparam,
+            "fit_relative_error": self._fit_error,
+        }
+
+
+register_sampler("factored", lambda brdf, **o: FactoredSampler(brdf, **o))
