@@ -1,0 +1,84 @@
+"""``brdf-studio eval``: the value of a BRDF (analytic or measured) for one pair of directions.
+
+Also holds the argument helpers every command that takes a BRDF shares (``--model``, ``--param``,
+``--measured``) and the ``THETA,PHI`` angle parser.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from core.errors import ParameterError
+from core.geometry import degrees_to_dir
+from core.model import BRDF, make_brdf
+
+
+def add_brdf_arguments(p: argparse.ArgumentParser) -> None:
+    """``--model M``, ``--param k=v`` (repeatable), ``--measured FILE``."""
+    p.add_argument("--model", metavar="M", help="registered model name (see 'brdf-studio models')")
+    p.add_argument(
+        "--param",
+        metavar="K=V",
+        action="append",
+        default=[],
+        help="model parameter, repeatable; a color takes one number or three (kd=0.2,0.5,0.8)",
+    )
+    p.add_argument("--measured", metavar="FILE", help="a MERL .binary file instead of --model")
+
+
+def brdf_from_args(args: argparse.Namespace) -> BRDF:
+    """The BRDF the ``--model/--param/--measured`` arguments describe (errors as BrdfStudioError)."""
+    if args.measured is not None:
+        if args.model is not None and args.model != "merl":
+            raise ParameterError("give either --model or --measured, not both")
+        if args.param:
+            raise ParameterError("a measured BRDF (--measured) takes no --param")
+        from core.merl import measured_brdf
+
+        return measured_brdf(args.measured)
+    if args.model is None:
+        raise ParameterError("give --model M (see 'brdf-studio models') or --measured FILE")
+    return make_brdf(args.model, args.param)
+
+
+def parse_angle(text: str, what: str) -> tuple[float, float]:
+    """``"THETA,PHI"`` in degrees -> ``(theta, phi)``; theta within [0, 90], phi any finite angle."""
+    parts = [s.strip() for s in str(text).split(",")]
+    if len(parts) != 2:
+        raise ParameterError(f"{what} must be THETA,PHI in degrees (e.g. 30,0), got {text!r}")
+    try:
+        theta, phi = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ParameterError(f"{what} must be two numbers THETA,PHI in degrees, got {text!r}") from None
+    if not (math.isfinite(theta) and math.isfinite(phi)):
+        raise ParameterError(f"{what} must be finite angles, got {text!r}")
+    if not 0.0 <= theta <= 90.0:
+        raise ParameterError(f"{what}: theta must be within [0, 90] degrees, got {theta:g}")
+    return theta, phi
+
+
+def add_parser(sub: argparse._SubParsersAction) -> list[str]:
+    p = sub.add_parser(
+        "eval",
+        help="evaluate a BRDF for one pair of directions",
+        description="Print f_r(wi, wo) as RGB (1/sr). Angles in degrees in the local frame (z = normal).",
+    )
+    add_brdf_arguments(p)
+    p.add_argument("--wi", required=True, metavar="THETA,PHI", help="incident direction, degrees")
+    p.add_argument("--wo", required=True, metavar="THETA,PHI", help="outgoing direction, degrees")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    return ["eval"]
+
+
+def run(args: argparse.Namespace) -> int:
+    wi_deg = parse_angle(args.wi, "--wi")
+    wo_deg = parse_angle(args.wo, "--wo")
+    brdf = brdf_from_args(args)
+    rgb = [float(v) for v in brdf.eval(degrees_to_dir(*wo_deg), degrees_to_dir(*wi_deg))[0]]
+    if args.json:
+        print(json.dumps({"brdf": brdf.key(), "wi_deg": wi_deg, "wo_deg": wo_deg, "f_r": rgb}))
+    else:
+        print(f"{rgb[0]:.9g} {rgb[1]:.9g} {rgb[2]:.9g}")
+    return 0

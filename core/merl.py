@@ -1,0 +1,451 @@
+"""MERL measured BRDFs (Matusik et al. 2003, "A Data-Driven Reflectance Model"): the ``.binary`` format.
+
+File layout: three int32 ``(90, 90, 180)`` (the table dimensions), then ``3 x 90*90*180`` float64 stored as
+separate R, G, B planes. A cell is indexed by the Rusinkiewicz half/difference angles of the pair:
+
+``index = phi_d_idx + 180 * theta_d_idx + 180 * 90 * theta_h_idx`` with
+``theta_h_idx = floor(sqrt(theta_h / (pi/2)) * 90)`` (non-linear: finer near the mirror direction),
+``theta_d_idx = floor(theta_d / (pi/2) * 90)``, ``phi_d_idx = floor(phi_d / pi * 180)`` after folding
+``phi_d`` into ``[0, pi)`` by reciprocity; every index is clamped into its range. Stored values are
+multiplied by the channel scales ``1/1500, 1.15/1500, 1.66/1500`` to give ``f_r``; negative values mark
+missing measurements.
+
+A measured BRDF is a :class:`core.model.BRDF` like any other: its kernel ``eval_merl(wi, wo, p)`` has the model
+kernel signature, and ``p`` is the whole scaled table (missing cells kept negative), so every batch driver and
+sampler takes it unchanged. Make one with :func:`measured_brdf`.
+
+Lookup (a decision, see docs/analysis.md): trilinear interpolation between cell centres in index space
+(``sqrt(theta_h)``, ``theta_d``, ``phi_d``, periodic in ``phi_d``), leaving missing cells out of the weights. It
+is exact at the cell centres, continuous (so reciprocity and isotropy hold to rounding, with no jumps at cell
+faces, and quadrature error estimates stay reliable) and second-order accurate between centres. MERL's reference
+lookup, the containing cell, is :func:`eval_merl_nearest` (``measured_brdf(path, interpolate=False)``).
+
+The writer exports any BRDF by evaluating it at the cell centres (centre taken in index space, so the
+``theta_h`` centre is ``((i + 1/2) / 90)^2 * pi/2``) with ``phi_h = 0``. MERL tables are isotropic and
+reciprocal by construction: an anisotropic model is exported as its ``phi_h = 0`` slice and a non-reciprocal
+one as its ``phi_d in [0, pi)`` half. Cells whose centre puts ``wi`` or ``wo`` below the horizon hold the mean
+of the model over the part of the cell above the horizon (a 4 x 4 x 4 sub-grid), or a missing marker (-1)
+when no sub-point is valid.
+
+Reproduce the bundled demo file: ``python -m core.merl --export MODEL [k=v ...] --out FILE``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from core.errors import FileFormatError
+from core.io import atomic_write
+from core.model import BRDF, Model, Traits
+
+N_THETA_H = 90
+N_THETA_D = 90
+N_PHI_D = 180
+N_CELLS = N_THETA_H * N_THETA_D * N_PHI_D
+SHAPE = (3, N_THETA_H, N_THETA_D, N_PHI_D)
+SCALES = np.array([1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0])
+HEADER_BYTES = 3 * 4
+FILE_BYTES = HEADER_BYTES + 3 * N_CELLS * 8
+MISSING = -1.0
+"""Raw value the writer stores for a cell with no valid direction pair."""
+
+HALF_PI = 0.5 * math.pi
+
+
+# --------------------------------------------------------------------------------------------- lookup
+
+
+@njit(inline="always", nogil=True, cache=True)
+def half_diff_angles(wi, wo):
+    """Rusinkiewicz half/difference angles ``(theta_h, theta_d, phi_d)`` of a pair; ``phi_d`` in ``(-pi, pi]``."""
+    hx = wi[0] + wo[0]
+    hy = wi[1] + wo[1]
+    hz = wi[2] + wo[2]
+    n = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if n == 0.0:
+        hx, hy, hz = 0.0, 0.0, 1.0
+    else:
+        hx, hy, hz = hx / n, hy / n, hz / n
+    theta_h = math.acos(min(1.0, max(-1.0, hz)))
+    phi_h = math.atan2(hy, hx)
+    # d = R_y(-theta_h) R_z(-phi_h) wi: wi seen from the half vector's frame.
+    c, s = math.cos(phi_h), math.sin(phi_h)
+    x = wi[0] * c + wi[1] * s
+    y = wi[1] * c - wi[0] * s
+    z = wi[2]
+    ct, st = math.cos(theta_h), math.sin(theta_h)
+    dx = x * ct - z * st
+    dz = x * st + z * ct
+    theta_d = math.acos(min(1.0, max(-1.0, dz)))
+    phi_d = math.atan2(y, dx)
+    return theta_h, theta_d, phi_d
+
+
+@njit(inline="always", nogil=True, cache=True)
+def merl_index(wi, wo):
+    """Flat cell index of a direction pair (both above the horizon), as MERL's reference reader computes it."""
+    theta_h, theta_d, phi_d = half_diff_angles(wi, wo)
+    if theta_h <= 0.0:
+        ih = 0
+    else:
+        ih = min(N_THETA_H - 1, max(0, int(math.sqrt(theta_h / HALF_PI) * N_THETA_H)))
+    id_ = min(N_THETA_D - 1, max(0, int(theta_d / HALF_PI * N_THETA_D)))
+    if phi_d < 0.0:
+        phi_d += math.pi
+    ip = min(N_PHI_D - 1, max(0, int(phi_d / math.pi * N_PHI_D)))
+    return ip + N_PHI_D * (id_ + N_THETA_D * ih)
+
+
+@njit(nogil=True, cache=True)
+def eval_merl_nearest(wi, wo, p):
+    """``f_r`` from the containing cell, as MERL's reference reader; missing cells read as 0.
+
+    ``p`` is the scaled table (missing cells negative), R then G then B planes (``3 * N_CELLS``).
+    """
+    if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
+        return 0.0, 0.0, 0.0
+    k = merl_index(wi, wo)
+    return max(p[k], 0.0), max(p[k + N_CELLS], 0.0), max(p[k + 2 * N_CELLS], 0.0)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _bracket(u, n):
+    """Lower neighbour index and weight of the upper one for centre-based coordinate ``u`` (clamped)."""
+    if u <= 0.0:
+        return 0, 0.0
+    if u >= n - 1:
+        return n - 2, 1.0
+    i = int(u)
+    return i, u - i
+
+
+@njit(nogil=True, cache=True)
+def eval_merl(wi, wo, p):
+    """``f_r`` by trilinear interpolation between cell centres in index space (``sqrt(theta_h)``,
+    ``theta_d``, ``phi_d``; periodic in ``phi_d`` with period pi). Exact at cell centres and continuous;
+    missing cells are left out of the weights (0 where every neighbour is missing).
+
+    ``p`` is the scaled table (missing cells negative), R then G then B planes (``3 * N_CELLS``).
+    """
+    if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
+        return 0.0, 0.0, 0.0
+    theta_h, theta_d, phi_d = half_diff_angles(wi, wo)
+    ih, th = _bracket(math.sqrt(max(theta_h, 0.0) / HALF_PI) * N_THETA_H - 0.5, N_THETA_H)
+    jd, td = _bracket(theta_d / HALF_PI * N_THETA_D - 0.5, N_THETA_D)
+    if phi_d < 0.0:
+        phi_d += math.pi
+    up = phi_d / math.pi * N_PHI_D - 0.5
+    kp = int(math.floor(up))
+    tp = up - kp
+    acc_r = acc_g = acc_b = 0.0
+    w_r = w_g = w_b = 0.0
+    for a in range(2):
+        wa = th if a == 1 else 1.0 - th
+        if wa == 0.0:
+            continue
+        for b in range(2):
+            wb = wa * (td if b == 1 else 1.0 - td)
+            if wb == 0.0:
+                continue
+            for c in range(2):
+                w = wb * (tp if c == 1 else 1.0 - tp)
+                if w == 0.0:
+                    continue
+                k = (kp + c) % N_PHI_D + N_PHI_D * (jd + b + N_THETA_D * (ih + a))
+                v = p[k]
+                if v >= 0.0:
+                    acc_r += w * v
+                    w_r += w
+                v = p[k + N_CELLS]
+                if v >= 0.0:
+                    acc_g += w * v
+                    w_g += w
+                v = p[k + 2 * N_CELLS]
+                if v >= 0.0:
+                    acc_b += w * v
+                    w_b += w
+    r = acc_r / w_r if w_r > 0.0 else 0.0
+    g = acc_g / w_g if w_g > 0.0 else 0.0
+    b_ = acc_b / w_b if w_b > 0.0 else 0.0
+    return r, g, b_
+
+
+_MERL_CITATION = (
+    "W. Matusik, H. Pfister, M. Brand, L. McMillan, A Data-Driven Reflectance Model, "
+    "ACM Trans. Graph. 22(3), 2003."
+)
+
+MERL = Model(
+    name="merl",
+    label="Measured (MERL)",
+    citation=_MERL_CITATION,
+    params=(),
+    traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
+    eval=eval_merl,
+    doc=__doc__ or "",
+    notes="Trilinear interpolation between cell centres; missing measurements left out (0 if all are). "
+    "Not in the model registry: a measured BRDF is made from a file with core.merl.measured_brdf(path).",
+    measured=True,
+)
+"""The measured 'model': declared like the analytic ones, but not registered (it needs a file, not
+parameters). Every measured BRDF shares it."""
+
+MERL_NEAREST = Model(
+    name="merl_nearest",
+    label="Measured (MERL, nearest cell)",
+    citation=_MERL_CITATION,
+    params=(),
+    traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
+    eval=eval_merl_nearest,
+    doc=__doc__ or "",
+    notes="Containing-cell lookup as MERL's reference reader; piecewise constant.",
+    measured=True,
+)
+
+
+class MeasuredBRDF(BRDF):
+    """A BRDF backed by a MERL table; ``path`` says where it came from (``None`` for an in-memory table)."""
+
+    def __init__(self, table: MerlTable, path: str | None = None, interpolate: bool = True):
+        super().__init__(MERL if interpolate else MERL_NEAREST, {}, params=table.kernel_vector())
+        self.table = table
+        self.path = path
+
+    def key(self) -> str:
+        if self.path is None:
+            return f"{self.model.name}(<memory:{id(self.table):x}>)"
+        try:
+            st = os.stat(self.path)
+            stamp = f"{st.st_size}:{st.st_mtime_ns}"
+        except OSError:
+            stamp = "?"
+        return f"{self.model.name}({os.path.abspath(self.path)}@{stamp})"
+
+    def __repr__(self) -> str:
+        return f"MeasuredBRDF({self.path!r})"
+
+
+# --------------------------------------------------------------------------------------------- table
+
+
+@dataclass(frozen=True)
+class MerlTable:
+    """A MERL table as stored: ``raw (3, 90, 90, 180)`` float64 before the channel scales; negative = missing."""
+
+    raw: np.ndarray
+
+    def values(self) -> np.ndarray:
+        """``f_r`` per cell, ``(3, 90, 90, 180)``, with missing cells set to 0."""
+        return np.where(self.raw < 0.0, 0.0, self.raw * SCALES[:, None, None, None])
+
+    def kernel_vector(self) -> np.ndarray:
+        """The kernel parameter vector of :func:`eval_merl`: scaled values (missing cells stay negative),
+        planes R, G, B, contiguous."""
+        return np.ascontiguousarray((self.raw * SCALES[:, None, None, None]).reshape(-1))
+
+    @property
+    def missing_fraction(self) -> float:
+        return float(np.mean(self.raw < 0.0))
+
+
+def read_merl(path: str | os.PathLike[str]) -> MerlTable:
+    """Read a MERL ``.binary`` file; raises :class:`FileFormatError` naming what is wrong."""
+    p = Path(path)
+    where = f"MERL file '{p}'"
+    if not p.exists():
+        raise FileFormatError(f"{where} does not exist")
+    if not p.is_file():
+        raise FileFormatError(f"{where} is not a regular file")
+    try:
+        size = p.stat().st_size
+        with open(p, "rb") as fh:
+            header = fh.read(HEADER_BYTES)
+            if len(header) < HEADER_BYTES:
+                raise FileFormatError(
+                    f"{where} is truncated: {size} bytes, too short for the 12-byte header (three int32)"
+                )
+            dims = tuple(int(d) for d in np.frombuffer(header, dtype="<i4"))
+            if dims != (N_THETA_H, N_THETA_D, N_PHI_D):
+                raise FileFormatError(
+                    f"{where} has table dimensions {dims[0]} x {dims[1]} x {dims[2]} in its header; "
+                    f"expected {N_THETA_H} x {N_THETA_D} x {N_PHI_D} (theta_h x theta_d x phi_d)"
+                )
+            if size < FILE_BYTES:
+                raise FileFormatError(
+                    f"{where} is truncated: {size} bytes, expected {FILE_BYTES} "
+                    f"(12-byte header + 3 x {N_CELLS} float64)"
+                )
+            if size > FILE_BYTES:
+                raise FileFormatError(
+                    f"{where} has the wrong size: {size} bytes, expected {FILE_BYTES} "
+                    f"({size - FILE_BYTES} bytes of unexpected trailing data)"
+                )
+            data = np.fromfile(fh, dtype="<f8", count=3 * N_CELLS)
+    except OSError as exc:
+        raise FileFormatError(f"{where} cannot be read: {exc.strerror or exc}") from None
+    if data.size != 3 * N_CELLS:  # the file changed under us
+        raise FileFormatError(f"{where} is truncated: read {data.size * 8} bytes of table data")
+    bad = ~np.isfinite(data)
+    if bad.any():
+        raise FileFormatError(
+            f"{where} holds {int(bad.sum())} non-finite values (NaN or Inf) of {data.size}; "
+            "a MERL table holds finite numbers (negative for missing data)"
+        )
+    raw = data.astype(np.float64).reshape(SHAPE)
+    for c, name in enumerate("RGB"):
+        if not np.any(raw[c] >= 0.0):
+            raise FileFormatError(
+                f"{where} holds no valid data in channel {name}: every value is negative (missing)"
+            )
+    return MerlTable(raw)
+
+
+def measured_brdf(path: str | os.PathLike[str], interpolate: bool = True) -> MeasuredBRDF:
+    """A :class:`BRDF` from a MERL file (errors as :func:`read_merl`): trilinear lookup, or the containing
+    cell with ``interpolate=False``."""
+    return MeasuredBRDF(read_merl(path), str(path), interpolate)
+
+
+# --------------------------------------------------------------------------------------------- writer
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _pair_from_cell(u_h, u_d, u_p):
+    """The direction pair at fractional index coordinates ``(u_h, u_d, u_p)`` (cell ``i`` spans ``[i, i+1)``)
+    with ``phi_h = 0``: returns ``wi, wo``."""
+    s = u_h / N_THETA_H
+    theta_h = s * s * HALF_PI
+    theta_d = u_d / N_THETA_D * HALF_PI
+    phi_d = u_p / N_PHI_D * math.pi
+    sd = math.sin(theta_d)
+    x = sd * math.cos(phi_d)
+    y = sd * math.sin(phi_d)
+    z = math.cos(theta_d)
+    ct, st = math.cos(theta_h), math.sin(theta_h)
+    wi = (x * ct + z * st, y, z * ct - x * st)
+    k = 2.0 * (wi[0] * st + wi[2] * ct)
+    wo = (k * st - wi[0], -wi[1], k * ct - wi[2])
+    return wi, wo
+
+
+@njit(nogil=True)
+def _tabulate(kernel, p, scales, sub, out):
+    """``out (3, N_CELLS)``: the raw values of ``kernel`` at the cell centres (see the module docstring)."""
+    for ih in range(N_THETA_H):
+        for jd in range(N_THETA_D):
+            for kp in range(N_PHI_D):
+                idx = kp + N_PHI_D * (jd + N_THETA_D * ih)
+                wi, wo = _pair_from_cell(ih + 0.5, jd + 0.5, kp + 0.5)
+                if wi[2] > 0.0 and wo[2] > 0.0:
+                    r, g, b = kernel(wi, wo, p)
+                else:
+                    # Centre below the horizon: the mean over the valid part of the cell.
+                    r = g = b = 0.0
+                    count = 0
+                    for a in range(sub):
+                        for bb in range(sub):
+                            for c in range(sub):
+                                wi2, wo2 = _pair_from_cell(
+                                    ih + (a + 0.5) / sub, jd + (bb + 0.5) / sub, kp + (c + 0.5) / sub
+                                )
+                                if wi2[2] > 0.0 and wo2[2] > 0.0:
+                                    r2, g2, b2 = kernel(wi2, wo2, p)
+                                    r += r2
+                                    g += g2
+                                    b += b2
+                                    count += 1
+                    if count == 0:
+                        out[0, idx] = MISSING
+                        out[1, idx] = MISSING
+                        out[2, idx] = MISSING
+                        continue
+                    r /= count
+                    g /= count
+                    b /= count
+                out[0, idx] = r / scales[0]
+                out[1, idx] = g / scales[1]
+                out[2, idx] = b / scales[2]
+
+
+def tabulate(brdf: BRDF, subcells: int = 4) -> MerlTable:
+    """A MERL table of ``brdf`` (any model, analytic or measured): its value at every cell centre."""
+    out = np.empty((3, N_CELLS), dtype=np.float64)
+    _tabulate(brdf.model.eval, brdf.params, SCALES, int(subcells), out)
+    bad = ~np.isfinite(out)
+    if bad.any():  # a model bug, but never write a file the reader would refuse
+        raise FileFormatError(f"cannot export {brdf.key()}: it gives {int(bad.sum())} non-finite values")
+    return MerlTable(out.reshape(SHAPE))
+
+
+def cell_centre_pairs(ih: np.ndarray, jd: np.ndarray, kp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Direction pairs ``(wi, wo)``, each ``(n, 3)``, at the centres of cells ``(ih, jd, kp)`` (phi_h = 0)."""
+    ih, jd, kp = np.broadcast_arrays(np.asarray(ih), np.asarray(jd), np.asarray(kp))
+    s = (ih + 0.5) / N_THETA_H
+    theta_h = s * s * HALF_PI
+    theta_d = (jd + 0.5) / N_THETA_D * HALF_PI
+    phi_d = (kp + 0.5) / N_PHI_D * np.pi
+    d = np.stack([np.sin(theta_d) * np.cos(phi_d), np.sin(theta_d) * np.sin(phi_d), np.cos(theta_d)], -1)
+    ct, st = np.cos(theta_h), np.sin(theta_h)
+    wi = np.stack([d[..., 0] * ct + d[..., 2] * st, d[..., 1], d[..., 2] * ct - d[..., 0] * st], -1)
+    h = np.stack([st, np.zeros_like(st), ct], -1)
+    wo = 2.0 * np.sum(wi * h, axis=-1, keepdims=True) * h - wi
+    return wi.reshape(-1, 3), wo.reshape(-1, 3)
+
+
+def write_merl(path: str | os.PathLike[str], source: BRDF | MerlTable | np.ndarray) -> None:
+    """Write a MERL ``.binary`` file atomically.
+
+    ``source`` is a :class:`BRDF` (tabulated with :func:`tabulate`), a :class:`MerlTable`, or raw stored values
+    ``(3, 90, 90, 180)`` (before the channel scales; negative = missing).
+    """
+    if isinstance(source, BRDF):
+        raw = tabulate(source).raw
+    elif isinstance(source, MerlTable):
+        raw = source.raw
+    else:
+        raw = np.asarray(source, dtype=np.float64)
+    if raw.size != 3 * N_CELLS:
+        raise FileFormatError(f"a MERL table has 3 x {N_CELLS} values, got array of shape {raw.shape}")
+    if not np.all(np.isfinite(raw)):
+        raise FileFormatError("cannot write a MERL table holding NaN or Inf values")
+    header = np.array([N_THETA_H, N_THETA_D, N_PHI_D], dtype="<i4")
+    with atomic_write(path, "wb") as fh:
+        fh.write(header.tobytes())
+        fh.write(np.ascontiguousarray(raw, dtype="<f8").tobytes())
+
+
+# --------------------------------------------------------------------------------------------- script
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m core.merl --export MODEL [k=v ...] --out FILE``: write a synthetic MERL file."""
+    from core.errors import BrdfStudioError
+    from core.model import make_brdf
+
+    parser = argparse.ArgumentParser(prog="python -m core.merl", description=main.__doc__)
+    parser.add_argument("--export", metavar="MODEL", required=True, help="registered model to tabulate")
+    parser.add_argument("params", nargs="*", metavar="k=v", help="model parameters")
+    parser.add_argument("--out", required=True, help="output .binary file")
+    args = parser.parse_args(argv)
+    try:
+        brdf = make_brdf(args.export, args.params)
+        write_merl(args.out, brdf)
+        table = read_merl(args.out)
+    except BrdfStudioError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    print(f"wrote {args.out}: {brdf.key()}, missing cells {table.missing_fraction:.2%}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
