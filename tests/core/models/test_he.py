@@ -1,0 +1,228 @@
+"""He-Torrance-Sillion-Greenberg (1991): reference values recomputed here from the paper's formulas with
+independent tools (scipy's brentq and erfc, a brute-force series, explicit polarization vectors), the
+smooth and rough limits, normal and grazing incidence."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import erfc
+
+from core.geometry import degrees_to_dir
+from core.model import get_model
+from core.models._he_series import diffuse_series, effective_roughness_ratio, log_k
+from core.models.he import specular_weight
+
+MODEL = get_model("he")
+
+
+def _fresnel(cos_t: float, n: float, k: float) -> float:
+    """Unpolarized Fresnel reflectance from Snell's law with a complex index: sin_t = sin_i / (n + ik)."""
+    eta = complex(n, k)
+    sin_i = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    cos_tr = np.sqrt(1.0 - (sin_i / eta) ** 2 + 0j)
+    rs = (cos_t - eta * cos_tr) / (cos_t + eta * cos_tr)
+    rp = (eta * cos_t - cos_tr) / (eta * cos_t + cos_tr)
+    return 0.5 * (abs(rs) ** 2 + abs(rp) ** 2)
+
+
+def _shadow(theta: float, sigma: float, tau: float) -> float:
+    """He et al.'s S(theta) = (1 - erfc(mu)/2) / (Lambda + 1), mu = tau cot(theta) / (2 sigma)."""
+    if theta == 0.0:
+        return 1.0
+    mu = tau / math.tan(theta) / (2.0 * sigma)
+    lam = 0.5 * ((2.0 / math.sqrt(math.pi)) * (sigma / tau) * math.tan(theta) * math.exp(-mu * mu) - erfc(mu))
+    return (1.0 - 0.5 * erfc(mu)) / (lam + 1.0)
+
+
+def _sigma0(theta_i: float, theta_r: float, sigma: float, tau: float) -> float:
+    """Effective roughness: root z0 of sqrt(pi/2) z0 = sigma/4 (K_i + K_r) exp(-z0^2/(2 sigma^2)) by brentq."""
+
+    def big_k(t):
+        return 0.0 if t == 0.0 else math.tan(t) * erfc(tau / math.tan(t) / (2.0 * sigma))
+
+    kk = big_k(theta_i) + big_k(theta_r)
+    if kk == 0.0:
+        return sigma
+    z0 = brentq(
+        lambda z: math.sqrt(math.pi / 2) * z - sigma / 4 * kk * math.exp(-(z * z) / (2 * sigma * sigma)),
+        0.0,
+        10.0 * sigma + kk * sigma,
+        xtol=1e-15 * sigma,
+        rtol=1e-15,
+    )
+    return sigma / math.sqrt(1.0 + (z0 / sigma) ** 2)
+
+
+def _series(g: float, a: float) -> float:
+    """sum_{m>=1} g^m e^-g / (m! m) exp(-a/m), every term up to far beyond the Poisson peak (fsum)."""
+    top = int(g + 40.0 * math.sqrt(g) + 60.0 + math.sqrt(a))
+    lg = math.log(g)
+    return math.fsum(math.exp(m * lg - g - math.lgamma(m + 1.0) - math.log(m) - a / m) for m in range(1, top))
+
+
+def _he_dd(wi, wo, sigma, tau, lam_nm, n, k):
+    """rho_dd of the paper with G written with the polarization vectors s, p of both beams (not simplified)."""
+    lam = lam_nm * 1e-3
+    kw = 2.0 * math.pi / lam
+    wi, wo = np.asarray(wi, float), np.asarray(wo, float)
+    ki, kr = -wi, wo  # propagation directions: incident travels towards the surface
+    nrm = np.array([0.0, 0.0, 1.0])
+    ti, tr = math.acos(wi[2]), math.acos(wo[2])
+    # The paper's v = k_r - k_i carries the wave number k in the exponent (tau v_xy is dimensionless there);
+    # in G, a ratio of lengths of v, the wave number cancels: G is dimensionless.
+    v = kr - ki
+    vxy2 = kw**2 * (v[0] ** 2 + v[1] ** 2)
+
+    def sp(kv):
+        s = np.cross(kv, nrm)
+        s /= np.linalg.norm(s)
+        return s, np.cross(s, kv)
+
+    s_i, p_i = sp(ki)
+    s_r, p_r = sp(kr)
+    cr = np.linalg.norm(np.cross(kr, ki))
+    geom = (
+        (v @ v / v[2]) ** 2
+        / cr**4
+        * ((s_r @ ki) ** 2 + (p_r @ ki) ** 2)
+        * ((s_i @ kr) ** 2 + (p_i @ kr) ** 2)
+    )
+    s0 = _sigma0(ti, tr, sigma, tau)
+    g = (2.0 * math.pi * s0 / lam * (wi[2] + wo[2])) ** 2
+    d = math.pi**2 * tau**2 / (4.0 * lam**2) * _series(g, tau**2 * vxy2 / 4.0)
+    cos_b = np.linalg.norm(kr - ki) / 2.0
+    shadow = _shadow(ti, sigma, tau) * _shadow(tr, sigma, tau)
+    return _fresnel(cos_b, n, k) / math.pi * geom * shadow * d / (wi[2] * wo[2]), g
+
+
+def _f(values, wi, wo):
+    return MODEL.bind(values).eval(np.asarray(wo), np.asarray(wi))[0]
+
+
+@pytest.mark.parametrize(
+    ("values", "wi_deg", "wo_deg"),
+    [
+        # The seed's setting (sigma = 0.5 um, tau = 3 um, lambda = 800 nm), off the plane of incidence.
+        ({}, (30.0, 0.0), (40.0, 150.0)),
+        # A smooth dielectric in green light, forward scattering at 60 -> 20 degrees (g ~ 0.1).
+        (
+            {"sigma": 0.05, "tau": 1.0, "wavelength": 500.0, "n": (1.5, 1.5, 1.5), "k": 0.0},
+            (60.0, 10.0),
+            (20.0, 200.0),
+        ),
+        # Intermediate roughness (g ~ 40, the exact-sum regime) near grazing, coloured index.
+        (
+            {"sigma": 0.3, "tau": 1.5, "wavelength": 400.0, "n": (0.2, 0.6, 1.2), "k": (3.0, 2.5, 2.0)},
+            (75.0, 0.0),
+            (70.0, 170.0),
+        ),
+    ],
+)
+def test_matches_the_paper_formulas(values, wi_deg, wo_deg):
+    wi, wo = degrees_to_dir(*wi_deg), degrees_to_dir(*wo_deg)
+    full = MODEL.resolve(values)
+    n = np.broadcast_to(full["n"], 3)
+    k = np.broadcast_to(full["k"], 3)
+    expected = [
+        _he_dd(wi, wo, full["sigma"], full["tau"], full["wavelength"], n[c], k[c])[0] for c in range(3)
+    ]
+    np.testing.assert_allclose(_f(values, wi, wo), expected, rtol=1e-8)
+
+
+def test_reference_value_written_out():
+    # Normal incidence and normal viewing, seed roughness, lambda = 800 nm, n = 2.8, k = 8.4, kd = 0:
+    # K_i = K_r = 0 -> sigma_0 = sigma = 0.5 um; v_xy = 0; k = 2 pi / 0.8 = 7.853982 /um;
+    # g = (k sigma_0 * 2)^2 = 7.853982^2 = 61.68503; S = 1; G = (|2 z|^2 / 2)^2 = 4; cos_b = 1;
+    # F(0) = ((n-1)^2 + k^2) / ((n+1)^2 + k^2) = (3.24 + 70.56) / (14.44 + 70.56) = 0.8682353;
+    # D = tau^2 k^2 / 16 * sum = 9 * 61.68503 / 16 * sum = 34.69783 * sum,
+    # sum_{m>=1} g^m e^-g / (m! m) = 0.016484... (brute force below).
+    # rho = F / pi * G * D / (1 * 1) = 0.8682353 / pi * 4 * 34.69783 * sum
+    s = _series(61.68503, 0.0)
+    expected = 0.8682353 / math.pi * 4.0 * 34.69783 * s
+    np.testing.assert_allclose(_f({}, degrees_to_dir(0.0), degrees_to_dir(0.0)), expected, rtol=1e-6)
+
+
+def test_series_against_brute_force_in_every_regime():
+    for g in (1e-9, 1e-3, 0.3, 2.0, 15.0, 40.0, 95.0, 150.0, 400.0, 3000.0, 5e4):
+        for a in (0.0, 0.01, 2.0, 50.0, 600.0):
+            np.testing.assert_allclose(diffuse_series(g, a), _series(g, a), rtol=1e-9, err_msg=f"{g} {a}")
+
+
+def test_effective_roughness_against_brentq():
+    sigma, tau = 0.5, 3.0
+    for ti, tr in ((0.0, 0.0), (0.3, 1.2), (1.3, 1.3), (1.5, 0.2), (1.5707, 1.5707)):
+        lk = [log_k(math.cos(t), math.sin(t), tau / (2 * sigma)) for t in (ti, tr)]
+        np.testing.assert_allclose(
+            sigma * effective_roughness_ratio(lk[0], lk[1]), _sigma0(ti, tr, sigma, tau), rtol=1e-10
+        )
+
+
+def test_tiny_g_is_the_first_term_of_the_series():
+    # sigma = 5 nm, lambda = 3 um: g <= (2 pi 0.005/3 * 2)^2 = 4.4e-4, so the sum is g e^-g e^-a (1 + O(g)).
+    values = {"sigma": 0.005, "tau": 0.5, "wavelength": 3000.0, "n": 1.5, "k": 0.0}
+    wi, wo = degrees_to_dir(40.0, 0.0), degrees_to_dir(35.0, 180.0)
+    ref, g = _he_dd(wi, wo, 0.005, 0.5, 3000.0, 1.5, 0.0)
+    assert g < 5e-4
+    np.testing.assert_allclose(_f(values, wi, wo), ref, rtol=1e-8)
+    assert np.all(np.isfinite(_f(values, degrees_to_dir(0.0), degrees_to_dir(0.0))))
+
+
+def test_large_g_tends_to_the_rough_surface_limit():
+    # sigma = 8 um >> lambda = 0.4 um: g ~ 6e4 at normal incidence. The paper's rough approximation
+    # sum ~ exp(-a/g)/g turns rho_dd into F D_Beckmann S / (4 cos_i cos_r), Beckmann slope m = 2 sigma_0/tau;
+    # the exact sum differs by O(1/g) (relative).
+    sigma, tau, lam = 8.0, 40.0, 400.0
+    values = {"sigma": sigma, "tau": tau, "wavelength": lam, "n": 1.5, "k": 0.0}
+    for (ti, pi_), (tr, pr) in (((20.0, 0.0), (25.0, 170.0)), ((10.0, 0.0), (15.0, 200.0))):
+        wi, wo = degrees_to_dir(ti, pi_), degrees_to_dir(tr, pr)
+        h = wi + wo
+        hn = h / np.linalg.norm(h)
+        tan2 = (hn[0] ** 2 + hn[1] ** 2) / hn[2] ** 2
+        m = 2.0 * _sigma0(math.radians(ti), math.radians(tr), sigma, tau) / tau
+        d_beck = math.exp(-tan2 / m**2) / (math.pi * m**2 * hn[2] ** 4)
+        shadow = _shadow(math.radians(ti), sigma, tau) * _shadow(math.radians(tr), sigma, tau)
+        limit = _fresnel(float(wi @ hn), 1.5, 0.0) * d_beck * shadow / (4.0 * wi[2] * wo[2])
+        got = _f(values, wi, wo)[0]
+        np.testing.assert_allclose(got, limit, rtol=2e-3)
+
+
+def test_normal_and_grazing_incidence_are_finite_and_continuous():
+    brdf = MODEL.bind()
+    # normal incidence: the limit of nearby directions (sigma_0 -> sigma, S -> 1 smoothly)
+    at = brdf.eval(degrees_to_dir(20.0, 180.0), degrees_to_dir(0.0))[0]
+    near = brdf.eval(degrees_to_dir(20.0, 180.0), degrees_to_dir(1e-7, 33.0))[0]
+    np.testing.assert_allclose(at, near, rtol=1e-8)
+    # grazing: finite, non-negative and vanishing as both directions reach the horizon (S -> 0, g -> 0)
+    for theta in (89.0, 89.9, 89.999, 89.99999):
+        for phi in (0.0, 90.0, 180.0):
+            f = brdf.eval(degrees_to_dir(theta, phi), degrees_to_dir(theta, 0.0))[0]
+            assert np.all(np.isfinite(f)) and np.all(f >= 0.0)
+    tiny = brdf.eval(degrees_to_dir(89.99999, 180.0), degrees_to_dir(89.99999, 0.0))[0]
+    assert np.all(tiny < 1e-6)
+    wi = np.array([1.0, 0.0, 1e-300])
+    assert np.all(np.isfinite(brdf.eval(wi, wi)))
+
+
+def test_uniform_diffuse_term_adds_kd_over_pi():
+    wi, wo = degrees_to_dir(30.0, 0.0), degrees_to_dir(50.0, 90.0)
+    base = _f({}, wi, wo)
+    with_kd = _f({"kd": (0.1, 0.2, 0.3)}, wi, wo)
+    np.testing.assert_allclose(with_kd - base, np.array([0.1, 0.2, 0.3]) / math.pi, rtol=1e-12)
+
+
+def test_specular_weight_of_the_left_out_delta_term():
+    # Normal incidence: S = 1, sigma_0 = sigma, weight = F(0) exp(-(2 k sigma)^2).
+    brdf = MODEL.bind({"sigma": 0.05, "wavelength": 500.0})
+    f0 = ((2.8 - 1) ** 2 + 8.4**2) / ((2.8 + 1) ** 2 + 8.4**2)
+    g = (2.0 * 2.0 * math.pi / 0.5 * 0.05) ** 2
+    np.testing.assert_allclose(specular_weight(brdf.params, 0.0), f0 * math.exp(-g), rtol=1e-12)
+    # At 60 degrees the weight is F e^-g S^2 with the effective roughness.
+    t = math.radians(60.0)
+    s0 = _sigma0(t, t, 0.05, 3.0)
+    g = (2.0 * math.pi / 0.5 * s0 * 2.0 * math.cos(t)) ** 2
+    expected = _fresnel(math.cos(t), 2.8, 8.4) * math.exp(-g) * _shadow(t, 0.05, 3.0) ** 2
+    np.testing.assert_allclose(specular_weight(brdf.params, t), expected, rtol=1e-9)
