@@ -1,0 +1,19 @@
+"""``brdf-studio open [FILE.json]``: the desktop app (also what bare ``brdf-studio`` runs)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> list[str]:
+    p = sub.add_parser("open", help="open the desktop app (on a project file, or the bundled demo scene)")
+    p.add_argument("file", nargs="?", type=Path, help="a project (scene) JSON file")
+    p.add_argument("--empty", action="store_true", help="start with a new project instead of the demo scene")
+    return ["open"]
+
+
+def run(args: argparse.Namespace) -> int:
+    from app.application import run_app
+
+    return run_app(args.file, empty=args.empty)

@@ -1,0 +1,205 @@
+"""The material editor: which material, which model (or a MERL file), the generated parameter editor,
+notes and tags, and computed facts beside the parameters (traits, albedo at a few angles, adaptive table)."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPlainTextEdit,
+    QPushButton,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.capabilities import MEASURED_MODEL
+from app.editors.params import ParamEditor
+from app.state import Document
+from core.errors import BrdfStudioError
+from core.model import Model, all_models, get_model
+
+INFO_THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
+
+
+def trait_badges(model: Model) -> str:
+    """Rich text: one badge per trait (green when the model promises it, grey when not)."""
+
+    def badge(text: str, on: bool) -> str:
+        colour = "#2e7d32" if on else "#9e9e9e"
+        mark = "&#10003;" if on else "&#10007;"
+        return f'<span style="color:{colour}; font-weight:bold">{mark} {text}</span>'
+
+    return " &nbsp; ".join(
+        [
+            badge("reciprocal", model.reciprocal),
+            badge("energy-conserving", model.energy_conserving),
+            badge("isotropic", model.isotropic),
+        ]
+    )
+
+
+class MaterialEditor(QWidget):
+    """Edits the document's current material. Emits ``load_measured_requested`` and ``error(str)``; the main
+    window owns file dialogs and error reporting."""
+
+    load_measured_requested = Signal()
+    error = Signal(str)
+
+    def __init__(self, document: Document, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.document = document
+        self.material_box = QComboBox()
+        self.material_box.setToolTip("The material being edited")
+        self.new_button = QPushButton("New")
+        self.new_button.setToolTip("New material (Ctrl+M)")
+        self.delete_button = QPushButton("Delete")
+        self.model_box = QComboBox()
+        self.model_box.setToolTip("The BRDF model of this material")
+        for m in all_models():
+            self.model_box.addItem(m.label, m.name)
+        self.merl_button = QPushButton("Load MERL ...")
+        self.merl_button.setToolTip("Use a measured BRDF (MERL .binary file) for this material")
+        self.citation = QLabel()
+        self.citation.setWordWrap(True)
+        self.citation.setStyleSheet("color: #555; font-size: 9pt")
+        self.badges = QLabel()
+        self.params_box = QGroupBox("Parameters")
+        self.params_layout = QVBoxLayout(self.params_box)
+        self.param_editor: ParamEditor | None = None
+        self.measured_label = QLabel()
+        self.measured_label.setWordWrap(True)
+        self.params_layout.addWidget(self.measured_label)
+        self._info_lines: dict[str, str] = {}
+        self.info = QLabel("")
+        self.info.setWordWrap(True)
+        self.info.setTextFormat(self.info.textFormat().RichText)
+        self.notes = QPlainTextEdit()
+        self.notes.setPlaceholderText("Notes about this material")
+        self.notes.setMaximumHeight(80)
+        self.tags = QLineEdit()
+        self.tags.setPlaceholderText("tags, comma separated")
+
+        row = QHBoxLayout()
+        row.addWidget(self.material_box, 1)
+        row.addWidget(self.new_button)
+        row.addWidget(self.delete_button)
+        model_row = QHBoxLayout()
+        model_row.addWidget(self.model_box, 1)
+        model_row.addWidget(self.merl_button)
+        form = QFormLayout()
+        form.addRow("Material", row)
+        form.addRow("Model", model_row)
+        layout = QVBoxLayout(self)
+        layout.addLayout(form)
+        layout.addWidget(self.citation)
+        layout.addWidget(self.badges)
+        layout.addWidget(self.params_box)
+        info_box = QGroupBox("Computed")
+        QVBoxLayout(info_box).addWidget(self.info)
+        layout.addWidget(info_box)
+        meta = QFormLayout()
+        meta.addRow("Notes", self.notes)
+        meta.addRow("Tags", self.tags)
+        layout.addLayout(meta)
+        layout.addStretch(1)
+
+        self.material_box.activated.connect(lambda i: document.select_material(self.material_box.itemText(i)))
+        self.model_box.activated.connect(self._model_chosen)
+        self.new_button.clicked.connect(self.new_material)
+        self.delete_button.clicked.connect(self.delete_material)
+        self.merl_button.clicked.connect(self.load_measured_requested)
+        self.notes.textChanged.connect(lambda: self._guard(document.set_notes, self.notes.toPlainText()))
+        self.tags.editingFinished.connect(lambda: self._guard(document.set_tags, self.tags.text().split(",")))
+        ev = document.events
+        ev.materials_changed.connect(self.refresh_names)
+        ev.selection_changed.connect(self.refresh)
+        ev.material_changed.connect(
+            lambda name: self.refresh() if name == document.current_material else None
+        )
+        self.refresh_names()
+        self.refresh()
+
+    def _guard(self, fn, *args) -> None:
+        try:
+            fn(*args)
+        except (BrdfStudioError, KeyError) as exc:
+            self.error.emit(str(exc))
+
+    def _model_chosen(self, index: int) -> None:
+        name = self.model_box.itemData(index)
+        if name and name != MEASURED_MODEL:
+            self._guard(self.document.set_model, name)
+
+    def new_material(self) -> None:
+        current = self.document.material().model if self.document.current_material else "lambert"
+        if current == MEASURED_MODEL:
+            current = "lambert"
+        self._guard(self.document.add_material, current)
+
+    def delete_material(self) -> None:
+        if self.document.current_material:
+            self._guard(self.document.remove_material, self.document.current_material)
+
+    def refresh_names(self) -> None:
+        self.material_box.blockSignals(True)
+        self.material_box.clear()
+        self.material_box.addItems(self.document.material_names())
+        if self.document.current_material:
+            self.material_box.setCurrentText(self.document.current_material)
+        self.material_box.blockSignals(False)
+
+    def refresh(self) -> None:
+        """Show the current material (rebuilding the parameter rows only when the model changed)."""
+        doc = self.document
+        self.material_box.blockSignals(True)
+        if doc.current_material:
+            self.material_box.setCurrentText(doc.current_material)
+        self.material_box.blockSignals(False)
+        if doc.current_material is None:
+            self.setEnabled(False)
+            return
+        self.setEnabled(True)
+        mat = doc.material()
+        measured = mat.measured is not None
+        if measured:
+            model = doc.brdf().model
+            self.model_box.blockSignals(True)
+            if self.model_box.findData(MEASURED_MODEL) < 0:
+                self.model_box.addItem(model.label, MEASURED_MODEL)
+            self.model_box.setCurrentIndex(self.model_box.findData(MEASURED_MODEL))
+            self.model_box.blockSignals(False)
+        else:
+            model = get_model(mat.model)
+            self.model_box.blockSignals(True)
+            self.model_box.setCurrentIndex(self.model_box.findData(mat.model))
+            self.model_box.blockSignals(False)
+        self.citation.setText(model.citation)
+        self.badges.setText(trait_badges(model))
+        if self.param_editor is None or self.param_editor.model is not model:
+            if self.param_editor is not None:
+                self.params_layout.removeWidget(self.param_editor)
+                self.param_editor.deleteLater()
+            self.param_editor = ParamEditor(model)
+            self.param_editor.value_edited.connect(lambda n, v: self._guard(doc.set_param, n, v))
+            self.param_editor.edit_finished.connect(doc.end_merge)
+            self.params_layout.addWidget(self.param_editor)
+        self.param_editor.set_values(mat.params)
+        self.param_editor.setVisible(not measured)
+        self.measured_label.setVisible(measured)
+        self.measured_label.setText(f"Measured data from {mat.measured}" if measured else "")
+        if self.notes.toPlainText() != mat.notes:
+            self.notes.blockSignals(True)
+            self.notes.setPlainText(mat.notes)
+            self.notes.blockSignals(False)
+        if not self.tags.hasFocus():
+            self.tags.setText(", ".join(mat.tags))
+
+    def set_info(self, key: str, line: str) -> None:
+        """Show one computed fact (``albedo``, ``adaptive``), replacing the previous line of that key."""
+        self._info_lines[key] = line
+        self.info.setText("<br>".join(self._info_lines[k] for k in sorted(self._info_lines)))

@@ -1,0 +1,518 @@
+"""The document the desktop app edits: materials, scene objects, selection and the undo history.
+
+Plain Python with no Qt import (napari's split): widgets receive a :class:`Document`, connect to its
+events and write back through its methods; they keep no copy of the state. Every edit goes through
+:meth:`Document.edit`, which snapshots the (small) document data first, so every edit can be undone.
+Meshes are referenced by path; their triangles live in the views, not here.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from core.errors import ParameterError
+from core.model import BRDF, ParamValue, get_model
+
+
+class Event:
+    """A minimal event: callbacks connected to it are called in order by :meth:`emit`."""
+
+    def __init__(self) -> None:
+        self._callbacks: list[Callable[..., Any]] = []
+
+    def connect(self, callback: Callable[..., Any]) -> Callable[..., Any]:
+        self._callbacks.append(callback)
+        return callback
+
+    def disconnect(self, callback: Callable[..., Any]) -> None:
+        if callback in self._callbacks:
+            self._callbacks.remove(callback)
+
+    def emit(self, *args: Any) -> None:
+        for callback in list(self._callbacks):
+            callback(*args)
+
+
+@dataclass
+class Material:
+    """A named material: a model with parameter values, or a measured (MERL) file."""
+
+    name: str
+    model: str
+    params: dict[str, ParamValue] = field(default_factory=dict)
+    measured: str | None = None
+    """Path of a MERL ``.binary`` file when the material is measured (then ``model`` names the reader)."""
+    notes: str = ""
+    tags: list[str] = field(default_factory=list)
+
+
+@dataclass
+class SceneObject:
+    """One mesh (or one part of a multi-part mesh file) with its material."""
+
+    name: str
+    mesh: str
+    """Path of the mesh file (absolute while the project is unsaved)."""
+    part: str | None = None
+    """Geometry name inside a multi-part file (``None``: the whole file)."""
+    material: str = ""
+    visible: bool = True
+
+
+@dataclass
+class DocumentData:
+    """Everything an undo step restores."""
+
+    materials: list[Material] = field(default_factory=list)
+    objects: list[SceneObject] = field(default_factory=list)
+    extras: dict[str, Any] = field(default_factory=dict)
+    """Project parts the app does not edit yet (lights, camera, environment, render settings): kept as
+    loaded and written back unchanged."""
+
+
+@dataclass
+class _Step:
+    label: str
+    before: DocumentData
+    after: DocumentData
+    merge_key: Any = None
+    stamp: float = 0.0
+
+
+class Events:
+    """The document's events. Arguments are given in each comment."""
+
+    def __init__(self) -> None:
+        self.material_changed = Event()  # (name): model, parameters, notes or tags of one material
+        self.materials_changed = Event()  # (): a material added, removed or renamed
+        self.objects_changed = Event()  # (): an object added, removed, or its material assigned
+        self.selection_changed = Event()  # (): current material or selected object
+        self.direction_changed = Event()  # (): the exploration's incident direction
+        self.light_changed = Event()  # (): the lit-sphere preview's light direction
+        self.history_changed = Event()  # (): undo/redo availability or the dirty flag
+        self.path_changed = Event()  # (): the project file
+
+
+MERGE_SECONDS = 1.0
+"""Edits of the same value within this time merge into one undo step (a slider drag is one step)."""
+
+
+class Document:
+    """The edited project. Selection and exploration directions are view state: not undoable, not dirty."""
+
+    def __init__(self, data: DocumentData | None = None, path: Path | None = None):
+        self.events = Events()
+        self.data = data if data is not None else DocumentData()
+        self.path = path
+        self._undo: list[_Step] = []
+        self._redo: list[_Step] = []
+        self._clean_index: int | None = 0
+        self._brdf_cache: dict[str, tuple[Any, BRDF]] = {}
+        self.current_material: str | None = self.data.materials[0].name if self.data.materials else None
+        self.selected_object: str | None = None
+        self.theta_deg = 30.0
+        self.phi_deg = 0.0
+        self.light_dir = (0.5, 0.5, math.sqrt(0.5))
+        self.revision = 0
+        """Increases with every change of the document data (autosave compares it)."""
+
+    # ---- queries -------------------------------------------------------------------------------
+    @property
+    def dirty(self) -> bool:
+        return self._clean_index != len(self._undo)
+
+    def material(self, name: str | None = None) -> Material:
+        name = self.current_material if name is None else name
+        for m in self.data.materials:
+            if m.name == name:
+                return m
+        raise KeyError(f"no material named '{name}'")
+
+    def material_names(self) -> list[str]:
+        return [m.name for m in self.data.materials]
+
+    def object(self, name: str) -> SceneObject:
+        for o in self.data.objects:
+            if o.name == name:
+                return o
+        raise KeyError(f"no object named '{name}'")
+
+    def brdf(self, name: str | None = None) -> BRDF:
+        """The bound BRDF of a material (cached until the material changes)."""
+        mat = self.material(name)
+        key = (mat.model, mat.measured, tuple(sorted(mat.params.items())))
+        hit = self._brdf_cache.get(mat.name)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        if mat.measured:
+            from app.capabilities import load_measured
+
+            brdf = load_measured(mat.measured)
+        else:
+            brdf = get_model(mat.model).bind(mat.params)
+        self._brdf_cache[mat.name] = (key, brdf)
+        return brdf
+
+    def wo(self) -> tuple[float, float, float]:
+        """The exploration direction as a unit vector in the local frame (the API's ``wo``)."""
+        t, p = math.radians(self.theta_deg), math.radians(self.phi_deg)
+        z = 0.0 if self.theta_deg >= 90.0 else math.cos(t)
+        return (math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), z)
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def undo_text(self) -> str:
+        return self._undo[-1].label if self._undo else ""
+
+    def redo_text(self) -> str:
+        return self._redo[-1].label if self._redo else ""
+
+    # ---- the one way to change the data --------------------------------------------------------
+    def edit(self, label: str, change: Callable[[DocumentData], None], merge_key: Any = None) -> None:
+        """Apply ``change`` to the data as one undoable step (merged with the previous step when both
+        carry the same ``merge_key`` and follow each other within :data:`MERGE_SECONDS`)."""
+        before = copy.deepcopy(self.data)
+        change(self.data)
+        now = time.monotonic()
+        top = self._undo[-1] if self._undo else None
+        mergeable = (
+            merge_key is not None
+            and top is not None
+            and not self._redo
+            and top.merge_key == merge_key
+            and now - top.stamp < MERGE_SECONDS
+            and self._clean_index != len(self._undo)
+        )
+        if mergeable:
+            top.after = copy.deepcopy(self.data)
+            top.stamp = now
+        else:
+            if self._redo and self._clean_index is not None and self._clean_index > len(self._undo):
+                self._clean_index = None  # the saved state was in the redo branch being discarded
+            self._undo.append(_Step(label, before, copy.deepcopy(self.data), merge_key, now))
+        self._redo.clear()
+        self.revision += 1
+        self.events.history_changed.emit()
+
+    def end_merge(self) -> None:
+        """Stop merging into the last step (e.g. when a slider is released)."""
+        if self._undo:
+            self._undo[-1].merge_key = None
+
+    def undo(self) -> None:
+        if not self._undo:
+            return
+        step = self._undo.pop()
+        self._redo.append(step)
+        self._restore(step.before)
+
+    def redo(self) -> None:
+        if not self._redo:
+            return
+        step = self._redo.pop()
+        self._undo.append(step)
+        self._restore(step.after)
+
+    def _restore(self, data: DocumentData) -> None:
+        self.data = copy.deepcopy(data)
+        self.revision += 1
+        names = self.material_names()
+        if self.current_material not in names:
+            self.current_material = names[0] if names else None
+        if self.selected_object is not None and self.selected_object not in [
+            o.name for o in self.data.objects
+        ]:
+            self.selected_object = None
+        self.events.materials_changed.emit()
+        self.events.objects_changed.emit()
+        for name in names:
+            self.events.material_changed.emit(name)
+        self.events.selection_changed.emit()
+        self.events.history_changed.emit()
+
+    def mark_clean(self) -> None:
+        self._clean_index = len(self._undo)
+        self.events.history_changed.emit()
+
+    def set_path(self, path: Path | None) -> None:
+        self.path = path
+        self.events.path_changed.emit()
+
+    # ---- material edits ------------------------------------------------------------------------
+    def set_param(self, name: str, value: Any, material: str | None = None) -> None:
+        """Set one parameter (validated against the model's bounds; raises :class:`ParameterError`)."""
+        mat = self.material(material)
+        if mat.measured:
+            raise ParameterError(f"material '{mat.name}' is measured: it has no parameters to edit")
+        value = get_model(mat.model).param(name).validate(mat.model, value)
+        if mat.params.get(name) == value:
+            return
+        mname = mat.name
+
+        def change(d: DocumentData) -> None:
+            _find(d.materials, mname).params[name] = value
+
+        self.edit(f"Set {name}", change, merge_key=("param", mname, name))
+        self.events.material_changed.emit(mname)
+
+    def set_model(self, model: str, material: str | None = None) -> None:
+        """Switch a material to another model, with that model's default parameters."""
+        m = get_model(model)
+        mat = self.material(material)
+        if mat.model == model and not mat.measured:
+            return
+        mname = mat.name
+
+        def change(d: DocumentData) -> None:
+            target = _find(d.materials, mname)
+            target.model = model
+            target.measured = None
+            target.params = dict(m.defaults())
+
+        self.edit(f"Switch to {m.label}", change)
+        self.events.material_changed.emit(mname)
+
+    def set_measured(self, path: str, material: str | None = None) -> None:
+        """Make a material measured from a MERL file (read now, so a bad file raises before any edit)."""
+        from app.capabilities import MEASURED_MODEL, load_measured
+
+        load_measured(path)
+        mname = self.material(material).name
+
+        def change(d: DocumentData) -> None:
+            target = _find(d.materials, mname)
+            target.model = MEASURED_MODEL
+            target.measured = str(path)
+            target.params = {}
+
+        self.edit(f"Load measured {Path(path).name}", change)
+        self.events.material_changed.emit(mname)
+
+    def set_notes(self, notes: str, material: str | None = None) -> None:
+        mname = self.material(material).name
+        if self.material(mname).notes == notes:
+            return
+        self.edit(
+            "Edit notes", lambda d: setattr(_find(d.materials, mname), "notes", notes), ("notes", mname)
+        )
+        self.events.material_changed.emit(mname)
+
+    def set_tags(self, tags: Iterable[str], material: str | None = None) -> None:
+        clean = [t.strip() for t in tags if t.strip()]
+        mname = self.material(material).name
+        if self.material(mname).tags == clean:
+            return
+        self.edit("Edit tags", lambda d: setattr(_find(d.materials, mname), "tags", clean), ("tags", mname))
+        self.events.material_changed.emit(mname)
+
+    def add_material(
+        self, model: str = "lambert", name: str | None = None, params: Mapping[str, Any] | None = None
+    ) -> str:
+        m = get_model(model)
+        values = m.resolve(params)
+        new = Material(unique_name(name or m.name, self.material_names()), model, dict(values))
+        self.edit(f"New material {new.name}", lambda d: d.materials.append(copy.deepcopy(new)))
+        self.current_material = new.name
+        self.events.materials_changed.emit()
+        self.events.selection_changed.emit()
+        return new.name
+
+    def rename_material(self, old: str, new: str) -> str:
+        new = new.strip()
+        if not new:
+            raise ParameterError("a material name cannot be empty")
+        if new == old:
+            return old
+        if new in self.material_names():
+            raise ParameterError(f"a material named '{new}' exists already")
+
+        def change(d: DocumentData) -> None:
+            _find(d.materials, old).name = new
+            for o in d.objects:
+                if o.material == old:
+                    o.material = new
+
+        self.edit(f"Rename {old}", change)
+        if self.current_material == old:
+            self.current_material = new
+        self.events.materials_changed.emit()
+        self.events.objects_changed.emit()
+        self.events.selection_changed.emit()
+        return new
+
+    def remove_material(self, name: str) -> None:
+        if any(o.material == name for o in self.data.objects):
+            raise ParameterError(f"material '{name}' is assigned to objects; assign another material first")
+
+        def change(d: DocumentData) -> None:
+            d.materials.remove(_find(d.materials, name))
+
+        self.edit(f"Delete material {name}", change)
+        if self.current_material == name:
+            self.current_material = self.data.materials[0].name if self.data.materials else None
+        self.events.materials_changed.emit()
+        self.events.selection_changed.emit()
+
+    # ---- object edits --------------------------------------------------------------------------
+    def add_objects(self, objects: Iterable[SceneObject], label: str = "Import mesh") -> list[str]:
+        """Add objects (names made unique; a missing material becomes the current one)."""
+        taken = [o.name for o in self.data.objects]
+        new = []
+        for o in objects:
+            o = copy.deepcopy(o)
+            o.name = unique_name(o.name, taken)
+            taken.append(o.name)
+            if o.material not in self.material_names():
+                o.material = self.current_material or ""
+            new.append(o)
+        if not new:
+            return []
+        self.edit(label, lambda d: d.objects.extend(copy.deepcopy(new)))
+        self.events.objects_changed.emit()
+        return [o.name for o in new]
+
+    def remove_object(self, name: str) -> None:
+        self.edit(f"Delete {name}", lambda d: d.objects.remove(_find(d.objects, name)))
+        if self.selected_object == name:
+            self.selected_object = None
+            self.events.selection_changed.emit()
+        self.events.objects_changed.emit()
+
+    def assign_material(self, obj: str, material: str) -> None:
+        if material not in self.material_names():
+            raise ParameterError(f"no material named '{material}'")
+        if self.object(obj).material == material:
+            return
+        self.edit(
+            f"Assign {material} to {obj}", lambda d: setattr(_find(d.objects, obj), "material", material)
+        )
+        self.events.objects_changed.emit()
+
+    # ---- view state (not undoable) -------------------------------------------------------------
+    def select_material(self, name: str | None) -> None:
+        if name is not None and name not in self.material_names():
+            raise KeyError(f"no material named '{name}'")
+        if name != self.current_material:
+            self.current_material = name
+            self.events.selection_changed.emit()
+
+    def select_object(self, name: str | None) -> None:
+        if name == self.selected_object:
+            return
+        self.selected_object = name
+        if name is not None:
+            self.current_material = self.object(name).material or self.current_material
+        self.events.selection_changed.emit()
+
+    def set_direction(self, theta_deg: float, phi_deg: float) -> None:
+        """Set the exploration's incident direction (degrees; theta clamped to [0, 89.9])."""
+        if not (math.isfinite(theta_deg) and math.isfinite(phi_deg)):
+            raise ParameterError("the incident direction needs finite angles")
+        theta = min(max(float(theta_deg), 0.0), 89.9)
+        phi = float(phi_deg) % 360.0
+        if (theta, phi) != (self.theta_deg, self.phi_deg):
+            self.theta_deg, self.phi_deg = theta, phi
+            self.events.direction_changed.emit()
+
+    def set_light(self, direction: tuple[float, float, float]) -> None:
+        x, y, z = (float(c) for c in direction)
+        n = math.sqrt(x * x + y * y + z * z)
+        if not math.isfinite(n) or n == 0.0:
+            raise ParameterError("the light direction must be a non-zero vector")
+        self.light_dir = (x / n, y / n, z / n)
+        self.events.light_changed.emit()
+
+    # ---- persistence (the app's own JSON form; the project file goes through app.project) ------
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "materials": [vars(copy.deepcopy(m)) for m in self.data.materials],
+            "objects": [vars(copy.deepcopy(o)) for o in self.data.objects],
+            "extras": copy.deepcopy(self.data.extras),
+        }
+
+    @staticmethod
+    def data_from_dict(raw: Mapping[str, Any]) -> DocumentData:
+        mats = []
+        for m in raw.get("materials", []):
+            params = {k: tuple(v) if isinstance(v, list) else v for k, v in m.get("params", {}).items()}
+            mats.append(
+                Material(
+                    m["name"],
+                    m["model"],
+                    params,
+                    m.get("measured"),
+                    m.get("notes", ""),
+                    list(m.get("tags", [])),
+                )
+            )
+        objs = [
+            SceneObject(o["name"], o["mesh"], o.get("part"), o.get("material", ""), o.get("visible", True))
+            for o in raw.get("objects", [])
+        ]
+        return DocumentData(mats, objs, dict(raw.get("extras", {})))
+
+    def replace(self, data: DocumentData, path: Path | None) -> None:
+        """Load new data: history cleared, document clean."""
+        self.data = data
+        self.path = path
+        self._undo.clear()
+        self._redo.clear()
+        self._clean_index = 0
+        self._brdf_cache.clear()
+        self.revision += 1
+        self.current_material = data.materials[0].name if data.materials else None
+        self.selected_object = None
+        self.events.materials_changed.emit()
+        self.events.objects_changed.emit()
+        for m in data.materials:
+            self.events.material_changed.emit(m.name)
+        self.events.selection_changed.emit()
+        self.events.history_changed.emit()
+        self.events.path_changed.emit()
+
+
+def _find(items: list, name: str) -> Any:
+    for item in items:
+        if item.name == name:
+            return item
+    raise KeyError(name)
+
+
+def unique_name(base: str, taken: Iterable[str]) -> str:
+    """``base`` or ``base.1``, ``base.2``, ... whichever is free."""
+    taken = set(taken)
+    if base not in taken:
+        return base
+    i = 1
+    while f"{base}.{i}" in taken:
+        i += 1
+    return f"{base}.{i}"
+
+
+def default_document() -> Document:
+    """A document with one material per a few typical models (what the app opens with no project)."""
+    data = DocumentData()
+    for model in ("ggx", "phong", "lambert"):
+        try:
+            m = get_model(model)
+        except KeyError:
+            continue
+        data.materials.append(Material(m.name, m.name, dict(m.defaults())))
+    if not data.materials:
+        from core.model import all_models
+
+        m = all_models()[0]
+        data.materials.append(Material(m.name, m.name, dict(m.defaults())))
+    return Document(data)

@@ -1,0 +1,89 @@
+"""Background work for the desktop app: a generator run in a ``QThread``, its results delivered on the GUI
+thread (napari's ``thread_worker`` idea, written small).
+
+Signals are emitted from the worker thread on an object that lives in the GUI thread, so Qt queues them:
+slots always run on the GUI thread and may touch widgets. Cancellation is cooperative: the worker stops
+at the generator's next ``yield`` (the renderer yields once per pass), so the UI never waits on it.
+"""
+
+from __future__ import annotations
+
+import traceback
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from PySide6.QtCore import QThread, Signal
+
+from core.errors import BrdfStudioError
+
+
+class GeneratorWorker(QThread):
+    """Runs ``function(*args, **kwargs)`` (a generator, or a plain function) in its own thread.
+
+    Signals: ``yielded(object)`` per item, ``returned(object)`` with a plain function's result,
+    ``failed(str)`` with a user-readable message, and ``QThread.finished`` at the end in every case.
+    """
+
+    yielded = Signal(object)
+    returned = Signal(object)
+    failed = Signal(str)
+
+    def __init__(self, function: Callable[..., Any], *args: Any, **kwargs: Any):
+        super().__init__()
+        self._function = function
+        self._args = args
+        self._kwargs = kwargs
+        self._cancelled = False
+        self.error: str | None = None
+
+    def cancel(self) -> None:
+        """Ask the worker to stop at its next ``yield`` (returns at once)."""
+        self._cancelled = True
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancelled
+
+    def run(self) -> None:  # runs in the worker thread
+        try:
+            result = self._function(*self._args, **self._kwargs)
+            if isinstance(result, Iterator):
+                for item in result:
+                    if self._cancelled:
+                        close = getattr(result, "close", None)
+                        if close is not None:
+                            close()
+                        break
+                    self.yielded.emit(item)
+            elif not self._cancelled:
+                self.returned.emit(result)
+        except BrdfStudioError as exc:
+            self.error = str(exc)
+            self.failed.emit(self.error)
+        except Exception as exc:  # a bug: report it in the UI rather than kill the thread silently
+            self.error = f"internal error: {type(exc).__name__}: {exc}"
+            traceback.print_exc()
+            self.failed.emit(self.error)
+
+
+class WorkerPool:
+    """Keeps running workers alive until they finish; cancels and waits for all of them on shutdown."""
+
+    def __init__(self) -> None:
+        self._workers: set[GeneratorWorker] = set()
+
+    def start(self, worker: GeneratorWorker) -> GeneratorWorker:
+        self._workers.add(worker)
+        worker.finished.connect(lambda w=worker: self._workers.discard(w))
+        worker.start()
+        return worker
+
+    def running(self) -> list[GeneratorWorker]:
+        return [w for w in self._workers if w.isRunning()]
+
+    def shutdown(self, timeout_ms: int = 5000) -> None:
+        for w in list(self._workers):
+            w.cancel()
+        for w in list(self._workers):
+            w.wait(timeout_ms)
+        self._workers.clear()

@@ -1,0 +1,35 @@
+"""Fixtures for the app tests: one shared main window per module (building one costs about a second)."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _isolated_config(tmp_path_factory):
+    """Recent files and autosaves of the tests go to a temporary folder, never the user's."""
+    folder = tmp_path_factory.mktemp("config")
+    old = os.environ.get("BRDF_STUDIO_CONFIG_DIR")
+    os.environ["BRDF_STUDIO_CONFIG_DIR"] = str(folder)
+    yield folder
+    if old is None:
+        os.environ.pop("BRDF_STUDIO_CONFIG_DIR", None)
+    else:
+        os.environ["BRDF_STUDIO_CONFIG_DIR"] = old
+
+
+@pytest.fixture(scope="module")
+def window(qapp):
+    from app.main_window import MainWindow
+
+    w = MainWindow(warm_up=False)
+    w.show()
+    qapp.processEvents()
+    w.refresh_now()
+    yield w
+    w.shutdown()
+    w.close()
+    w.deleteLater()
+    qapp.processEvents()

@@ -1,0 +1,127 @@
+"""The real main window under Xvfb: the BRDF exploration views follow edits of the current material."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QPoint, Qt
+
+pytestmark = pytest.mark.gui
+
+
+def _select(window, model: str) -> None:
+    doc = window.document
+    if model not in doc.material_names():
+        doc.add_material(model, name=model)
+    doc.select_material(model)
+    window.refresh_now()
+
+
+def test_window_opens_with_every_explore_view(window):
+    assert window.isVisible()
+    assert window.lobe_view.mesh.n_points > 0
+    assert window.lobe_view.max_value > 0
+    assert window.polar_view.values.shape[1] == 3
+    assert window.sphere_view.image_rgb.max() > 0
+
+
+def test_slider_edit_reshapes_the_lobe_and_slice(window, qtbot):
+    _select(window, "phong")
+    editor = window.material_editor.param_editor
+    before_points = np.array(window.lobe_view.mesh.points)
+    before_slice = window.polar_view.values.copy()
+    name = next(p.name for p in editor.model.params if p.log)  # the exponent
+    row = editor.rows[name]
+    row.slider.setValue(row.slider.value() // 2 if row.slider.value() > 500 else row.slider.value() + 400)
+    window.refresh_now()
+    assert window.document.material().params[name] == pytest.approx(row.value())
+    after = np.array(window.lobe_view.mesh.points)
+    assert np.max(np.abs(after - before_points)) > 1e-3
+    assert not np.allclose(window.polar_view.values, before_slice)
+    window.document.undo()
+    window.refresh_now()
+    assert np.allclose(window.lobe_view.mesh.points, before_points)
+    assert editor.rows[name].slider.value() == row.mapping.to_slider(window.document.material().params[name])
+
+
+def test_spin_box_typing_sets_the_value_and_undo_restores_the_widget(window, qtbot):
+    _select(window, "phong")
+    editor = window.material_editor.param_editor
+    name, row = next((n, r) for n, r in editor.rows.items() if hasattr(r, "spin"))
+    old = window.document.material().params[name]
+    target = round(0.5 * (row.param.lo + row.param.hi), 1)
+    row.spin.selectAll()
+    qtbot.keyClicks(row.spin, f"{target}")
+    qtbot.keyClick(row.spin, Qt.Key.Key_Return)
+    assert window.document.material().params[name] == pytest.approx(target, rel=1e-3)
+    window.document.end_merge()
+    window.undo_action.trigger()
+    assert window.document.material().params[name] == old
+    assert window.material_editor.param_editor.rows[name].value() == pytest.approx(old, rel=1e-3)
+
+
+def test_model_switch_rebuilds_the_editor(window):
+    _select(window, "phong")
+    box = window.material_editor.model_box
+    box.setCurrentIndex(box.findData("lambert"))
+    box.activated.emit(box.findData("lambert"))
+    window.refresh_now()
+    assert window.document.material().model == "lambert"
+    assert set(window.material_editor.param_editor.rows) == {"kd"}
+    assert "Lambert" in window.lobe_view.caption.text()
+    window.document.undo()
+    window.refresh_now()
+    assert window.document.material().model == "phong"
+
+
+def test_colour_picker_sets_linear_rgb(window):
+    from PySide6.QtGui import QColor
+
+    _select(window, "lambert")
+    row = window.material_editor.param_editor.rows["kd"]
+    row.set_color(QColor.fromRgbF(1.0, 0.0, 0.0))
+    window.refresh_now()
+    assert window.document.material().params["kd"] == pytest.approx((1.0, 0.0, 0.0))
+    img = window.sphere_view.image_rgb
+    assert img[..., 0].max() > 0 and img[..., 1].max() == 0 and img[..., 2].max() == 0
+
+
+def test_direction_by_typing_and_dragging(window, qtbot):
+    _select(window, "phong")
+    ed = window.direction_editor
+    ed.theta.setValue(60.0)
+    assert window.document.theta_deg == 60.0
+    window.refresh_now()
+    peak_60 = window.polar_view.theta[np.argmax(window.polar_view.values[:, 1])]
+    assert abs(np.degrees(peak_60) - 60.0) < 10.0
+    pad = ed.pad
+    target = pad.point_for(20.0, 90.0)
+    qtbot.mouseClick(pad, Qt.MouseButton.LeftButton, pos=QPoint(round(target.x()), round(target.y())))
+    assert abs(window.document.theta_deg - 20.0) < 3.0
+    assert abs(window.document.phi_deg - 90.0) < 5.0
+    assert ed.theta.value() == pytest.approx(window.document.theta_deg, abs=0.05)
+
+
+def test_dragging_the_light_relights_the_sphere(window, qtbot):
+    _select(window, "lambert")
+    view = window.sphere_view
+    qtbot.mouseClick(view, Qt.MouseButton.LeftButton, pos=QPoint(view.width() // 2, view.height() // 2))
+    window.refresh_now()
+    assert window.document.light_dir[2] > 0.99
+    centre = view.image_rgb[view.resolution // 2, view.resolution // 2].astype(int)
+    x0 = view.width() // 2 - min(view.width(), view.height()) // 2
+    qtbot.mouseClick(view, Qt.MouseButton.LeftButton, pos=QPoint(x0 + 2, view.height() // 2))
+    window.refresh_now()
+    assert window.document.light_dir[0] < -0.9
+    # light from the left: the centre darkens, the left rim brightens
+    assert view.image_rgb[view.resolution // 2, view.resolution // 2].astype(int).sum() < centre.sum()
+
+
+def test_albedo_panel_is_honest_about_availability(window, qtbot):
+    from app.capabilities import albedo_available
+
+    _select(window, "lambert")
+    if albedo_available():
+        qtbot.waitUntil(lambda: window.albedo_view.values.size > 0, timeout=20000)
+    else:
+        assert "not available yet" in window.albedo_view.status.text().lower()

@@ -1,0 +1,64 @@
+"""The arrays the views draw, checked against direct evaluation (no Qt)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from app.view_data import (
+    direction_from_disk,
+    hemisphere_grid,
+    incidence_plane,
+    light_from_disk,
+    lit_sphere,
+    lobe,
+    to_srgb8,
+)
+from core.model import get_model
+
+
+def test_lambert_lobe_is_a_sphere_of_radius_kd_over_pi():
+    brdf = get_model("lambert").bind(kd=0.6)
+    dirs = hemisphere_grid(10, 12)
+    points, value = lobe(brdf, np.array([0.0, 0.0, 1.0]), dirs)
+    # f cos = kd/pi cos(theta): the lobe is a sphere of diameter kd/pi tangent to the surface at the origin.
+    centre = np.array([0.0, 0.0, 0.3 / math.pi])
+    assert np.allclose(np.linalg.norm(points - centre, axis=-1), 0.3 / math.pi, atol=1e-12)
+    assert np.allclose(value, 0.6 / math.pi * dirs[..., 2])
+
+
+def test_incidence_plane_is_symmetric_for_lambert_and_signed():
+    brdf = get_model("lambert").bind(kd=0.5)
+    wo = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
+    theta, rgb = incidence_plane(brdf, wo, 41)
+    assert np.allclose(rgb[:, 0], 0.5 / math.pi * np.cos(theta), atol=1e-12)
+    assert np.allclose(rgb[::-1], rgb, atol=1e-12)
+
+
+def test_incidence_plane_puts_the_mirror_peak_on_the_positive_side():
+    brdf = get_model("phong").bind()
+    wo = np.array([math.sin(0.6), 0.0, math.cos(0.6)])
+    theta, rgb = incidence_plane(brdf, wo, 721)
+    assert abs(theta[np.argmax(rgb[:, 1])] - 0.6) < 0.15
+
+
+def test_lit_sphere_lambert_follows_the_cosine_law():
+    brdf = get_model("lambert").bind(kd=1.0)
+    img = lit_sphere(brdf, np.array([0.0, 0.0, 1.0]), size=33, ambient=0.0)
+    # Pixel (16, 16) of 33 sits exactly at the centre: normal = light, so L = kd/pi * cos 0.
+    assert img[16, 16, 0] == img.max()
+    assert abs(img[16, 16, 0] - 1.0 / math.pi) < 1e-12
+    # Elsewhere L = cos(angle to the light)/pi = n.z/pi, with n.z = sqrt(1 - x^2 - y^2).
+    x = (np.arange(33) + 0.5) / 33 * 2 - 1
+    assert abs(img[16, 24, 1] - math.sqrt(1 - x[24] ** 2) / math.pi) < 1e-12
+    assert img[0, 0].sum() == 0.0  # off the sphere
+    assert to_srgb8(img).dtype == np.uint8
+
+
+def test_disk_helpers():
+    t, p = direction_from_disk(0.5, 0.0)
+    assert abs(t - 30.0) < 1e-9 and p == 0.0
+    assert abs(direction_from_disk(0.0, -0.5)[1] - 270.0) < 1e-9
+    x, y, z = light_from_disk(3.0, 4.0)
+    assert abs(x - 0.6) < 1e-12 and abs(y - 0.8) < 1e-12 and z == 0.0
