@@ -153,6 +153,15 @@ def test_original_normalization_exceeds_one_at_grazing_so_no_energy_claim():
     assert not WARD.energy_conserving
 
 
+def test_original_normalization_loses_energy_for_smooth_surfaces():
+    # For small roughness Ward's albedo is about ks cos(theta_o): at the mirror configuration the lobe is
+    # ks exp(.) / (4 pi a^2 cos(theta_o)), the half-vector Jacobian contributes 4 cos(theta_o) and
+    # the Gaussian integrates to pi a^2 over the half vectors, giving ks cos(theta_o) (docstring claim).
+    for theta in (30.0, 60.0):
+        albedo, _ = albedo_estimate(WARD.bind(sx=0.01, sy=0.01, ks=1.0, kd=0.0), degrees_to_dir(theta, 0.0))
+        assert albedo[0] == pytest.approx(math.cos(math.radians(theta)), rel=0.01)
+
+
 @pytest.mark.parametrize(
     "values",
     [{}, {"sx": 0.08, "sy": 0.4, "ks": 0.8, "kd": 0.2}, {"sx": 0.3, "sy": 0.1, "bounded_albedo": True}],
