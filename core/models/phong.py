@@ -1,0 +1,99 @@
+"""Phong's shading model (B. T. Phong, "Illumination for computer generated pictures", CACM 18(6), 1975),
+written as a BRDF.
+
+Phong's model gives the reflected intensity for a light of intensity ``I_l`` from direction ``wi``:
+``I = I_l (kd cos(theta_i) + ks cos^n(alpha))`` with ``alpha`` the angle between ``wo`` and the mirror
+direction of ``wi`` (the ambient term is not part of a BRDF). Dividing by the irradiance ``I_l cos(theta_i)``
+gives the BRDF
+
+    f_r(wi, wo) = kd / pi + ks cos^n(alpha) / cos(theta_i),
+
+with the diffuse term normalized as Lambert's so that ``kd`` is the diffuse albedo. The division by
+``cos(theta_i)`` makes the model *not reciprocal*; it is the classic (non-normalized) Phong of the
+overviews (Montes & Ureña, LSI-2012-001); the reciprocal, normalized variant is the separate ``lewis`` model.
+
+Sampled by a mixture of a ``cos^n`` lobe about the mirror direction of ``wo`` (for which
+``f_spec cos(theta_i) / pdf`` is the constant ``2 pi ks / (n + 1)``) and the cosine-weighted hemisphere.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from core.geometry import dot, mirror
+from core.model import Model, Param, Traits, register
+from core.models.lobes import (
+    cosine_hemisphere,
+    cosine_hemisphere_pdf,
+    cosine_power_lobe,
+    cosine_power_lobe_pdf,
+    luminance_at,
+    mixture_probability,
+)
+
+INV_PI = 0.3183098861837907
+TWO_PI = 6.283185307179586
+COS_THETA_I_FLOOR = 1e-6
+"""The specular term divides by ``max(cos(theta_i), 1e-6)``: exact for ``theta_i <= 89.99994`` degrees, and
+bounded by ``ks * 1e6`` instead of overflowing to Inf as ``cos(theta_i) -> 0``."""
+
+
+@njit(nogil=True, cache=True)
+def eval_phong(wi, wo, p):
+    if wi[2] <= 0.0 or wo[2] <= 0.0:
+        return 0.0, 0.0, 0.0
+    n = p[0]
+    cos_alpha = dot(mirror(wo), wi)
+    spec = 0.0
+    if cos_alpha > 0.0:
+        spec = min(cos_alpha, 1.0) ** n / max(wi[2], COS_THETA_I_FLOOR)
+    return (
+        p[4] * INV_PI + p[1] * spec,
+        p[5] * INV_PI + p[2] * spec,
+        p[6] * INV_PI + p[3] * spec,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(p):
+    # Estimated albedos: the lobe's f cos integrates to ks * 2 pi / (n + 1) over its cap, the diffuse to kd.
+    return mixture_probability(luminance_at(p, 1) * TWO_PI / (p[0] + 1.0), luminance_at(p, 4))
+
+
+@njit(nogil=True, cache=True)
+def pdf_phong(wo, wi, p):
+    q = _lobe_probability(p)
+    return q * cosine_power_lobe_pdf(mirror(wo), p[0], wi) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+
+
+@njit(nogil=True, cache=True)
+def sample_phong(wo, p, u1, u2, u3):
+    if u3 < _lobe_probability(p):
+        w = cosine_power_lobe(mirror(wo), p[0], u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], pdf_phong(wo, w, p)
+
+
+PHONG = register(
+    Model(
+        name="phong",
+        label="Phong (1975)",
+        citation="B. T. Phong, Illumination for computer generated pictures, Communications of the ACM "
+        "18(6):311-317, 1975.",
+        params=(
+            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+            Param("ks", (0.4, 0.4, 0.4), 0.0, 1.0, label="Specular coefficient", kind="color"),
+            Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+        ),
+        traits=Traits.ISOTROPIC,
+        eval=eval_phong,
+        sample=sample_phong,
+        pdf=pdf_phong,
+        doc=__doc__ or "",
+        notes="A shading model made a BRDF by dividing the reflected intensity by the irradiance "
+        "cos(theta_i): f = kd/pi + ks cos^n(alpha)/cos(theta_i). Not reciprocal (the cos(theta_i) division), "
+        "not energy-conserving (albedo up to kd + 2 pi ks/(n+1)). cos(theta_i) is floored at 1e-6 so the "
+        "value stays finite at grazing incidence. For the reciprocal, normalized Phong use 'lewis'.",
+    )
+)
