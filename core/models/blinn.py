@@ -1,0 +1,92 @@
+"""Blinn's half-vector specular model (J. F. Blinn, "Models of light reflection for computer synthesized
+pictures", SIGGRAPH 1977), the Blinn-Phong BRDF.
+
+Blinn replaces Phong's ``cos^n`` of the angle to the mirror direction by the ``cos^n`` of the angle between
+the normal and the half vector ``h = (wi + wo) / |wi + wo|``:
+
+    f_r(wi, wo) = kd / pi + ks (n . h)^n.
+
+Written this way (the form of the BRDF overviews, e.g. Montes & Ureña, LSI-2012-001) the value depends on
+``wi`` and ``wo`` only through ``h``: the model is reciprocal and isotropic. It is not normalized, so not
+energy-conserving for every setting (at n = 1, ks = kd = 1 the albedo exceeds 1).
+
+Sampled by a mixture of the cosine-weighted hemisphere and the half-vector lobe: ``h`` drawn with density
+``(n+1)/(2 pi) (n . h)^n`` about the normal, reflected about ``h``, with the Jacobian ``1 / (4 wo . h)``.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from core.geometry import half_vector
+from core.model import Model, Param, Traits, register
+from core.models.lobes import (
+    cosine_hemisphere,
+    cosine_hemisphere_pdf,
+    half_vector_lobe,
+    half_vector_lobe_pdf,
+    luminance_at,
+    mixture_probability,
+)
+
+INV_PI = 0.3183098861837907
+EIGHT_PI = 25.132741228718345
+
+
+@njit(nogil=True, cache=True)
+def eval_blinn(wi, wo, p):
+    if wi[2] <= 0.0 or wo[2] <= 0.0:
+        return 0.0, 0.0, 0.0
+    # Both directions are above the horizon, so wi + wo has a positive z and h is well defined.
+    cos_h = min(half_vector(wi, wo)[2], 1.0)
+    spec = cos_h ** p[0]
+    return (
+        p[4] * INV_PI + p[1] * spec,
+        p[5] * INV_PI + p[2] * spec,
+        p[6] * INV_PI + p[3] * spec,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(wo, p):
+    # Estimated specular albedo: for a narrow lobe h ~ n, d(omega_i) = 4 (wo.h) d(omega_h) and
+    # cos(theta_i) ~ wo.z, so the integral of (n.h)^n cos(theta_i) is about 8 pi wo.z^2 / (n + 2).
+    cz = max(wo[2], 0.0)
+    return mixture_probability(luminance_at(p, 1) * EIGHT_PI * cz * cz / (p[0] + 2.0), luminance_at(p, 4))
+
+
+@njit(nogil=True, cache=True)
+def pdf_blinn(wo, wi, p):
+    q = _lobe_probability(wo, p)
+    return q * half_vector_lobe_pdf(wo, wi, p[0]) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+
+
+@njit(nogil=True, cache=True)
+def sample_blinn(wo, p, u1, u2, u3):
+    if u3 < _lobe_probability(wo, p):
+        w = half_vector_lobe(wo, p[0], u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], pdf_blinn(wo, w, p)
+
+
+BLINN = register(
+    Model(
+        name="blinn",
+        label="Blinn (1977)",
+        citation="J. F. Blinn, Models of light reflection for computer synthesized pictures, "
+        "Computer Graphics (SIGGRAPH '77) 11(2):192-198, 1977.",
+        params=(
+            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+            Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular coefficient", kind="color"),
+            Param("kd", (0.67, 0.67, 0.67), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+        ),
+        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
+        eval=eval_blinn,
+        sample=sample_blinn,
+        pdf=pdf_blinn,
+        doc=__doc__ or "",
+        notes="Blinn-Phong BRDF f = kd/pi + ks (n.h)^n, used as a BRDF directly (no division by "
+        "cos(theta_i)), hence reciprocal. Not normalized: not energy-conserving for every setting.",
+    )
+)
