@@ -1,0 +1,109 @@
+"""Ray queries through Embree (embreex): batched closest-hit and occlusion, chunked over worker threads.
+
+Embree's ``tnear`` is fixed at 0 in embreex, so callers offset secondary-ray origins off the surface.
+``run`` releases the GIL, so chunks of one batch run in parallel on the worker threads.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+MISS = -1
+_FAR = np.float32(1e30)
+
+
+@dataclass
+class Hits:
+    """Closest hits of a batch: ``t (n,)`` distance (inf on a miss), ``prim (n,)`` triangle index
+    (``MISS`` = -1), and the barycentrics ``u, v (n,)`` of the hit (point = (1-u-v) p0 + u p1 + v p2)."""
+
+    t: np.ndarray
+    prim: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+
+class Accel:
+    """An Embree BVH over triangles ``vertices (n, 3)``, ``faces (m, 3)``; triangle ids are face rows."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, threads: int = 2, chunk: int = 32768):
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        self._scene = rtcore_scene.EmbreeScene()
+        self._mesh = TriangleMesh(
+            self._scene,
+            np.ascontiguousarray(vertices, dtype=np.float32),
+            np.ascontiguousarray(faces, dtype=np.int32),
+        )
+        self.threads = max(1, int(threads))
+        self.chunk = int(chunk)
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self.rays_traced = 0
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __del__(self) -> None:
+        self.close()
+
+    def _chunks(self, n: int) -> list[slice]:
+        size = max(1024, min(self.chunk, -(-n // self.threads)))
+        return [slice(i, min(n, i + size)) for i in range(0, n, size)]
+
+    def _map(self, fn, n: int) -> None:  # type: ignore[no-untyped-def]
+        chunks = self._chunks(n)
+        if self._pool is None or len(chunks) == 1:
+            for s in chunks:
+                fn(s)
+        else:
+            list(self._pool.map(fn, chunks))
+
+    def intersect(self, origins: np.ndarray, directions: np.ndarray) -> Hits:
+        """Closest hit for each ray ``origins (n, 3)``, ``directions (n, 3)`` (unit length)."""
+        n = len(origins)
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        t = np.empty(n, dtype=np.float64)
+        prim = np.empty(n, dtype=np.int64)
+        u = np.empty(n, dtype=np.float64)
+        v = np.empty(n, dtype=np.float64)
+
+        def run(s: slice) -> None:
+            r = self._scene.run(o[s], d[s], output=1)
+            geom = r["geomID"]
+            prim[s] = np.where(geom == MISS, MISS, r["primID"])
+            t[s] = np.where(geom == MISS, np.inf, r["tfar"])
+            u[s] = r["u"]
+            v[s] = r["v"]
+
+        if n:
+            self._map(run, n)
+        self.rays_traced += n
+        return Hits(t, prim, u, v)
+
+    def occluded(
+        self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray | None = None
+    ) -> np.ndarray:
+        """``(n,)`` bool: True where something lies on the ray before ``t_max`` (default: infinity)."""
+        n = len(origins)
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        if t_max is None:
+            far = np.full(n, _FAR, dtype=np.float32)
+        else:
+            far = np.ascontiguousarray(np.minimum(t_max, _FAR), dtype=np.float32)
+        out = np.empty(n, dtype=bool)
+
+        def run(s: slice) -> None:
+            out[s] = self._scene.run(o[s], d[s], dists=far[s], query="OCCLUDED") != MISS
+
+        if n:
+            self._map(run, n)
+        self.rays_traced += n
+        return out

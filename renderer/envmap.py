@@ -1,0 +1,138 @@
+"""Light from infinity: a constant environment and an HDR lat-long map with importance sampling.
+
+Lat-long convention (see :mod:`core.scene`): ``theta`` from +y (row 0 looks up), ``phi = atan2(z, x)``
+increasing with the column, minus the map's rotation about +y. The map is piecewise constant per pixel
+(nearest lookup), and sampling picks a pixel with probability proportional to ``luminance * sin(theta)`` at the
+pixel centre, then a uniform point in ``(u, v)`` inside it. The density per unit solid angle is then exactly
+``p_pixel * W * H / (2 pi^2 sin(theta))`` at the sampled point, and :meth:`EnvironmentMap.pdf` returns it for
+any direction, so MIS weights use the true density.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from core.model import LUMINANCE
+
+INV_FOUR_PI = 1.0 / (4.0 * math.pi)
+
+
+class ConstantEnvironment:
+    """Radiance ``L`` from every direction; light sampling is uniform over the sphere."""
+
+    def __init__(self, radiance: tuple[float, float, float]):
+        self.radiance = np.asarray(radiance, dtype=np.float64)
+
+    @property
+    def power_weight(self) -> float:
+        return float(self.radiance @ LUMINANCE)
+
+    def eval(self, d: np.ndarray) -> np.ndarray:
+        return np.broadcast_to(self.radiance, (len(d), 3)).copy()
+
+    def pdf(self, d: np.ndarray) -> np.ndarray:
+        return np.full(len(d), INV_FOUR_PI)
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``u (n, 2)`` uniforms -> directions ``(n, 3)``, radiance ``(n, 3)``, pdf per solid angle ``(n,)``."""
+        z = 1.0 - 2.0 * u[:, 0]
+        r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+        phi = 2.0 * np.pi * u[:, 1]
+        d = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+        return d, self.eval(d), self.pdf(d)
+
+
+class EnvironmentMap:
+    """An equirectangular HDR image ``(h, w, 3)`` (linear RGB), scaled and rotated about +y."""
+
+    def __init__(self, image: np.ndarray, scale: float = 1.0, rotate_deg: float = 0.0):
+        img = np.asarray(image, dtype=np.float64)[..., :3] * float(scale)
+        if img.ndim != 3 or img.shape[0] < 1 or img.shape[1] < 1:
+            raise ValueError("an environment map is an (h, w, 3) image")
+        self.image = np.maximum(img, 0.0)
+        self.h, self.w = self.image.shape[:2]
+        self.rotation = math.radians(rotate_deg)
+        theta_c = (np.arange(self.h) + 0.5) / self.h * np.pi
+        weight = (self.image @ LUMINANCE) * np.sin(theta_c)[:, None]
+        total = float(weight.sum())
+        if total <= 0.0:  # a black map: nothing to sample; pdf 0 everywhere and BRDF sampling alone
+            self._pixel_pmf = np.zeros((self.h, self.w))
+            self._row_cdf = np.linspace(0.0, 1.0, self.h + 1)[1:]
+            self._col_cdf = np.tile(np.linspace(0.0, 1.0, self.w + 1)[1:], (self.h, 1))
+            self._col_cdf_flat = (self._col_cdf + np.arange(self.h)[:, None]).ravel()
+        else:
+            self._pixel_pmf = weight / total
+            rows = self._pixel_pmf.sum(axis=1)
+            self._row_cdf = np.cumsum(rows)
+            self._row_cdf /= self._row_cdf[-1]
+            cond = np.where(
+                rows[:, None] > 0, self._pixel_pmf / np.where(rows > 0, rows, 1.0)[:, None], 1.0 / self.w
+            )
+            self._col_cdf = np.cumsum(cond, axis=1)
+            self._col_cdf /= self._col_cdf[:, -1:]
+        # each row's CDF shifted by its row index: one searchsorted finds the column for every sample
+        self._col_cdf_flat = (self._col_cdf + np.arange(self.h)[:, None]).ravel()
+        self._total = total
+        # mean radiance over the sphere (solid-angle weighted), for choosing between light types
+        solid = np.sin(theta_c)[:, None] * (2 * np.pi / self.w) * (np.pi / self.h)
+        self.mean_radiance = (self.image * solid[..., None]).sum(axis=(0, 1)) / (4 * np.pi)
+
+    @property
+    def power_weight(self) -> float:
+        return float(self.mean_radiance @ LUMINANCE)
+
+    def _uv(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pixel row, column and sin(theta) of world directions ``d (n, 3)``."""
+        cos_t = np.clip(d[:, 1], -1.0, 1.0)
+        theta = np.arccos(cos_t)
+        phi = np.mod(np.arctan2(d[:, 2], d[:, 0]) - self.rotation, 2.0 * np.pi)
+        row = np.minimum((theta / np.pi * self.h).astype(np.int64), self.h - 1)
+        col = np.minimum((phi / (2.0 * np.pi) * self.w).astype(np.int64), self.w - 1)
+        return row, col, np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+
+    def eval(self, d: np.ndarray) -> np.ndarray:
+        row, col, _ = self._uv(d)
+        return self.image[row, col]
+
+    def pdf(self, d: np.ndarray) -> np.ndarray:
+        row, col, sin_t = self._uv(d)
+        p = self._pixel_pmf[row, col] * (self.w * self.h) / (2.0 * np.pi * np.pi)
+        return np.where(sin_t > 1e-12, p / np.maximum(sin_t, 1e-12), 0.0)
+
+    def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``u (n, 4)`` uniforms -> directions ``(n, 3)``, radiance ``(n, 3)``, pdf per solid angle ``(n,)``."""
+        row = np.minimum(np.searchsorted(self._row_cdf, u[:, 0], side="right"), self.h - 1)
+        flat = np.searchsorted(self._col_cdf_flat, row + u[:, 1], side="right")
+        col = np.clip(flat - row * self.w, 0, self.w - 1)
+        v = (row + u[:, 2]) / self.h
+        uu = (col + u[:, 3]) / self.w
+        theta = v * np.pi
+        phi = uu * 2.0 * np.pi + self.rotation
+        s = np.sin(theta)
+        d = np.stack([s * np.cos(phi), np.cos(theta), s * np.sin(phi)], axis=1)
+        p = self._pixel_pmf[row, col] * (self.w * self.h) / (2.0 * np.pi * np.pi)
+        pdf = np.where(s > 1e-12, p / np.maximum(s, 1e-12), 0.0)
+        return d, self.image[row, col], pdf
+
+
+def load_environment(env, scene):  # type: ignore[no-untyped-def]
+    """The renderer's environment for a scene's ``environment`` entry (``None`` for a black sky)."""
+    from core.scene import ConstantEnvironment as ConstantSpec
+    from core.scene import MapEnvironment as MapSpec
+    from renderer.image_io import read_exr
+
+    if env is None:
+        return None
+    if isinstance(env, ConstantSpec):
+        return ConstantEnvironment(env.radiance) if max(env.radiance) > 0 else None
+    if isinstance(env, MapSpec):
+        from core.errors import BrdfStudioError
+
+        try:
+            img = read_exr(scene.resolve(env.path))
+        except BrdfStudioError as exc:
+            raise scene.error("environment.path", str(exc)) from None
+        return EnvironmentMap(img, env.scale, env.rotate_deg)
+    raise TypeError(f"unknown environment {env!r}")

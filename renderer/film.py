@@ -1,0 +1,24 @@
+"""The film: a running sum of per-pass radiance estimates, and the mean image they give."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Film:
+    """Accumulates passes of one or more samples per pixel; :meth:`image` is their mean, ``(height, width, 3)``."""
+
+    def __init__(self, width: int, height: int):
+        self.width, self.height = width, height
+        self._sum = np.zeros((height * width, 3))
+        self.spp = 0
+
+    def add_pass(self, radiance: np.ndarray, spp: int = 1) -> None:
+        """Add one pass: ``radiance (height * width, 3)``, the mean of ``spp`` samples per pixel."""
+        self._sum += radiance * spp
+        self.spp += spp
+
+    def image(self) -> np.ndarray:
+        """The mean radiance per pixel as float32 ``(height, width, 3)`` (zeros before the first pass)."""
+        mean = self._sum / max(1, self.spp)
+        return mean.reshape(self.height, self.width, 3).astype(np.float32)

@@ -1,0 +1,334 @@
+"""Wavefront path tracing: a pass traces a batch of paths per pixel, all advancing bounce by bounce.
+
+Per bounce: intersect every live ray (Embree, batched over threads); add environment or emitted radiance
+(MIS-weighted against light sampling); at each hit, next-event estimation (one light sample, shadow ray,
+MIS-weighted against BRDF sampling), then a BRDF sample from the material's chosen strategy; Russian
+roulette after ``rr_depth`` bounces. Rays are grouped by material so each group's BRDF kernel (one numba
+specialization per model) and sampler run on contiguous arrays: no branching on the model per ray.
+
+MIS uses the exact densities: the light density (area pdf converted to solid angle, environment-map pdf,
+uniform sphere for a constant sky) and the sampler's ``pdf(wo, wi)``; point lights are delta lights (no MIS).
+Reflection only: a direction below the geometric surface carries nothing (no transmission).
+
+Randomness: every draw comes from generators keyed by ``(seed, pass, bounce, role)``, so the same seed gives
+the same image, whatever the thread timing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.scene import Scene
+from renderer.world import NO_MATERIAL, World
+
+PARALLEL_MIN = 65536
+"""Batches larger than this evaluate BRDFs on all cores (numba prange); smaller ones stay serial, where the
+thread start-up would cost more than it saves."""
+
+
+@dataclass
+class PassStats:
+    paths: int = 0
+    rays: int = 0
+    nonfinite: int = 0
+    """Path contributions that were NaN or infinite (dropped; 0 in a correct renderer)."""
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _normalize(a: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(a, axis=1, keepdims=True)
+    return a / np.where(n > 0, n, 1.0)
+
+
+def frames(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tangents ``t, b (k, 3)`` completing unit normals ``n (k, 3)`` (Duff et al. 2017, branchless)."""
+    sign = np.where(n[:, 2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    bb = n[:, 0] * n[:, 1] * a
+    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * bb, -sign * n[:, 0]], axis=1)
+    b = np.stack([bb, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
+    return t, b
+
+
+def mis_weight(pdf_a: np.ndarray, pdf_b: np.ndarray, heuristic: str) -> np.ndarray:
+    """Weight of strategy a against b: balance ``a / (a + b)`` or power ``a^2 / (a^2 + b^2)``."""
+    if heuristic == "power":
+        a2, b2 = pdf_a * pdf_a, pdf_b * pdf_b
+        s = a2 + b2
+        return np.where(s > 0, a2 / np.where(s > 0, s, 1.0), 0.0)
+    s = pdf_a + pdf_b
+    return np.where(s > 0, pdf_a / np.where(s > 0, s, 1.0), 0.0)
+
+
+class Camera:
+    """Pinhole camera rays for pixel indices (row-major, row 0 at the top)."""
+
+    def __init__(self, scene: Scene, width: int, height: int):
+        cam = scene.camera
+        self.width, self.height = width, height
+        self.origin = np.asarray(cam.position, dtype=np.float64)
+        fwd = np.asarray(cam.target, dtype=np.float64) - self.origin
+        self.forward = fwd / np.linalg.norm(fwd)
+        right = np.cross(self.forward, np.asarray(cam.up, dtype=np.float64))
+        self.right = right / np.linalg.norm(right)
+        self.up = np.cross(self.right, self.forward)
+        self.tan_half = np.tan(np.radians(cam.fov_deg) / 2.0)
+        self.aspect = width / height
+
+    def rays(self, pixels: np.ndarray, jitter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        row, col = np.divmod(pixels, self.width)
+        x = (2.0 * (col + jitter[:, 0]) / self.width - 1.0) * self.tan_half * self.aspect
+        y = (1.0 - 2.0 * (row + jitter[:, 1]) / self.height) * self.tan_half
+        d = self.forward + x[:, None] * self.right + y[:, None] * self.up
+        return np.broadcast_to(self.origin, d.shape).copy(), _normalize(d)
+
+
+class PathTracer:
+    """Renders passes of one sample per pixel for a compiled :class:`World`."""
+
+    def __init__(
+        self, world: World, width: int, height: int, max_depth: int, rr_depth: int, mis: str, seed: int
+    ):
+        self.world = world
+        self.camera = Camera(world.scene, width, height)
+        self.width, self.height = width, height
+        self.max_depth = max_depth
+        self.rr_depth = rr_depth
+        self.mis = mis
+        self.seed = seed
+        self.stats = PassStats()
+
+    def _rng(self, pass_index: int, depth: int, role: int) -> np.random.Generator:
+        return np.random.default_rng([self.seed, pass_index, depth + 1, role])
+
+    def _seed(self, pass_index: int, depth: int, material: int) -> int:
+        ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A])
+        return int(ss.generate_state(1, dtype=np.uint32)[0])
+
+    def _add(self, img: np.ndarray, pix: np.ndarray, contrib: np.ndarray) -> None:
+        """Add ``contrib (k, 3)`` to pixels ``pix (k,)`` (several paths may share a pixel)."""
+        ok = np.all(np.isfinite(contrib), axis=1)
+        if not np.all(ok):
+            self.stats.nonfinite += int(np.count_nonzero(~ok))
+            pix, contrib = pix[ok], contrib[ok]
+        if len(pix) == 0:
+            return
+        for c in range(3):
+            img[:, c] += np.bincount(pix, weights=contrib[:, c], minlength=len(img))
+
+    # ------------------------------------------------------------------------------------------ a pass
+    def render_pass(self, pass_index: int, spp: int = 1) -> np.ndarray:
+        """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``.
+
+        Passes with different ``pass_index`` are independent (their random numbers are keyed by it).
+        """
+        w = self.world
+        n_pix = self.width * self.height
+        img = np.zeros((n_pix, 3))
+        pix = np.tile(np.arange(n_pix), int(spp))
+        n_paths = len(pix)
+        rng = self._rng(pass_index, -1, 0)
+        o, d = self.camera.rays(pix, rng.random((n_paths, 2)))
+        beta = np.ones((n_paths, 3))
+        prev_pdf = np.zeros(n_paths)  # density of the BRDF sample that made the ray; 0 for camera rays
+        self.stats.paths += n_paths
+
+        for depth in range(self.max_depth + 1):
+            if len(o) == 0:
+                break
+            hits = w.accel.intersect(o, d)
+            self.stats.rays += len(o)
+            miss = hits.prim < 0
+
+            # ---- light from infinity on rays that escape
+            if w.env is not None and np.any(miss):
+                i = np.nonzero(miss)[0]
+                le = w.env.eval(d[i])
+                wgt = np.ones(len(i))
+                bs = prev_pdf[i] > 0
+                if np.any(bs):
+                    p_light = w.p_env * w.env.pdf(d[i[bs]])
+                    wgt[bs] = mis_weight(prev_pdf[i[bs]], p_light, self.mis)
+                self._add(img, pix[i], beta[i] * le * wgt[:, None])
+
+            keep = ~miss
+            o, d, beta, pix, prev_pdf = o[keep], d[keep], beta[keep], pix[keep], prev_pdf[keep]
+            t, prim, bu, bv = hits.t[keep], hits.prim[keep], hits.u[keep], hits.v[keep]
+            if len(o) == 0:
+                break
+            p = o + t[:, None] * d
+            ng = w.tri_normal[prim]
+
+            # ---- emitted light on rays that hit an emitter
+            em = w.tri_emissive[prim]
+            if np.any(em):
+                i = np.nonzero(em)[0]
+                cos_l = -_dot(d[i], ng[i])
+                front = (cos_l > 0) | w.tri_two_sided[prim[i]]
+                le = w.tri_emission[prim[i]] * front[:, None]
+                wgt = np.ones(len(i))
+                bs = prev_pdf[i] > 0
+                if np.any(bs):
+                    j = i[bs]
+                    p_light = (
+                        w.p_area
+                        * w.emit_pmf_per_area[prim[j]]
+                        * t[j] ** 2
+                        / np.maximum(np.abs(cos_l[bs]), 1e-12)
+                    )
+                    wgt[bs] = mis_weight(prev_pdf[j], p_light, self.mis)
+                self._add(img, pix[i], beta[i] * le * wgt[:, None])
+
+            if depth == self.max_depth:
+                break
+
+            # ---- shading frame: both normals face the viewer (two-sided surfaces)
+            mat = w.tri_material[prim]
+            live = mat != NO_MATERIAL
+            if not np.all(live):
+                o, d, beta, pix, p, ng, prim, mat, bu, bv = (
+                    x[live] for x in (o, d, beta, pix, p, ng, prim, mat, bu, bv)
+                )
+            n = len(p)
+            if n == 0:
+                break
+            wo = -d
+            flip = _dot(wo, ng) < 0.0
+            ng = np.where(flip[:, None], -ng, ng)
+            ns = ng.copy()
+            sm = w.tri_smooth[prim]
+            if np.any(sm):
+                k = np.nonzero(sm)[0]
+                vn = w.tri_vnormals[prim[k]]
+                b0 = 1.0 - bu[k] - bv[k]
+                interp = b0[:, None] * vn[:, 0] + bu[k, None] * vn[:, 1] + bv[k, None] * vn[:, 2]
+                interp = _normalize(interp)
+                interp = np.where(flip[k, None], -interp, interp)
+                ns[k] = np.where((np.linalg.norm(interp, axis=1) > 0.5)[:, None], interp, ng[k])
+            tb, bb = frames(ns)
+
+            def to_local(v: np.ndarray, tb=tb, bb=bb, ns=ns) -> np.ndarray:
+                return np.stack([_dot(v, tb), _dot(v, bb), _dot(v, ns)], axis=1)
+
+            wo_l = to_local(wo)
+            origin = p + ng * w.eps
+            groups = [(m, np.nonzero(mat == m)[0]) for m in np.unique(mat)]
+
+            # ---- next-event estimation
+            if w.has_lights:
+                self._next_event(img, pass_index, depth, p, origin, ng, wo_l, to_local, beta, pix, groups)
+
+            # ---- BRDF sampling with the chosen strategy, material by material
+            wi_l = np.zeros((n, 3))
+            pdf = np.zeros(n)
+            f = np.zeros((n, 3))
+            for m, idx in groups:
+                rt = w.materials_by_index[m]
+                s_wi, s_pdf = rt.sampler.sample_each(wo_l[idx], seed=self._seed(pass_index, depth, int(m)))
+                wi_l[idx] = s_wi
+                pdf[idx] = s_pdf
+                f[idx] = rt.brdf.eval(wo_l[idx], s_wi, threads=len(idx) > PARALLEL_MIN)
+            wi = wi_l[:, 0:1] * tb + wi_l[:, 1:2] * bb + wi_l[:, 2:3] * ns
+            cos_i = wi_l[:, 2]
+            ok = (
+                (pdf > 0)
+                & (cos_i > 0)
+                & (_dot(wi, ng) > 0)
+                & np.all(np.isfinite(f), axis=1)
+                & np.isfinite(pdf)
+            )
+            weight = np.zeros((n, 3))
+            weight[ok] = f[ok] * (cos_i[ok] / pdf[ok])[:, None]
+            beta = beta * weight
+
+            # ---- Russian roulette
+            if depth + 1 >= self.rr_depth:
+                q = np.minimum(0.95, beta.max(axis=1))
+                u = self._rng(pass_index, depth, 3).random(n)
+                survive = u < q
+                beta = np.where(survive[:, None], beta / np.where(q > 0, q, 1.0)[:, None], 0.0)
+                ok &= survive
+            ok &= beta.max(axis=1) > 0
+            o, d, beta, pix, prev_pdf = origin[ok], _normalize(wi[ok]), beta[ok], pix[ok], pdf[ok]
+
+        return img / spp
+
+    def _next_event(self, img, pass_index, depth, p, origin, ng, wo_l, to_local, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
+        """One light sample per path vertex, MIS-weighted against the BRDF sampler (exact pdfs)."""
+        w = self.world
+        n = len(p)
+        u = self._rng(pass_index, depth, 1).random((n, 5))
+        wi = np.zeros((n, 3))
+        le = np.zeros((n, 3))
+        pdf_light = np.zeros(n)
+        t_max = np.full(n, np.inf)
+        delta = np.zeros(n, dtype=bool)
+        c_area = w.p_area
+        c_point = c_area + w.p_point
+        cat_area = u[:, 0] < c_area
+        cat_point = ~cat_area & (u[:, 0] < c_point)
+        cat_env = ~cat_area & ~cat_point
+
+        if np.any(cat_area):
+            i = np.nonzero(cat_area)[0]
+            k = np.minimum(np.searchsorted(w.emit_cdf, u[i, 1], side="right"), len(w.emit_ids) - 1)
+            tri = w.emit_ids[k]
+            su = np.sqrt(u[i, 2])
+            q = w.v0[tri] + (su * (1.0 - u[i, 3]))[:, None] * w.e1[tri] + (su * u[i, 3])[:, None] * w.e2[tri]
+            to = q - origin[i]
+            dist = np.linalg.norm(to, axis=1)
+            dirs = to / np.maximum(dist, 1e-30)[:, None]
+            cos_l = -_dot(dirs, w.tri_normal[tri])
+            front = (cos_l > 0) | w.tri_two_sided[tri]
+            good = front & (np.abs(cos_l) > 1e-9) & (dist > 0)
+            wi[i] = dirs
+            le[i] = w.tri_emission[tri] * good[:, None]
+            pdf_light[i] = np.where(
+                good, w.p_area * w.emit_pmf_per_area[tri] * dist**2 / np.maximum(np.abs(cos_l), 1e-9), 0.0
+            )
+            t_max[i] = dist * (1.0 - 1e-4)
+        if np.any(cat_point):
+            i = np.nonzero(cat_point)[0]
+            k = np.minimum(np.searchsorted(w.point_cdf, u[i, 1], side="right"), len(w.point_pos) - 1)
+            to = w.point_pos[k] - origin[i]
+            dist = np.maximum(np.linalg.norm(to, axis=1), 1e-12)
+            wi[i] = to / dist[:, None]
+            le[i] = w.point_intensity[k] / (dist**2)[:, None]
+            pdf_light[i] = w.p_point * w.point_pmf[k]
+            t_max[i] = dist * (1.0 - 1e-4)
+            delta[i] = True
+        if np.any(cat_env):
+            i = np.nonzero(cat_env)[0]
+            dirs, rad, pdf_e = w.env.sample(u[i, 1:5])
+            wi[i] = dirs
+            le[i] = rad
+            pdf_light[i] = w.p_env * pdf_e
+
+        wi_l = to_local(wi)
+        cand = (pdf_light > 0) & (wi_l[:, 2] > 0) & (_dot(wi, ng) > 0) & (le.max(axis=1) > 0)
+        f = np.zeros((n, 3))
+        pdf_brdf = np.zeros(n)
+        for m, idx in groups:
+            j = idx[cand[idx]]
+            if len(j) == 0:
+                continue
+            rt = w.materials_by_index[m]
+            f[j] = rt.brdf.eval(wo_l[j], wi_l[j], threads=len(j) > PARALLEL_MIN)
+            pdf_brdf[j] = rt.sampler.pdf(wo_l[j], wi_l[j])
+        mw = np.where(delta, 1.0, mis_weight(pdf_light, pdf_brdf, self.mis))
+        scale = np.zeros(n)
+        scale[cand] = wi_l[cand, 2] * mw[cand] / pdf_light[cand]
+        contrib = beta * f * le * scale[:, None]
+        cand &= contrib.max(axis=1) > 0
+        i = np.nonzero(cand)[0]
+        if len(i) == 0:
+            return
+        blocked = w.accel.occluded(origin[i], wi[i], t_max[i])
+        self.stats.rays += len(i)
+        i = i[~blocked]
+        self._add(img, pix[i], contrib[i])

@@ -1,0 +1,184 @@
+"""Progressive, cancellable rendering: prepare a scene, then passes until a sample or time budget is spent.
+
+::
+
+    job = prepare(load_scene("scene.json"), sampler="adaptive")
+    for frame in job.passes(spp=64):          # or time_s=10.0 (equal-time mode)
+        show(frame.image, frame.spp, frame.elapsed)   # break out of the loop to stop early
+
+``job.passes`` yields a :class:`Frame` after every pass. Stopping is cooperative: break the loop, or set the
+``cancel`` event from another thread. The same scene, strategy and seed give the same image.
+"""
+
+from __future__ import annotations
+
+import platform
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from core.errors import ParameterError
+from core.scene import Scene
+from renderer.film import Film
+from renderer.integrator import PathTracer
+from renderer.world import StepCallback, World
+
+
+@dataclass
+class Frame:
+    """The state after a pass: the mean ``image (h, w, 3)`` float32, samples per pixel, seconds elapsed
+    (rendering only, without preparation)."""
+
+    image: np.ndarray
+    spp: int
+    elapsed: float
+    rays: int = 0
+
+
+@dataclass
+class RenderJob:
+    """A prepared scene: geometry built, kernels compiled, sampler tables built."""
+
+    scene: Scene
+    world: World
+    tracer: PathTracer
+    settings: dict[str, Any]
+    prepare_report: dict[str, Any]
+    film: Film = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.film = Film(self.tracer.width, self.tracer.height)
+        self.elapsed = 0.0
+        self.passes_done = 0
+        # small images trace several samples per pixel per pass (Python overhead is per bounce, not per ray)
+        self.batch = int(np.clip(65536 // (self.tracer.width * self.tracer.height), 1, 16))
+
+    def passes(
+        self,
+        spp: int | None = None,
+        time_s: float | None = None,
+        cancel: threading.Event | None = None,
+        callback: Callable[[Frame], None] | None = None,
+    ) -> Iterator[Frame]:
+        """Render passes until ``spp`` samples per pixel (equal-spp) or ``time_s`` seconds (equal-time, at least
+        one pass; the last pass may run past the limit) are reached, or ``cancel`` is set."""
+        if spp is None and time_s is None:
+            spp = self.settings["spp"]
+        if spp is not None and spp < 1:
+            raise ParameterError(f"samples per pixel must be at least 1, got {spp}")
+        if time_s is not None and not time_s > 0:
+            raise ParameterError(f"the time budget must be positive, got {time_s}")
+        while True:
+            if cancel is not None and cancel.is_set():
+                return
+            if spp is not None and self.film.spp >= spp:
+                return
+            if time_s is not None and self.film.spp > 0 and self.elapsed >= time_s:
+                return
+            batch = self.batch if spp is None else min(self.batch, spp - self.film.spp)
+            t0 = time.perf_counter()
+            radiance = self.tracer.render_pass(self.passes_done, batch)
+            self.passes_done += 1
+            self.film.add_pass(radiance, batch)
+            self.elapsed += time.perf_counter() - t0
+            frame = Frame(self.film.image(), self.film.spp, self.elapsed, self.tracer.stats.rays)
+            if callback is not None:
+                callback(frame)
+            yield frame
+
+    def run(self, spp: int | None = None, time_s: float | None = None, **kw: Any) -> Frame:
+        """Render to the budget and return the last frame."""
+        last = None
+        for frame in self.passes(spp=spp, time_s=time_s, **kw):
+            last = frame
+        if last is None:
+            return Frame(self.film.image(), self.film.spp, self.elapsed, self.tracer.stats.rays)
+        return last
+
+    def info(self) -> dict[str, Any]:
+        """Everything a JSON sidecar records: settings, time, spp, rays, sampler tables, versions."""
+        stats = self.tracer.stats
+        return {
+            "scene": self.scene.source,
+            "settings": self.settings,
+            "spp": self.film.spp,
+            "render_seconds": round(self.elapsed, 4),
+            "rays": stats.rays,
+            "rays_per_second": round(stats.rays / self.elapsed) if self.elapsed > 0 else None,
+            "nonfinite_contributions": stats.nonfinite,
+            "prepare": self.prepare_report,
+            "versions": versions(),
+        }
+
+
+def versions() -> dict[str, str]:
+    import importlib.metadata as md
+
+    out = {"python": platform.python_version()}
+    for dist in ("brdf-studio", "numpy", "numba", "embreex", "trimesh", "OpenEXR"):
+        try:
+            out[dist] = md.version(dist)
+        except md.PackageNotFoundError:
+            out[dist] = "unknown"
+    return out
+
+
+def prepare(
+    scene: Scene,
+    sampler: str | None = None,
+    sampler_options: dict[str, Any] | None = None,
+    width: int | None = None,
+    height: int | None = None,
+    seed: int | None = None,
+    max_depth: int | None = None,
+    threads: int = 2,
+    on_step: StepCallback | None = None,
+) -> RenderJob:
+    """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
+    scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``)."""
+    r = scene.render
+    t0 = time.perf_counter()
+    world = World(scene, sampler=sampler, sampler_options=sampler_options, threads=threads)
+    geometry_seconds = time.perf_counter() - t0
+    from renderer.integrator import PARALLEL_MIN
+
+    report = world.compile(on_step, parallel=(width or r.width) * (height or r.height) > PARALLEL_MIN)
+    report["geometry_seconds"] = round(geometry_seconds, 3)
+    report["triangles"] = world.n_triangles
+    settings = {
+        "width": int(width or r.width),
+        "height": int(height or r.height),
+        "spp": r.spp,
+        "time_s": r.time_s,
+        "sampler": world.sampler_name,
+        "sampler_options": world.sampler_options,
+        "max_depth": int(max_depth or r.max_depth),
+        "rr_depth": r.rr_depth,
+        "mis": r.mis,
+        "seed": int(r.seed if seed is None else seed),
+    }
+    if settings["width"] < 1 or settings["height"] < 1:
+        raise ParameterError("the image width and height must be at least 1 pixel")
+    tracer = PathTracer(
+        world,
+        settings["width"],
+        settings["height"],
+        settings["max_depth"],
+        settings["rr_depth"],
+        settings["mis"],
+        settings["seed"],
+    )
+    return RenderJob(scene, world, tracer, settings, report)
+
+
+def render(scene: Scene, spp: int | None = None, time_s: float | None = None, **prepare_kw: Any) -> RenderJob:
+    """Prepare and render to the budget (the scene's own if neither is given); returns the finished job."""
+    job = prepare(scene, **prepare_kw)
+    if spp is None and time_s is None:
+        spp, time_s = (None, scene.render.time_s) if scene.render.time_s else (scene.render.spp, None)
+    job.run(spp=spp, time_s=time_s)
+    return job
