@@ -1,0 +1,93 @@
+"""Lewis's normalized Phong BRDF (R. R. Lewis, "Making shaders more physically plausible",
+Computer Graphics Forum 13(2), 1994).
+
+Lewis made Phong's model a physically plausible BRDF: no division by ``cos(theta_i)`` (so it is
+reciprocal) and a normalization of the specular lobe,
+
+    f_r(wi, wo) = kd / pi + ks (n + 2) / (2 pi) cos^n(alpha),
+
+with ``alpha`` the angle between ``wi`` and the mirror direction of ``wo``. The specular albedo is largest
+at normal incidence, where it equals ``ks`` exactly (the integral of ``cos^(n+1)`` over the hemisphere is
+``2 pi / (n + 2)``); so the model conserves energy whenever ``kd + ks <= 1`` per channel. The parameter
+bounds allow ``kd + ks`` up to 2, so the trait is not claimed.
+
+Sampled by a mixture of a ``cos^n`` lobe about the mirror direction and the cosine-weighted hemisphere.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from core.geometry import dot, mirror
+from core.model import Model, Param, Traits, register
+from core.models.lobes import (
+    cosine_hemisphere,
+    cosine_hemisphere_pdf,
+    cosine_power_lobe,
+    cosine_power_lobe_pdf,
+    luminance_at,
+    mixture_probability,
+)
+
+INV_PI = 0.3183098861837907
+INV_TWO_PI = 0.15915494309189535
+
+
+@njit(nogil=True, cache=True)
+def eval_lewis(wi, wo, p):
+    if wi[2] <= 0.0 or wo[2] <= 0.0:
+        return 0.0, 0.0, 0.0
+    n = p[0]
+    cos_alpha = dot(mirror(wo), wi)
+    spec = 0.0
+    if cos_alpha > 0.0:
+        spec = (n + 2.0) * INV_TWO_PI * min(cos_alpha, 1.0) ** n
+    return (
+        p[4] * INV_PI + p[1] * spec,
+        p[5] * INV_PI + p[2] * spec,
+        p[6] * INV_PI + p[3] * spec,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(wo, p):
+    # Specular albedo of a lobe that stays above the horizon: ks * cos(theta_o) exactly.
+    return mixture_probability(luminance_at(p, 1) * max(wo[2], 0.0), luminance_at(p, 4))
+
+
+@njit(nogil=True, cache=True)
+def pdf_lewis(wo, wi, p):
+    q = _lobe_probability(wo, p)
+    return q * cosine_power_lobe_pdf(mirror(wo), p[0], wi) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+
+
+@njit(nogil=True, cache=True)
+def sample_lewis(wo, p, u1, u2, u3):
+    if u3 < _lobe_probability(wo, p):
+        w = cosine_power_lobe(mirror(wo), p[0], u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], pdf_lewis(wo, w, p)
+
+
+LEWIS = register(
+    Model(
+        name="lewis",
+        label="Lewis (1994)",
+        citation="R. R. Lewis, Making shaders more physically plausible, Computer Graphics Forum "
+        "13(2):109-120, 1994.",
+        params=(
+            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+            Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular albedo", kind="color"),
+            Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+        ),
+        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
+        eval=eval_lewis,
+        sample=sample_lewis,
+        pdf=pdf_lewis,
+        doc=__doc__ or "",
+        notes="Normalized, reciprocal Phong: f = kd/pi + ks (n+2)/(2 pi) cos^n(alpha). Energy-conserving "
+        "when kd + ks <= 1 in every channel (albedo <= kd + ks, with equality of the specular part at "
+        "normal incidence); the bounds allow more, so ENERGY_CONSERVING is not declared.",
+    )
+)
