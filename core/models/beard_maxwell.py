@@ -2,7 +2,7 @@
 D. Ladd and S. Ladd, "Bidirectional reflectance model validation and utilization", Technical Report
 AFAL-TR-73-303, Environmental Research Institute of Michigan, 1973; the modified form of the
 Nonconventional Exploitation Factors database as presented by H. B. Westlund and G. W. Meyer, "A BRDF
-database employing the Beard-Maxwell reflection model", Graphics Interface 2002, eq. 10, and "Applying
+database employing the Beard-Maxwell reflection model", Graphics Interface 2002, and "Applying
 appearance standards to light reflection models", SIGGRAPH 2001).
 
 The BRDF is a first-surface term (specular reflection by the facets of the paint's top surface) plus two
@@ -15,7 +15,8 @@ with ``h`` the half vector, ``theta_N`` the angle between ``h`` and the normal (
 mirror ``wi`` into ``wo``) and ``beta`` the angle between ``wi`` and ``h`` (half the angle between the two
 directions). ``R`` is the exact Fresnel reflectance of the complex index ``n_real + i n_imag``
 (:func:`core.models._fresnel.fresnel_conductor`); dividing by ``R(0)`` makes ``rho_fs`` the first-surface
-reflection at normal incidence, as Beard and Maxwell measure it. The shadowing and obscuration factor is
+reflection at normal incidence, as Beard and Maxwell measure it (for the non-material ``n = 1, k = 0``,
+where ``R`` vanishes, the ratio is taken as 1). The shadowing and obscuration factor is
 
     SO(theta_N, beta) = (1 + (theta_N/Omega) exp(-2 beta/tau)) / (1 + theta_N/Omega):
 

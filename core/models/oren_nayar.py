@@ -1,5 +1,5 @@
 """Oren-Nayar rough diffuse reflection, the full model with interreflections (M. Oren and S. K. Nayar,
-"Generalization of Lambert's reflectance model", SIGGRAPH 1994, 239-246; eqs. 26-30 there).
+"Generalization of Lambert's reflectance model", SIGGRAPH 1994, 239-246).
 
 The surface is a collection of long symmetric V-cavities whose facets are Lambertian with albedo ``rho``;
 the facet slopes are Gaussian with standard deviation ``sigma`` (radians). With

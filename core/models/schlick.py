@@ -39,7 +39,7 @@ Numerical care
 Traits: reciprocal (every factor is symmetric in the two directions). Not isotropic for ``p < 1`` and not
 energy-conserving (the re-emission term's albedo diverges at grazing), so neither is claimed.
 
-Sampling (Schlick, sec. 6): a mixture of three strategies with fixed weights derived from the parameters:
+Sampling (after Schlick's inversion formulas): a mixture of three strategies with fixed weights derived from the parameters:
 cosine-weighted directions (for the Lambertian parts and the broad re-emission), and, per layer with
 ``b > 0``, half vectors drawn by Schlick's inversions, ``t^2 = x / (r - r x + x)`` (exact for the density
 ``Z``) and the azimuth ``psi = (pi/2) sqrt(p^2 y^2 / (1 - y^2 + p^2 y^2))`` from the direction where ``A``
