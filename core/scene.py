@@ -123,6 +123,9 @@ class Material(_Strict):
     params: dict[str, Any] = Field(default_factory=dict)
     measured: str | None = None
     emission: RGB = (0.0, 0.0, 0.0)
+    notes: str = ""
+    tags: list[str] = Field(default_factory=list)
+    """Free notes and tags the desktop app edits (the renderer ignores them)."""
 
     _rgb_emission = field_validator("emission", mode="before")(_rgb)
 
