@@ -1,0 +1,120 @@
+"""Lafortune's generalized cosine lobe (E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg,
+"Non-linear approximation of reflectance functions", SIGGRAPH 1997), one lobe plus a diffuse term.
+
+In the local frame a lobe is a power of a weighted dot product of the two directions,
+
+    f_r(wi, wo) = kd / pi + kp * max(0, cx wi.x wo.x + cy wi.y wo.y + cz wi.z wo.z)^n.
+
+``cx = cy = -1, cz = 1`` gives Phong's lobe about the mirror direction, ``cx = cy > 0`` a retro-reflective
+lobe, ``|cx| < |cz|`` an off-specular lobe that moves towards the horizon. The paper absorbs the lobe's
+albedo and normalization into the magnitude of ``C``; here ``kp`` (the seed's lobe weight) scales it and
+``C`` keeps the shape. The expression is symmetric in ``wi`` and ``wo``: reciprocal. It is isotropic only
+when ``cx == cy``, so the trait is not claimed.
+
+Traps handled: the base ``cx wi.x wo.x + ...`` is negative for some directions; with a non-integer ``n``
+its power is undefined (NaN), so the base is clamped at 0 (the lobe is zero there, as Phong's
+``max(0, cos)``). ``pow(0, 0)`` cannot occur: ``n >= 0.1``. The bounds ``|c| <= 1.1`` and ``n <= 5000``
+keep ``|C|^n`` finite (at most ``1.1^5000 ~ 1e207``); fitted lobes have ``|C|`` close to 1.
+
+Sampled by a mixture of a ``cos^n`` lobe about the lobe axis ``normalize(cx wo.x, cy wo.y, cz wo.z)``
+(for which ``f_lobe cos(theta_i) / pdf = kp |C wo|^n 2 pi / (n + 1) cos(theta_i)``) and the cosine-weighted
+hemisphere.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from core.geometry import normalize
+from core.model import Model, Param, Traits, register
+from core.models.lobes import (
+    cosine_hemisphere,
+    cosine_hemisphere_pdf,
+    cosine_power_lobe,
+    cosine_power_lobe_pdf,
+    luminance_at,
+    mixture_probability,
+)
+
+INV_PI = 0.3183098861837907
+TWO_PI = 6.283185307179586
+
+
+@njit(nogil=True, cache=True)
+def eval_lafortune(wi, wo, p):
+    if wi[2] <= 0.0 or wo[2] <= 0.0:
+        return 0.0, 0.0, 0.0
+    base = p[0] * wi[0] * wo[0] + p[1] * wi[1] * wo[1] + p[2] * wi[2] * wo[2]
+    lobe = base ** p[3] if base > 0.0 else 0.0
+    return (
+        p[7] * INV_PI + p[4] * lobe,
+        p[8] * INV_PI + p[5] * lobe,
+        p[9] * INV_PI + p[6] * lobe,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_axis(wo, p):
+    """The lobe's axis (unit) and the length ``|C wo|`` of the unnormalized one."""
+    ax = p[0] * wo[0]
+    ay = p[1] * wo[1]
+    az = p[2] * wo[2]
+    length = math.sqrt(ax * ax + ay * ay + az * az)
+    return normalize((ax, ay, az)), length
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(axis, length, p):
+    # Estimated lobe albedo: kp |C wo|^n times the integral of (axis.wi)^n cos(theta_i) over the lobe's cap,
+    # 2 pi axis.z / (n + 2) when the cap stays above the horizon.
+    # The cosine factor is floored at 0.05 so a lobe leaning over the horizon keeps some share.
+    n = p[3]
+    w_lobe = 0.0
+    if length > 0.0:
+        w_lobe = luminance_at(p, 4) * length**n * TWO_PI / (n + 2.0) * max(axis[2], 0.05)
+    return mixture_probability(w_lobe, luminance_at(p, 7))
+
+
+@njit(nogil=True, cache=True)
+def pdf_lafortune(wo, wi, p):
+    axis, length = _lobe_axis(wo, p)
+    q = _lobe_probability(axis, length, p)
+    return q * cosine_power_lobe_pdf(axis, p[3], wi) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+
+
+@njit(nogil=True, cache=True)
+def sample_lafortune(wo, p, u1, u2, u3):
+    axis, length = _lobe_axis(wo, p)
+    if u3 < _lobe_probability(axis, length, p):
+        w = cosine_power_lobe(axis, p[3], u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], pdf_lafortune(wo, w, p)
+
+
+LAFORTUNE = register(
+    Model(
+        name="lafortune",
+        label="Lafortune (1997)",
+        citation="E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, Non-linear approximation "
+        "of reflectance functions, SIGGRAPH '97, pp. 117-126, 1997.",
+        params=(
+            Param("cx", -1.0, -1.1, 1.1, label="Lobe weight Cx"),
+            Param("cy", -1.0, -1.1, 1.1, label="Lobe weight Cy"),
+            Param("cz", 1.0, -1.1, 1.1, label="Lobe weight Cz"),
+            Param("n", 100.0, 0.1, 5000.0, label="Lobe exponent", log=True),
+            Param("kp", (0.96, 0.96, 0.96), 0.0, 1.0, label="Lobe coefficient", kind="color"),
+            Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+        ),
+        traits=Traits.RECIPROCAL,
+        eval=eval_lafortune,
+        sample=sample_lafortune,
+        pdf=pdf_lafortune,
+        doc=__doc__ or "",
+        notes="One generalized cosine lobe plus Lambert: f = kd/pi + kp max(0, Cx ux vx + Cy uy vy + "
+        "Cz uz vz)^n. A negative base is clamped at 0 (its non-integer power is undefined). kd is not in the "
+        "seed's table (default 0, the seed's setting). Anisotropic when cx != cy; not normalized.",
+    )
+)
