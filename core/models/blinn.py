@@ -6,8 +6,8 @@ the normal and the half vector ``h = (wi + wo) / |wi + wo|``:
 
     f_r(wi, wo) = kd / pi + ks (n . h)^n.
 
-Written this way (the form of the BRDF overviews, e.g. Montes & Ureña, LSI-2012-001) the value depends on
-``wi`` and ``wo`` only through ``h``: the model is reciprocal and isotropic. It is not normalized, so not
+Used as a BRDF directly, without dividing by ``cos(theta_i)`` as the ``phong`` model does (the usual
+Blinn-Phong BRDF), the value depends on ``wi`` and ``wo`` only through ``h``: reciprocal and isotropic. It is not normalized, so not
 energy-conserving for every setting (at n = 1, ks = kd = 1 the albedo exceeds 1).
 
 Sampled by a mixture of the cosine-weighted hemisphere and the half-vector lobe: ``h`` drawn with density

@@ -9,8 +9,9 @@ gives the BRDF
     f_r(wi, wo) = kd / pi + ks cos^n(alpha) / cos(theta_i),
 
 with the diffuse term normalized as Lambert's so that ``kd`` is the diffuse albedo. The division by
-``cos(theta_i)`` makes the model *not reciprocal*; it is the classic (non-normalized) Phong of the
-overviews (Montes & Ureña, LSI-2012-001); the reciprocal, normalized variant is the separate ``lewis`` model.
+``cos(theta_i)`` makes the model *not reciprocal* (the project notes' reading of the shading models Phong
+and Strauss; Disney's BRDF Explorer offers the same division as an option). The reciprocal, normalized
+variant (Lewis 1994) is the separate ``lewis`` model, as in the seed's list of models.
 
 Sampled by a mixture of a ``cos^n`` lobe about the mirror direction of ``wo`` (for which
 ``f_spec cos(theta_i) / pdf`` is the constant ``2 pi ks / (n + 1)``) and the cosine-weighted hemisphere.
