@@ -20,8 +20,10 @@ could miss them and report a tiny, wrong error. Before adapting, the mesh is gra
 can sit: the mirror direction, the retro-reflection direction ``wo`` and the maximum of ``f cos`` found by a
 grid search refined by local zooming. Rectangles containing one of these points are bisected until they are
 smaller than ``PEAK_CELL`` (1e-3 rad) on a side, so a lobe of width >= ~1e-3 rad is resolved by the rules.
-Limitation: a lobe much narrower than the search grid (~0.03 rad) that is neither at the mirror nor at the
-retro direction can be missed, and then the stated error does not cover it.
+The search finds a lobe anywhere as long as its tail is not zero (underflowed) at the nearest grid point,
+0.03 rad away at most: a cosine lobe of exponent 10^6 (width 0.001 rad) placed away from the mirror is found
+(tested). Limitation: a narrower lobe away from the mirror and retro directions, or a second sharp lobe
+besides the highest one, can be missed, and then the stated error does not cover it.
 
 ``|K - G|`` is a conservative estimate for smooth integrands (K15 is usually far more accurate than G7). The
 tests compare with closed forms (Lambert, a normalized cosine lobe at n = 10^4, a normalized Beckmann lobe of

@@ -48,9 +48,6 @@ def run(args: argparse.Namespace) -> int:
     from resources.materials import demo_materials
 
     start = time.perf_counter()
-    models = all_models()
-    print("BRDF Studio: the model library on the bundled demo materials")
-    print(f"{len(models)} registered models: {', '.join(m.name for m in models)}")
     materials = demo_materials()
     if args.material:
         known = {m["name"] for m in materials}
@@ -58,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
             if name not in known:
                 raise BrdfStudioError(f"unknown demo material '{name}'; known: {', '.join(sorted(known))}")
         materials = [m for m in materials if m["name"] in args.material]
+    models = all_models()
+    print("BRDF Studio: the model library on the bundled demo materials")
+    print(f"{len(models)} registered models: {', '.join(m.name for m in models)}")
     for entry in materials:
         print()
         try:
