@@ -11,7 +11,7 @@ multiplied by the channel scales ``1/1500, 1.15/1500, 1.66/1500`` to give ``f_r`
 missing measurements.
 
 A measured BRDF is a :class:`core.model.BRDF` like any other: its kernel ``eval_merl(wi, wo, p)`` has the model
-kernel signature, and ``p`` is the whole scaled table (missing cells kept negative), so every batch driver and
+kernel signature, and ``p`` is the whole scaled table (missing cells kept negative, RGB interleaved), so every batch driver and
 sampler takes it unchanged. Make one with :func:`measured_brdf`.
 
 Lookup (a decision, see docs/analysis.md): trilinear interpolation between cell centres in index space
@@ -109,12 +109,12 @@ def merl_index(wi, wo):
 def eval_merl_nearest(wi, wo, p):
     """``f_r`` from the containing cell, as MERL's reference reader; missing cells read as 0.
 
-    ``p`` is the scaled table (missing cells negative), R then G then B planes (``3 * N_CELLS``).
+    ``p`` is :meth:`MerlTable.kernel_vector`: scaled values, missing cells negative, RGB interleaved.
     """
     if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
         return 0.0, 0.0, 0.0
-    k = merl_index(wi, wo)
-    return max(p[k], 0.0), max(p[k + N_CELLS], 0.0), max(p[k + 2 * N_CELLS], 0.0)
+    k = 3 * merl_index(wi, wo)
+    return max(p[k], 0.0), max(p[k + 1], 0.0), max(p[k + 2], 0.0)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -134,7 +134,7 @@ def eval_merl(wi, wo, p):
     ``theta_d``, ``phi_d``; periodic in ``phi_d`` with period pi). Exact at cell centres and continuous;
     missing cells are left out of the weights (0 where every neighbour is missing).
 
-    ``p`` is the scaled table (missing cells negative), R then G then B planes (``3 * N_CELLS``).
+    ``p`` is :meth:`MerlTable.kernel_vector`: scaled values, missing cells negative, RGB interleaved.
     """
     if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
         return 0.0, 0.0, 0.0
@@ -160,16 +160,16 @@ def eval_merl(wi, wo, p):
                 w = wb * (tp if c == 1 else 1.0 - tp)
                 if w == 0.0:
                     continue
-                k = (kp + c) % N_PHI_D + N_PHI_D * (jd + b + N_THETA_D * (ih + a))
+                k = 3 * ((kp + c) % N_PHI_D + N_PHI_D * (jd + b + N_THETA_D * (ih + a)))
                 v = p[k]
                 if v >= 0.0:
                     acc_r += w * v
                     w_r += w
-                v = p[k + N_CELLS]
+                v = p[k + 1]
                 if v >= 0.0:
                     acc_g += w * v
                     w_g += w
-                v = p[k + 2 * N_CELLS]
+                v = p[k + 2]
                 if v >= 0.0:
                     acc_b += w * v
                     w_b += w
@@ -249,8 +249,9 @@ class MerlTable:
 
     def kernel_vector(self) -> np.ndarray:
         """The kernel parameter vector of :func:`eval_merl`: scaled values (missing cells stay negative),
-        planes R, G, B, contiguous."""
-        return np.ascontiguousarray((self.raw * SCALES[:, None, None, None]).reshape(-1))
+        RGB interleaved per cell (``p[3 k + c]``: one cache line serves a cell's three channels)."""
+        scaled = (self.raw * SCALES[:, None, None, None]).reshape(3, N_CELLS)
+        return np.ascontiguousarray(scaled.T).reshape(-1)
 
     @property
     def missing_fraction(self) -> float:
