@@ -75,6 +75,9 @@ def write_exr(
         raise OutputError(f"cannot write '{target}': {exc.strerror or exc}") from None
     try:
         OpenEXR.File(header, {"RGB": pixels}).write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes private files; an image is an ordinary file
         os.replace(tmp, target)
     except Exception as exc:
         with contextlib.suppress(OSError):

@@ -146,23 +146,27 @@ def prepare(
     geometry_seconds = time.perf_counter() - t0
     from renderer.integrator import PARALLEL_MIN
 
-    report = world.compile(on_step, parallel=(width or r.width) * (height or r.height) > PARALLEL_MIN)
+    w_px = r.width if width is None else width
+    h_px = r.height if height is None else height
+    report = world.compile(on_step, parallel=w_px * h_px > PARALLEL_MIN)
     report["geometry_seconds"] = round(geometry_seconds, 3)
     report["triangles"] = world.n_triangles
     settings = {
-        "width": int(width or r.width),
-        "height": int(height or r.height),
+        "width": int(r.width if width is None else width),
+        "height": int(r.height if height is None else height),
         "spp": r.spp,
         "time_s": r.time_s,
         "sampler": world.sampler_name,
         "sampler_options": world.sampler_options,
-        "max_depth": int(max_depth or r.max_depth),
+        "max_depth": int(r.max_depth if max_depth is None else max_depth),
         "rr_depth": r.rr_depth,
         "mis": r.mis,
         "seed": int(r.seed if seed is None else seed),
     }
     if settings["width"] < 1 or settings["height"] < 1:
         raise ParameterError("the image width and height must be at least 1 pixel")
+    if settings["max_depth"] < 1:
+        raise ParameterError("the maximum path depth must be at least 1 bounce")
     tracer = PathTracer(
         world,
         settings["width"],

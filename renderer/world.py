@@ -151,7 +151,7 @@ class World:
         lo, hi = v.min(axis=0), v.max(axis=0)
         self.bounds = (lo, hi)
         extent = float(np.linalg.norm(hi - lo) + np.abs(np.concatenate([lo, hi])).max())
-        self.eps = max(1e-6, 2e-5 * extent)
+        self.eps = max(1e-6, 5e-6 * extent)
         self.accel = Accel(v, f, threads=self.threads)
         self.n_triangles = len(f)
 

@@ -1,0 +1,157 @@
+"""Progressive rendering (callbacks, cancel, equal-time) and the ``brdf-studio render`` command."""
+
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from renderer.image_io import read_exr
+from renderer.render import prepare
+from tests.renderer.scenes import quad, sphere
+
+SCENE = {
+    "version": 1,
+    "camera": {"position": [0, 1, 3], "target": [0, 0, 0], "fov_deg": 45},
+    "materials": [
+        {"name": "floor", "model": "lambert", "params": {"kd": 0.5}},
+        {"name": "ball", "model": "lambert", "params": {"kd": [0.8, 0.3, 0.2]}},
+    ],
+    "meshes": [
+        {"path": "floor.obj", "material": "floor"},
+        {"path": "ball.obj", "material": "ball", "smooth": True},
+    ],
+    "lights": [{"type": "point", "position": [1, 3, 1], "intensity": 5}],
+    "environment": {"type": "constant", "radiance": 0.2},
+    "render": {"width": 24, "height": 16, "spp": 4, "max_depth": 3, "sampler": "cosine"},
+}
+
+
+@pytest.fixture
+def scene_file(tmp_path: Path) -> Path:
+    quad(tmp_path / "floor.obj", size=3.0, y=-1.0)
+    sphere(tmp_path / "ball.obj", subdivisions=1)
+    p = tmp_path / "scene.json"
+    p.write_text(json.dumps(SCENE))
+    return p
+
+
+def test_progressive_passes_callback_and_cancel(scene_file: Path) -> None:
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=256, height=256)  # one sample per pixel per pass
+    seen = []
+    cancel = threading.Event()
+
+    def on_frame(frame) -> None:  # type: ignore[no-untyped-def]
+        seen.append((frame.spp, frame.elapsed))
+        if frame.spp == 2:
+            cancel.set()
+
+    frames = list(job.passes(spp=10, cancel=cancel, callback=on_frame))
+    assert [f.spp for f in frames] == [1, 2] and [s for s, _ in seen] == [1, 2]
+    assert seen[1][1] >= seen[0][1] > 0
+    assert frames[-1].image.shape == (256, 256, 3)
+    # resuming continues where it stopped: the film keeps its samples
+    assert job.run(spp=3).spp == 3
+
+
+def test_equal_time_mode_stops_near_the_budget(scene_file: Path) -> None:
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file))
+    frames = list(job.passes(time_s=0.3))
+    # it stops at the first pass that reaches the budget, not before and not later
+    assert frames[-1].elapsed >= 0.3
+    assert all(f.elapsed < 0.3 for f in frames[:-1])
+    assert [f.spp for f in frames] == sorted({f.spp for f in frames})
+
+
+def test_cli_writes_exr_png_sidecar(scene_file: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out.exr"
+    assert main(["render", str(scene_file), "--spp", "3", "-o", str(out), "--seed", "5", "--quiet"]) == 0
+    img = read_exr(out)
+    assert img.shape == (16, 24, 3) and np.all(np.isfinite(img)) and img.max() > 0
+    info = json.loads(out.with_suffix(".json").read_text())
+    assert info["spp"] == 3 and info["settings"]["seed"] == 5 and info["settings"]["sampler"] == "cosine"
+    assert info["versions"]["numpy"] == np.__version__
+    assert out.with_suffix(".png").read_bytes()[:4] == b"\x89PNG"
+    # the same seed gives the same image
+    out2 = tmp_path / "again.exr"
+    assert main(["render", str(scene_file), "--spp", "3", "-o", str(out2), "--seed", "5", "--quiet"]) == 0
+    assert np.array_equal(read_exr(out2), img)
+
+
+def test_cli_compare_with_reference(scene_file: Path, tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    ref = tmp_path / "ref.exr"
+    assert main(["render", str(scene_file), "--spp", "16", "-o", str(ref), "--quiet"]) == 0
+    out = tmp_path / "cmp.exr"
+    args = ["render", str(scene_file), "--spp", "4", "-o", str(out), "--compare", "uniform,cosine"]
+    assert main([*args, "--reference", str(ref), "--quiet"]) == 0
+    for name in ("cmp_uniform.exr", "cmp_cosine.exr", "cmp_compare.png", "cmp_error.csv", "cmp_error.png"):
+        assert (tmp_path / name).is_file(), name
+    rows = (tmp_path / "cmp_error.csv").read_text().splitlines()
+    assert rows[0] == "strategy,spp,seconds,rmse,relmse"
+    assert {r.split(",")[0] for r in rows[1:]} == {"uniform", "cosine"}
+    assert "RMSE" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--spp", "0"], "--spp must be at least 1"),
+        (["--sampler", "magic"], "unknown sampler 'magic'"),
+        (["--compare", "cosine,cosine"], "twice"),
+        (["-o", "out.png"], "must be an .exr file"),
+        (["-o", "/no/such/folder/x.exr"], "does not exist"),
+        (["--reference", "missing.exr"], "not found"),
+    ],
+)
+def test_cli_bad_input_is_one_line(scene_file: Path, capsys, extra: list[str], message: str) -> None:  # type: ignore[no-untyped-def]
+    assert main(["render", str(scene_file), "--quiet", *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_cli_reference_size_mismatch(scene_file: Path, tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    from renderer.image_io import write_exr
+
+    write_exr(tmp_path / "small.exr", np.zeros((4, 4, 3)))
+    args = ["render", str(scene_file), "--spp", "1", "-o", str(tmp_path / "o.exr"), "--quiet"]
+    assert main([*args, "--reference", str(tmp_path / "small.exr")]) == 2
+    assert "reference is 4x4" in capsys.readouterr().err
+
+
+def test_cli_broken_scene(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    p = tmp_path / "broken.json"
+    p.write_text('{"version": 1, "materials": [')
+    assert main(["render", str(p), "--quiet"]) == 2
+    assert "broken.json: line 1" in capsys.readouterr().err
+
+
+def test_demo_scene_loads_and_builds() -> None:
+    """The bundled demo is valid: meshes, measured material file and sky map all load (no compile)."""
+    from app.commands.render import demo_scene_path
+    from core.scene import load_scene
+    from renderer.world import World
+
+    scene = load_scene(demo_scene_path())
+    assert any(m.measured for m in scene.materials)
+    w = World(scene)
+    assert w.n_triangles > 1000 and len(w.emit_ids) == 2 and w.env is not None
+    w.accel.close()
+
+
+@pytest.mark.slow
+def test_demo_renders(tmp_path: Path) -> None:
+    out = tmp_path / "demo.exr"
+    assert (
+        main(["render", "--demo", "--spp", "2", "--width", "48", "--height", "32", "-o", str(out), "--quiet"])
+        == 0
+    )
+    img = read_exr(out)
+    assert np.all(np.isfinite(img)) and img.mean() > 0.05
