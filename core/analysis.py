@@ -38,7 +38,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from core.errors import ParameterError
+from core.errors import BrdfStudioError, ParameterError
 from core.geometry import degrees_to_dir, spherical_to_dir
 from core.kernels import eval_batch
 from core.model import BRDF
@@ -241,6 +241,11 @@ def albedo(
 
     est, err_t, err_p = integrand.rules(*regions.T)
     while True:
+        if not (np.all(np.isfinite(est)) and np.all(np.isfinite(err_t)) and np.all(np.isfinite(err_p))):
+            raise BrdfStudioError(
+                f"{brdf.key()} gives non-finite values (NaN or Inf) near theta_o = {theta_deg:g} deg: "
+                "its albedo is undefined"
+            )
         err = err_t + err_p
         total = est.sum(axis=0)
         total_err = err.sum(axis=0)

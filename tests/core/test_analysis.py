@@ -39,7 +39,7 @@ from core.analysis import (
     nonnegativity_report,
     reciprocity_report,
 )
-from core.errors import ParameterError
+from core.errors import BrdfStudioError, ParameterError
 from core.model import Model, Param, Traits, all_models, make_brdf
 
 
@@ -220,6 +220,11 @@ def test_budget_exhaustion_is_reported():
 def test_albedo_rejects_bad_angles(bad):
     with pytest.raises(ParameterError, match="theta must be within"):
         albedo(make_brdf("lambert"), bad)
+
+
+def test_non_finite_model_is_a_clear_error():
+    with pytest.raises(BrdfStudioError, match="non-finite values"):
+        albedo(_test_model("broken", eval_broken).bind(), 30.0)
 
 
 def test_energy_report_verdicts():
