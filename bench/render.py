@@ -1,0 +1,156 @@
+"""Benchmark of the path tracer: throughput, and error against time for every sampling strategy.
+
+1. Throughput on the bundled demo scene (2 worker threads for Embree, numba kernels): rays per second over
+   whole passes (camera, bounce and shadow rays, shading included), and Embree alone on the same rays
+   (closest-hit queries of camera rays), so the cost of shading is visible.
+2. RMSE against a high-spp reference as a function of render time, for uniform, cosine, analytic, adaptive
+   and every other registered strategy, at equal time (``--time`` seconds each, preparation excluded and
+   reported separately). The reference is rendered once with a different seed (``--ref-spp``, analytic
+   sampling) and cached under ``--out``.
+
+Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
+``render_compare.png`` (side by side) under ``--out`` (default ``results/bench``).
+
+    .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 256] [--strategies a,b] [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.commands.render import demo_scene_path
+from core.sampler import sampler_names
+from core.scene import load_scene
+from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
+from renderer.render import prepare
+
+
+def throughput(scene, size: int, passes: int) -> dict:  # type: ignore[no-untyped-def]
+    job = prepare(scene, sampler="cosine", width=size, height=size)
+    job.tracer.render_pass(10_000, 1)  # warm-up (first-call costs)
+    rays0 = job.tracer.stats.rays
+    t0 = time.perf_counter()
+    for k in range(passes):
+        job.tracer.render_pass(k, 1)
+    seconds = time.perf_counter() - t0
+    rays = job.tracer.stats.rays - rays0
+    cam = job.tracer.camera
+    pix = np.arange(size * size)
+    o, d = cam.rays(pix, np.random.default_rng(0).random((len(pix), 2)))
+    t1 = time.perf_counter()
+    for _ in range(5):
+        job.world.accel.intersect(o, d)
+    embree_s = (time.perf_counter() - t1) / 5
+    one = job.world.accel
+    one.threads, pool = 1, one._pool
+    one._pool = None
+    t2 = time.perf_counter()
+    one.intersect(o, d)
+    embree_1t = time.perf_counter() - t2
+    one._pool, one.threads = pool, 2
+    job.world.accel.close()
+    return {
+        "size": size,
+        "passes": passes,
+        "seconds": seconds,
+        "rays": rays,
+        "path_tracer_Mrays_s": rays / seconds / 1e6,
+        "embree_2threads_Mrays_s": len(o) / embree_s / 1e6,
+        "embree_1thread_Mrays_s": len(o) / embree_1t / 1e6,
+        "seconds_per_spp": seconds / passes,
+    }
+
+
+def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    key = hashlib.sha1(
+        json.dumps([scene.model_dump(mode="json"), size, spp, seed], sort_keys=True).encode()
+    ).hexdigest()[:10]
+    path = out / f"render_reference_{size}_{spp}spp_{key}.exr"
+    if path.is_file():
+        print(f"reference: cached {path}")
+        return read_exr(path)
+    job = prepare(scene, sampler="analytic", width=size, height=size, seed=seed)
+    t0 = time.perf_counter()
+    for frame in job.passes(spp=spp):
+        if frame.spp % 16 == 0:
+            print(f"  reference {frame.spp}/{spp} spp, {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    write_exr(path, job.film.image(), {"spp": spp, "sampler": "analytic", "seed": seed})
+    job.world.accel.close()
+    print(f"reference: {spp} spp in {time.perf_counter() - t0:.0f} s -> {path}")
+    return job.film.image()
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", help="scene file (default: the bundled demo)")
+    ap.add_argument("--size", type=int, default=512, help="image width and height (default 512)")
+    ap.add_argument("--time", type=float, default=30.0, help="seconds of rendering per strategy (default 30)")
+    ap.add_argument(
+        "--ref-spp", type=int, default=256, help="samples per pixel of the reference (default 256)"
+    )
+    ap.add_argument("--strategies", help="comma-separated (default: every registered strategy)")
+    ap.add_argument("--passes", type=int, default=4, help="passes for the throughput measurement")
+    ap.add_argument("--out", default="results/bench", help="output folder")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    scene = load_scene(args.scene or demo_scene_path())
+
+    tp = throughput(scene, args.size, args.passes)
+    print(
+        f"throughput at {args.size}x{args.size}: path tracer {tp['path_tracer_Mrays_s']:.2f} M rays/s "
+        f"({tp['seconds_per_spp']:.2f} s per spp); Embree alone {tp['embree_2threads_Mrays_s']:.1f} M rays/s "
+        f"on 2 threads, {tp['embree_1thread_Mrays_s']:.1f} on 1"
+    )
+    (out / "render_throughput.csv").write_text(
+        ",".join(tp) + "\n" + ",".join(f"{v:.6g}" for v in tp.values()) + "\n"
+    )
+
+    ref = reference(scene, args.size, args.ref_spp, out, seed=987_654)
+    strategies = args.strategies.split(",") if args.strategies else sampler_names()
+    curves, images, labels, rows = {}, [], [], []
+    for s in strategies:
+        t0 = time.perf_counter()
+        job = prepare(scene, sampler=s, width=args.size, height=args.size, seed=1)
+        prep = time.perf_counter() - t0
+        recs = []
+        for frame in job.passes(time_s=args.time):
+            recs.append({"spp": frame.spp, "seconds": frame.elapsed, **image_errors(frame.image, ref)})
+        curves[s] = recs
+        img = job.film.image()
+        images.append(img)
+        labels.append(f"{s} {job.film.spp}spp")
+        mem = sum(m.get("memory_bytes", 0) or 0 for m in job.prepare_report["materials"].values())
+        notes = [m["note"] for m in job.prepare_report["materials"].values() if m.get("note")]
+        rows.append(
+            (s, job.film.spp, job.elapsed, prep, mem, recs[-1]["rmse"], recs[-1]["relmse"], len(notes))
+        )
+        job.world.accel.close()
+        print(
+            f"  {s}: {job.film.spp} spp in {job.elapsed:.1f} s, RMSE {recs[-1]['rmse']:.4g}", file=sys.stderr
+        )
+
+    base = {r[0]: r[5] for r in rows}.get("uniform")
+    print(f"\nequal time ({args.time:g} s of rendering each) on {scene.source} at {args.size}x{args.size}")
+    print(f"{'strategy':<14}{'spp':>6}{'render s':>10}{'prepare s':>10}{'tables KB':>10}{'RMSE':>11}{'relMSE':>11}"
+          f"{'RMSE/unif':>10}  fallbacks")  # fmt: skip
+    for s, spp, el, prep, mem, rmse, rel, nf in rows:
+        ratio = f"{rmse / base:.3f}" if base else "-"
+        print(
+            f"{s:<14}{spp:>6}{el:>10.1f}{prep:>10.1f}{mem / 1024:>10.1f}{rmse:>11.4g}{rel:>11.4g}{ratio:>10}  {nf}"
+        )
+    write_error_curves(out / "render_error", curves, title=f"{scene.source} {args.size}x{args.size}")
+    write_png(out / "render_compare.png", composite(images, labels))
+    print(f"wrote {out / 'render_error.csv'}, {out / 'render_error.png'}, {out / 'render_compare.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
