@@ -42,10 +42,14 @@ the visible interval where ``cos alpha > 0`` and within 10 widths of the lobe's 
 ``beta = (gamma_i + gamma_o)/2`` (``cos alpha = A_i A_o cos(2 (beta - beta*)) - w_ix w_ox`` there, a Gaussian of
 width ``sqrt(cos alpha_max / (4 n A_i A_o))`` for large ``n``; the neglected tails are below ``e^-50``).
 
+Grooves ("subtracted" cylinders, ``grooves = true``): the same circles cut ``h`` deep into the plane. The
+plane is then never shadowed; a groove point at normal angle ``beta`` is seen from ``gamma`` when it faces it
+and the ray leaves the groove before meeting its far wall, which reduces to
+``|beta - 2 gamma| <= pi - beta_m``. The integrals are the same.
+
 Traits: reciprocal (the expression is symmetric in ``wi`` and ``wo``), not isotropic (the cylinders have a
 direction). Energy is conserved when ``kd + ks <= 1`` (the seed's 0.2 + 0.8), but the bounds allow more, so
 the trait is not claimed. Limits: ``h -> 0`` or ``d -> infinity`` give the flat surface's Phong + Lambert.
-Only raised cylinders are modelled (the paper also allows grooves, "subtracted" cylinders).
 
 Seed parameters: ``POULIN d = 2, h = 0.01, n = 100, ks = 0.8, kd = 0.2``.
 """
@@ -67,8 +71,8 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(32)
 GL_X = np.ascontiguousarray(_GL_X)
 GL_W = np.ascontiguousarray(_GL_W)
 
-_D, _H, _N, _KS, _KD = 0, 1, 2, 3, 6
-_W, _BETA_M = 9, 10
+_D, _H, _N, _KS, _KD, _GROOVES = 0, 1, 2, 3, 6, 9
+_W, _BETA_M = 10, 11
 
 
 def derive_poulin_fournier(p: np.ndarray) -> np.ndarray:
@@ -89,6 +93,21 @@ def _visible_cap(gamma, d, h, w, beta_m):
     if gamma >= 0.0:
         return max(-beta_m, gamma - HALF_PI), min(beta_m, gamma + reach)
     return max(-beta_m, gamma - reach), min(beta_m, gamma + HALF_PI)
+
+
+@njit(nogil=True, cache=True)
+def _visible_groove(gamma, beta_m):
+    """Interval of groove normal angles facing the direction and not blocked by the groove's own wall.
+
+    A groove point at normal angle ``beta`` sits at ``C - N`` on the circle of centre ``C = (0, 1 - h)``; a ray
+    leaving it along ``p`` meets the circle again after ``t = 2 N.p`` and escapes when that point is above the
+    base plane: ``(1 - h) - cos(beta) + 2 cos(beta - gamma) cos(gamma) >= 0``, i.e.
+    ``cos(beta - 2 gamma) >= -(1 - h) = cos(pi - beta_m)``.
+    """
+    reach = math.pi - beta_m
+    lo = max(-beta_m, max(gamma - HALF_PI, 2.0 * gamma - reach))
+    hi = min(beta_m, min(gamma + HALF_PI, 2.0 * gamma + reach))
+    return lo, hi
 
 
 @njit(nogil=True, cache=True)
@@ -129,16 +148,24 @@ def eval_poulin_fournier(wi, wo, p):
     dot_io = wi[0] * wo[0] + wi[1] * wo[1] + ci * co
     spec_norm = (n + 2.0) * INV_TWO_PI
 
-    # Flat part: the intersection of the two visible intervals.
-    lo_i, hi_i = _visible_flat(g_i, d, h, w, beta_m)
-    lo_o, hi_o = _visible_flat(g_o, d, h, w, beta_m)
-    flat_len = max(0.0, min(hi_i, hi_o) - max(lo_i, lo_o))
+    grooves = p[_GROOVES] != 0.0
+    # Flat part: the intersection of the two visible intervals (grooves never shadow the plane).
+    if grooves:
+        flat_len = d - 2.0 * w
+    else:
+        lo_i, hi_i = _visible_flat(g_i, d, h, w, beta_m)
+        lo_o, hi_o = _visible_flat(g_o, d, h, w, beta_m)
+        flat_len = max(0.0, min(hi_i, hi_o) - max(lo_i, lo_o))
     flat_diffuse = flat_len
     flat_spec = flat_len * _phong(2.0 * ci * co - dot_io, n) if flat_len > 0.0 else 0.0
 
-    # Caps: lit and seen normal angles.
-    lo_i, hi_i = _visible_cap(g_i, d, h, w, beta_m)
-    lo_o, hi_o = _visible_cap(g_o, d, h, w, beta_m)
+    # Caps (or grooves): lit and seen normal angles.
+    if grooves:
+        lo_i, hi_i = _visible_groove(g_i, beta_m)
+        lo_o, hi_o = _visible_groove(g_o, beta_m)
+    else:
+        lo_i, hi_i = _visible_cap(g_i, d, h, w, beta_m)
+        lo_o, hi_o = _visible_cap(g_o, d, h, w, beta_m)
     b1 = max(lo_i, lo_o)
     b2 = min(hi_i, hi_o)
     cap_diffuse = 0.0
@@ -242,6 +269,13 @@ POULIN_FOURNIER = register(
                 kind="color",
                 doc="Lambertian reflectance of the surface elements.",
             ),
+            Param(
+                "grooves",
+                0.0,
+                label="Grooves (subtracted cylinders)",
+                kind="bool",
+                doc="Cut the cylinders into the plane (grooves of depth h) instead of raising them.",
+            ),
         ),
         traits=Traits.RECIPROCAL,
         eval=eval_poulin_fournier,
@@ -250,7 +284,7 @@ POULIN_FOURNIER = register(
         notes=(
             "Cylinders along the tangent x; cap self-shadowing and masking by the neighbouring cylinder; "
             "diffuse part in closed form, Phong part by 32-point Gauss-Legendre over the lit-and-seen interval. "
-            "Local BRDF: Lambert + Lewis-normalized Phong. Raised cylinders only (no grooves). Energy is "
+            "Local BRDF: Lambert + Lewis-normalized Phong. Raised cylinders or grooves. Energy is "
             "conserved for kd + ks <= 1 (not guaranteed by the bounds)."
         ),
     )

@@ -40,7 +40,17 @@ def _unblocked(py, pz, qy, qz, d, h, own):
     return ok
 
 
-def _brute(wi, wo, d, h, n, ks, kd, count=400_000):
+def _escapes_groove(py, pz, qy, qz, h):
+    """True where the ray from a point of the groove wall (circle of radius 1 centred at (0, 1 - h), cut into
+    the plane z = 0) leaves the circle above the plane, i.e. is not stopped by the groove's other wall."""
+    ry, rz = qy, qz - (1.0 - h)
+    b = ry * py + rz * pz
+    c = ry * ry + rz * rz - 1.0
+    t_far = -b + np.sqrt(np.maximum(b * b - c, 0.0))
+    return qz + t_far * pz >= -1e-12
+
+
+def _brute(wi, wo, d, h, n, ks, kd, count=400_000, grooves=False):
     """f = 1/(d cos_i cos_o) sum over one period of f_loc (N.wi)+ (N.wo)+ V_i V_o ds (midpoint rule)."""
     wi, wo = np.asarray(wi, float), np.asarray(wo, float)
     beta_m = math.acos(1.0 - h)
@@ -49,6 +59,8 @@ def _brute(wi, wo, d, h, n, ks, kd, count=400_000):
     beta = -beta_m + (np.arange(count) + 0.5) * (2 * beta_m / count)
     cap = np.stack([np.zeros_like(beta), np.sin(beta), np.cos(beta)], axis=-1)
     qy, qz = np.sin(beta), h - 1.0 + np.cos(beta)
+    if grooves:  # the wall point whose inward normal has angle beta: centre minus normal
+        qy, qz = -np.sin(beta), (1.0 - h) - np.cos(beta)
     ds_cap = 2 * beta_m / count
     # flat part between the caps at y = 0 and y = d
     y = w + (np.arange(count) + 0.5) * ((d - 2 * w) / count)
@@ -62,7 +74,10 @@ def _brute(wi, wo, d, h, n, ks, kd, count=400_000):
         vis = (ni > 0) & (no > 0)
         for v in (wi, wo):
             a = math.hypot(v[1], v[2])
-            vis &= _unblocked(v[1] / a, v[2] / a, py_pts, pz_pts, d, h, own)
+            if not grooves:
+                vis &= _unblocked(v[1] / a, v[2] / a, py_pts, pz_pts, d, h, own)
+            elif own:  # nothing rises above the plane: only a groove's own wall can block
+                vis &= _escapes_groove(v[1] / a, v[2] / a, py_pts, pz_pts, h)
         total += np.sum(np.where(vis, _local_brdf(nrm, wi, wo, n, ks, kd) * ni * no, 0.0)) * ds
     return total / (d * wi[2] * wo[2])
 
@@ -80,6 +95,9 @@ def _f(values, wi, wo):
         ({"d": 2.0, "h": 1.0, "n": 5.0, "ks": 0.5, "kd": 0.5}, (70.0, 100.0), (40.0, 300.0)),
         # back-scattering: light and view on the same side of the cylinders, both partly shadowed/masked
         ({"d": 2.2, "h": 0.8, "n": 50.0, "ks": 0.6, "kd": 0.4}, (65.0, 80.0), (72.0, 95.0)),
+        # grooves: deep, light and view across them on opposite sides, and on the same side
+        ({"d": 2.5, "h": 0.7, "n": 30.0, "ks": 0.6, "kd": 0.4, "grooves": True}, (60.0, 90.0), (45.0, 260.0)),
+        ({"d": 2.0, "h": 1.0, "n": 8.0, "ks": 0.5, "kd": 0.5, "grooves": True}, (75.0, 80.0), (50.0, 120.0)),
         # the seed's setting, light near grazing across the cylinders (shadowing by the low caps)
         ({}, (85.0, 90.0), (30.0, 275.0)),
     ],
@@ -87,7 +105,9 @@ def _f(values, wi, wo):
 def test_matches_brute_force_ray_casting(values, wi_deg, wo_deg):
     full = MODEL.resolve(values)
     wi, wo = degrees_to_dir(*wi_deg), degrees_to_dir(*wo_deg)
-    expected = _brute(wi, wo, full["d"], full["h"], full["n"], full["ks"][0], full["kd"][0])
+    expected = _brute(
+        wi, wo, full["d"], full["h"], full["n"], full["ks"][0], full["kd"][0], grooves=bool(full["grooves"])
+    )
     np.testing.assert_allclose(_f(values, wi, wo), expected, rtol=2e-4)
 
 
