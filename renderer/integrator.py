@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.scene import Scene
+from renderer.kernels import bsdf_step, surface_frames, to_local
 from renderer.world import NO_MATERIAL, World
 
 PARALLEL_MIN = 65536
@@ -43,16 +44,6 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _normalize(a: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(a, axis=1, keepdims=True)
     return a / np.where(n > 0, n, 1.0)
-
-
-def frames(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tangents ``t, b (k, 3)`` completing unit normals ``n (k, 3)`` (Duff et al. 2017, branchless)."""
-    sign = np.where(n[:, 2] >= 0.0, 1.0, -1.0)
-    a = -1.0 / (sign + n[:, 2])
-    bb = n[:, 0] * n[:, 1] * a
-    t = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * bb, -sign * n[:, 0]], axis=1)
-    b = np.stack([bb, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
-    return t, b
 
 
 def mis_weight(pdf_a: np.ndarray, pdf_b: np.ndarray, heuristic: str) -> np.ndarray:
@@ -161,7 +152,6 @@ class PathTracer:
             t, prim, bu, bv = hits.t[keep], hits.prim[keep], hits.u[keep], hits.v[keep]
             if len(o) == 0:
                 break
-            p = o + t[:, None] * d
             ng = w.tri_normal[prim]
 
             # ---- emitted light on rays that hit an emitter
@@ -187,41 +177,24 @@ class PathTracer:
             if depth == self.max_depth:
                 break
 
-            # ---- shading frame: both normals face the viewer (two-sided surfaces)
+            # ---- surfaces that reflect: frames with both normals facing the viewer (two-sided surfaces)
             mat = w.tri_material[prim]
             live = mat != NO_MATERIAL
             if not np.all(live):
-                o, d, beta, pix, p, ng, prim, mat, bu, bv = (
-                    x[live] for x in (o, d, beta, pix, p, ng, prim, mat, bu, bv)
+                o, d, t, beta, pix, prim, mat, bu, bv = (
+                    x[live] for x in (o, d, t, beta, pix, prim, mat, bu, bv)
                 )
-            n = len(p)
+            n = len(o)
             if n == 0:
                 break
-            wo = -d
-            flip = _dot(wo, ng) < 0.0
-            ng = np.where(flip[:, None], -ng, ng)
-            ns = ng.copy()
-            sm = w.tri_smooth[prim]
-            if np.any(sm):
-                k = np.nonzero(sm)[0]
-                vn = w.tri_vnormals[prim[k]]
-                b0 = 1.0 - bu[k] - bv[k]
-                interp = b0[:, None] * vn[:, 0] + bu[k, None] * vn[:, 1] + bv[k, None] * vn[:, 2]
-                interp = _normalize(interp)
-                interp = np.where(flip[k, None], -interp, interp)
-                ns[k] = np.where((np.linalg.norm(interp, axis=1) > 0.5)[:, None], interp, ng[k])
-            tb, bb = frames(ns)
-
-            def to_local(v: np.ndarray, tb=tb, bb=bb, ns=ns) -> np.ndarray:
-                return np.stack([_dot(v, tb), _dot(v, bb), _dot(v, ns)], axis=1)
-
-            wo_l = to_local(wo)
-            origin = p + ng * w.eps
+            ng, ns, tb, bb, wo_l, origin = surface_frames(
+                o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
+            )
             groups = [(m, np.nonzero(mat == m)[0]) for m in np.unique(mat)]
 
             # ---- next-event estimation
             if w.has_lights:
-                self._next_event(img, pass_index, depth, p, origin, ng, wo_l, to_local, beta, pix, groups)
+                self._next_event(img, pass_index, depth, origin, ng, wo_l, (tb, bb, ns), beta, pix, groups)
 
             # ---- BRDF sampling with the chosen strategy, material by material
             wi_l = np.zeros((n, 3))
@@ -233,35 +206,23 @@ class PathTracer:
                 wi_l[idx] = s_wi
                 pdf[idx] = s_pdf
                 f[idx] = rt.brdf.eval(wo_l[idx], s_wi, threads=len(idx) > PARALLEL_MIN)
-            wi = wi_l[:, 0:1] * tb + wi_l[:, 1:2] * bb + wi_l[:, 2:3] * ns
-            cos_i = wi_l[:, 2]
-            ok = (
-                (pdf > 0)
-                & (cos_i > 0)
-                & (_dot(wi, ng) > 0)
-                & np.all(np.isfinite(f), axis=1)
-                & np.isfinite(pdf)
-            )
-            weight = np.zeros((n, 3))
-            weight[ok] = f[ok] * (cos_i[ok] / pdf[ok])[:, None]
-            beta = beta * weight
+            wi, ok, beta = bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta)
 
             # ---- Russian roulette
             if depth + 1 >= self.rr_depth:
                 q = np.minimum(0.95, beta.max(axis=1))
                 u = self._rng(pass_index, depth, 3).random(n)
                 survive = u < q
-                beta = np.where(survive[:, None], beta / np.where(q > 0, q, 1.0)[:, None], 0.0)
+                beta = beta / np.where(q > 0, q, 1.0)[:, None]
                 ok &= survive
-            ok &= beta.max(axis=1) > 0
-            o, d, beta, pix, prev_pdf = origin[ok], _normalize(wi[ok]), beta[ok], pix[ok], pdf[ok]
+            o, d, beta, pix, prev_pdf = origin[ok], wi[ok], beta[ok], pix[ok], pdf[ok]
 
         return img / spp
 
-    def _next_event(self, img, pass_index, depth, p, origin, ng, wo_l, to_local, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
+    def _next_event(self, img, pass_index, depth, origin, ng, wo_l, frame, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
         """One light sample per path vertex, MIS-weighted against the BRDF sampler (exact pdfs)."""
         w = self.world
-        n = len(p)
+        n = len(origin)
         u = self._rng(pass_index, depth, 1).random((n, 5))
         wi = np.zeros((n, 3))
         le = np.zeros((n, 3))
@@ -309,7 +270,7 @@ class PathTracer:
             le[i] = rad
             pdf_light[i] = w.p_env * pdf_e
 
-        wi_l = to_local(wi)
+        wi_l = to_local(wi, *frame)
         cand = (pdf_light > 0) & (wi_l[:, 2] > 0) & (_dot(wi, ng) > 0) & (le.max(axis=1) > 0)
         f = np.zeros((n, 3))
         pdf_brdf = np.zeros(n)
