@@ -181,6 +181,11 @@ def run(args: argparse.Namespace) -> int:
         for mname, minfo in job.prepare_report["materials"].items():
             if minfo.get("note"):
                 print(f"    note: material '{mname}': {minfo['note']}")
+            if minfo.get("memory_bytes"):
+                print(
+                    f"    tables: material '{mname}' ({minfo['model']}, {minfo['sampler']}): "
+                    f"{minfo['memory_bytes'] / 1024:.1f} KB, built in {minfo.get('build_seconds', 0.0):.2f} s"
+                )
     if len(strategies) > 1:
         labels = [f"{s} {j.film.spp}SPP {j.elapsed:.1f}S" for s, j, _, _ in summary]
         out = stem.with_name(f"{stem.name}_compare.png")
