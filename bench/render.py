@@ -8,10 +8,16 @@
    reported separately). The reference is rendered once with a different seed (``--ref-spp``, analytic
    sampling) and cached under ``--out``.
 
+3. With ``--cornell``: Mitsuba 3's Cornell box (exported to our format) against Mitsuba itself: RMSE against a
+   high-spp Mitsuba ``scalar_rgb`` reference as a function of time, for us and for Mitsuba's ``scalar_rgb`` and
+   ``llvm_ad_rgb`` variants (the llvm variant is probed in a subprocess: it needs Debian's libllvm19), and the
+   time each takes to reach a few RMSE levels.
+
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
-``render_compare.png`` (side by side) under ``--out`` (default ``results/bench``).
+``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` under ``--out`` (default ``results/bench``).
 
     .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 256] [--strategies a,b] [--out DIR]
+    .venv/bin/python bench/render.py --cornell [--cornell-size 128] [--time 30]
 """
 
 from __future__ import annotations
@@ -87,6 +93,91 @@ def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  
     return job.film.image()
 
 
+def _llvm_works() -> bool:
+    import subprocess
+
+    code = (
+        "import mitsuba as mi; mi.set_variant('llvm_ad_rgb'); d = mi.cornell_box(); "
+        "d['sensor']['film'].update(width=8, height=8); mi.render(mi.load_dict(d), spp=1)"
+    )
+    try:
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=300)
+    except subprocess.TimeoutExpired:
+        return False
+    return r.returncode == 0
+
+
+def _time_to(records: list[dict], level: float) -> float | None:
+    for r in records:
+        if r["rmse"] <= level:
+            return r["seconds"]
+    return None
+
+
+def cornell(args: argparse.Namespace, out: Path) -> int:
+    import tempfile
+
+    import mitsuba as mi
+
+    from renderer.mitsuba_scene import cornell_dict, export_cornell_box
+
+    size, bounces = args.cornell_size, 6
+    ref_path = out / f"cornell_reference_{size}_{args.cornell_ref_spp}spp.exr"
+    if ref_path.is_file():
+        ref = read_exr(ref_path)
+    else:
+        t0 = time.perf_counter()
+        ref = np.array(
+            mi.render(mi.load_dict(cornell_dict(size, bounces)), spp=args.cornell_ref_spp, seed=99)
+        )
+        write_exr(
+            ref_path, ref.astype(np.float32), {"spp": args.cornell_ref_spp, "renderer": "mitsuba scalar_rgb"}
+        )
+        print(f"reference (Mitsuba scalar_rgb, {args.cornell_ref_spp} spp): {time.perf_counter() - t0:.0f} s")
+    curves: dict[str, list[dict]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        job = prepare(load_scene(export_cornell_box(Path(tmp), size, bounces)), sampler="cosine", seed=1)
+        curves["brdf-studio (cosine)"] = [
+            {"spp": f.spp, "seconds": f.elapsed, **image_errors(f.image, ref)}
+            for f in job.passes(time_s=args.time)
+        ]
+        job.world.accel.close()
+    variants = ["scalar_rgb"] + (["llvm_ad_rgb"] if _llvm_works() else [])
+    if "llvm_ad_rgb" not in variants:
+        print(
+            "Mitsuba llvm_ad_rgb: unavailable here (needs Debian's libllvm19); compared with scalar_rgb only"
+        )
+    for variant in variants:
+        recs = []
+        mscene = mi.load_dict(cornell_dict(size, bounces, variant))
+        mi.render(mscene, spp=1, seed=0)  # warm-up (llvm: kernel compilation)
+        spp = 1
+        while True:
+            t0 = time.perf_counter()
+            img = np.array(mi.render(mscene, spp=spp, seed=1), dtype=np.float64)
+            el = time.perf_counter() - t0
+            recs.append({"spp": spp, "seconds": el, **image_errors(img, ref)})
+            if el > args.time or spp >= 4096:
+                break
+            spp *= 2
+        curves[f"mitsuba {variant}"] = recs
+    levels = (0.05, 0.03, 0.02, 0.01)
+    print(f"\nCornell box {size}x{size}, {bounces} bounces: seconds to reach an RMSE against the reference")
+    print(
+        f"{'renderer':<24}"
+        + "".join(f"{'RMSE ' + format(lv, 'g'):>12}" for lv in levels)
+        + f"{'best RMSE':>12}"
+    )
+    for name, recs in curves.items():
+        cells = "".join(
+            f"{(format(t, '.2f') if (t := _time_to(recs, lv)) is not None else '-'):>12}" for lv in levels
+        )
+        print(f"{name:<24}{cells}{min(r['rmse'] for r in recs):>12.4g}")
+    write_error_curves(out / "cornell_error", curves, title=f"Cornell box {size}x{size}")
+    print(f"wrote {out / 'cornell_error.csv'}, {out / 'cornell_error.png'}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", help="scene file (default: the bundled demo)")
@@ -98,9 +189,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--strategies", help="comma-separated (default: every registered strategy)")
     ap.add_argument("--passes", type=int, default=4, help="passes for the throughput measurement")
     ap.add_argument("--out", default="results/bench", help="output folder")
+    ap.add_argument("--cornell", action="store_true", help="only the Cornell box comparison with Mitsuba 3")
+    ap.add_argument("--cornell-size", type=int, default=128)
+    ap.add_argument("--cornell-ref-spp", type=int, default=2048)
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.cornell:
+        return cornell(args, out)
     scene = load_scene(args.scene or demo_scene_path())
 
     tp = throughput(scene, args.size, args.passes)
