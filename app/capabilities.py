@@ -60,7 +60,86 @@ def directional_albedo(brdf: BRDF, thetas_deg: Sequence[float], phi_deg: float =
 
 # ---- the adaptive sampler -------------------------------------------------------------------------
 def quadtree_available() -> bool:
-    return _module("core.quadtree") is not None
+    mod = _module("core.quadtree")
+    needed = ("build_bin", "theta_edges", "BuildOptions", "normalizer_values", "direction_to_disk")
+    return mod is not None and all(hasattr(mod, n) for n in needed)
+
+
+_TREE_CACHE: dict[tuple, Any] = {}
+
+
+def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> dict[str, Any]:
+    """The adaptive sampler's tree for the incident-angle bin holding ``(theta_deg, phi_deg)``.
+
+    Returns a dict: ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1`` (the bound and the disk-clipped box, in the
+    tree's disk coordinates), ``projection`` (how disk points map to directions, see
+    ``core.quadtree.disk_to_direction``), ``total_mass`` V, ``integral`` I(wo) (the tree's normalizer at this
+    direction), ``nbytes``, ``build_seconds``, ``bin_deg`` (theta range). Isotropic trees are built for
+    phi = 0 (rotated at sampling time); anisotropic ones per phi bin.
+    """
+    q = _module("core.quadtree")
+    if q is None or not quadtree_available():
+        raise Unavailable("the adaptive quadtree (core/quadtree.py) is not available yet in this build")
+    opts = q.BuildOptions(n_max=n_max)
+    iso = brdf.model.isotropic
+    edges = q.theta_edges(opts.theta_step, opts.z_min)
+    theta = np.radians(theta_deg)
+    k = int(np.clip(np.searchsorted(edges, theta, side="right") - 1, 0, len(edges) - 2))
+    if iso:
+        f_lo = f_hi = phi = 0.0
+    else:
+        width = 2.0 * np.pi / opts.phi_bins
+        phi = float(np.radians(phi_deg) % (2.0 * np.pi))
+        j = min(int(phi / width), opts.phi_bins - 1)
+        f_lo, f_hi = j * width, (j + 1) * width
+    rng = (float(edges[k]), float(edges[k + 1]), float(f_lo), float(f_hi))
+    key = (brdf.key(), rng, float(n_max))
+    try:
+        tree = _TREE_CACHE.get(key)
+        if tree is None:
+            tree = q.build_bin(brdf.model, brdf.params, iso, rng, opts)
+            if len(_TREE_CACHE) > 64:
+                _TREE_CACHE.clear()
+            _TREE_CACHE[key] = tree
+        mt, mp = (int(v) for v in tree.shape)
+        meta = np.array([[0.0, mt, mp, *rng]])
+        integral = float(
+            q.normalizer_values(
+                meta, tree.norm, np.zeros(1, dtype=np.int64), np.array([theta]), np.array([phi])
+            )[0]
+        )
+    except (TypeError, AttributeError, ValueError, IndexError) as exc:
+        # core/quadtree.py is still changing; say what went wrong instead of failing the whole view
+        raise Unavailable(
+            f"the adaptive quadtree could not be built here ({type(exc).__name__}: {exc})"
+        ) from None
+    return {
+        "leaves": np.asarray(tree.leaf)[:, :5],
+        "projection": getattr(opts, "projection", "orthographic"),
+        "total_mass": tree.total_mass,
+        "integral": integral,
+        "nbytes": tree.nbytes,
+        "build_seconds": tree.build_seconds,
+        "bin_deg": (float(np.degrees(rng[0])), float(np.degrees(rng[1]))),
+    }
+
+
+def to_disk(wi: np.ndarray, projection: str) -> np.ndarray:
+    """Disk points ``(n, 2)`` of directions in the tree's projection."""
+    q = _module("core.quadtree")
+    if projection == "orthographic" or q is None:
+        return np.asarray(wi)[:, :2].copy()
+    return q.direction_to_disk(np.asarray(wi), projection)
+
+
+def from_disk(x: np.ndarray, y: np.ndarray, projection: str) -> np.ndarray:
+    """Directions ``(n, 3)`` of disk points in the tree's projection."""
+    q = _module("core.quadtree")
+    if projection == "orthographic" or q is None:
+        z = np.sqrt(np.maximum(0.0, 1.0 - x * x - y * y))
+        return np.stack([x, y, z], axis=1)
+    wi, _ = q.disk_to_direction(x, y, projection)
+    return wi
 
 
 # ---- the renderer ---------------------------------------------------------------------------------------

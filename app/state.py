@@ -242,6 +242,11 @@ class Document:
         self.events.selection_changed.emit()
         self.events.history_changed.emit()
 
+    def mark_unsaved(self) -> None:
+        """Mark the document as differing from any saved file (restored edits)."""
+        self._clean_index = None
+        self.events.history_changed.emit()
+
     def mark_clean(self) -> None:
         self._clean_index = len(self._undo)
         self.events.history_changed.emit()

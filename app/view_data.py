@@ -140,3 +140,113 @@ def adaptive_line(brdf: BRDF) -> str:
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
         f"built in {info.get('build_seconds', 0.0) * 1000:.0f} ms"
     )
+
+
+def rotate_z(w: np.ndarray, phi: float) -> np.ndarray:
+    """Rotate directions ``w (..., 3)`` by ``phi`` radians about the normal."""
+    c, s = math.cos(phi), math.sin(phi)
+    out = np.array(w, dtype=np.float64, copy=True)
+    out[..., 0] = c * w[..., 0] - s * w[..., 1]
+    out[..., 1] = s * w[..., 0] + c * w[..., 1]
+    return out
+
+
+def leaf_raster(leaves: np.ndarray, size: int) -> np.ndarray:
+    """An image ``(size, size)`` over the square [-1, 1]^2 (row 0 at y = -1) holding each pixel's leaf bound
+    ``M`` (0 outside every leaf); ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1``."""
+    img = np.zeros((size, size))
+    to_px = lambda v: int(round((v + 1.0) * 0.5 * size))  # noqa: E731
+    for m, x0, y0, x1, y1 in leaves:
+        if x1 > x0 and y1 > y0:
+            img[to_px(y0) : max(to_px(y1), to_px(y0) + 1), to_px(x0) : max(to_px(x1), to_px(x0) + 1)] = m
+    return img
+
+
+def sampling_snapshot(
+    brdf: BRDF,
+    theta_deg: float,
+    phi_deg: float,
+    n_max: float = 2.0,
+    ratio_sampler: str = "adaptive",
+    n_samples: int = 2000,
+    seed: int = 1,
+    grid: int = 96,
+) -> dict:
+    """What the sampler view draws, computed off the GUI thread.
+
+    Everything is in the *display frame*: the local frame rotated about the normal so that ``wo`` has
+    phi = 0 when the BRDF is isotropic (the adaptive trees are built so and rotated at sampling time), the
+    local frame itself otherwise. Keys: ``tree`` (see :func:`app.capabilities.quadtree_bin`, or ``None``),
+    ``tree_error``, ``samples (n, 2)`` disk points of adaptive samples (or ``None``), ``samples_error``,
+    ``ratio (grid, grid)`` = ``pdf / (f cos / I)`` of ``ratio_sampler`` on the disk (NaN where both are 0),
+    ``ratio_error``, ``weight_rel_std`` of ``f cos / pdf`` over the ratio sampler's samples,
+    ``acceptance`` (expected per-trial acceptance ``I / V``), ``wo_disk`` (2,).
+    """
+    from app.capabilities import Unavailable, from_disk, quadtree_bin, to_disk
+    from core.errors import BrdfStudioError
+    from core.sampler import make_sampler, sampler_names
+
+    iso = brdf.model.isotropic
+    frame_phi = math.radians(phi_deg) if iso else 0.0
+    t, p = math.radians(theta_deg), math.radians(phi_deg)
+    wo_true = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+    wo_disp = rotate_z(wo_true, -frame_phi)
+    out: dict = {"wo_disk": wo_disp[:2], "theta_deg": theta_deg, "phi_deg": phi_deg, "n_max": n_max}
+    out["frame_rotated"] = iso
+
+    try:
+        tree = quadtree_bin(brdf, theta_deg, phi_deg, n_max)
+        out["tree"], out["tree_error"] = tree, ""
+        v = tree["total_mass"]
+        out["acceptance"] = tree["integral"] / v if v > 0 else float("nan")
+    except BrdfStudioError as exc:
+        out["tree"], out["tree_error"], out["acceptance"] = None, str(exc), float("nan")
+    projection = out["tree"]["projection"] if out["tree"] else "orthographic"
+    out["projection"] = projection
+
+    out["samples"], out["samples_error"], out["sampler_info"] = None, "", {}
+    if "adaptive" in sampler_names():
+        try:
+            s = make_sampler("adaptive", brdf, n_max=n_max)
+            wi, _ = s.sample(wo_true, n_samples, seed)
+            up = wi[:, 2] > 0.0
+            out["samples"] = to_disk(rotate_z(wi[up], -frame_phi), projection)
+            out["sampler_info"] = s.info()
+        except BrdfStudioError as exc:
+            out["samples_error"] = str(exc)
+    else:
+        out["samples_error"] = str(Unavailable("adaptive samples: the adaptive sampler is not available yet"))
+
+    # ratio map of the chosen strategy against the ideal density f cos / I
+    c = (np.arange(grid) + 0.5) / grid * 2.0 - 1.0
+    x, y = np.meshgrid(c, c)  # row 0 at y = -1
+    inside = x * x + y * y < 1.0
+    wi_disp = from_disk(x[inside], y[inside], projection)
+    wi_true = rotate_z(wi_disp, frame_phi)
+    f = luminance(brdf.eval(wo_true, wi_true))
+    # without a tree, I = int f cos dw = int f dx dy on the orthographic disk (midpoint rule)
+    integral = out["tree"]["integral"] if out["tree"] else float(np.sum(f) * (2.0 / grid) ** 2)
+    target = f * wi_true[:, 2] / integral if integral > 0 else np.zeros_like(f)
+    out["ratio"], out["ratio_error"], out["weight_rel_std"] = None, "", float("nan")
+    out["ratio_sampler"] = ratio_sampler
+    if ratio_sampler in sampler_names():
+        try:
+            s = make_sampler(ratio_sampler, brdf, n_max=n_max) if ratio_sampler == "adaptive" else None
+            s = s or make_sampler(ratio_sampler, brdf)
+            pdf = s.pdf(np.broadcast_to(wo_true, wi_true.shape), wi_true)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r = np.where((pdf > 0) | (target > 0), pdf / target, np.nan)
+            img = np.full(x.shape, np.nan)
+            img[inside] = r
+            out["ratio"] = img
+            ws, wpdf = s.sample(wo_true, n_samples, seed)
+            fw = luminance(brdf.eval(wo_true, ws)) * np.maximum(ws[:, 2], 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                w = np.where(wpdf > 0, fw / wpdf, 0.0)
+            mean = float(np.mean(w))
+            out["weight_rel_std"] = float(np.std(w) / mean) if mean > 0 else float("nan")
+        except BrdfStudioError as exc:
+            out["ratio_error"] = str(exc)
+    else:
+        out["ratio_error"] = f"sampler '{ratio_sampler}' is not available yet"
+    return out

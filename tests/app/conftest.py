@@ -1,4 +1,4 @@
-"""Fixtures for the app tests: one shared main window per module (building one costs about a second)."""
+"""Fixtures for the app tests: one main window shared by the whole session (building one takes seconds)."""
 
 from __future__ import annotations
 
@@ -20,11 +20,13 @@ def _isolated_config(tmp_path_factory):
         os.environ["BRDF_STUDIO_CONFIG_DIR"] = old
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def window(qapp):
     from app.main_window import MainWindow
 
     w = MainWindow(warm_up=False)
+    w.ask_unsaved = lambda: "discard"  # no modal dialogs in tests
+    w.ask_restore = lambda when: False
     w.show()
     qapp.processEvents()
     w.refresh_now()

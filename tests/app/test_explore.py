@@ -125,3 +125,47 @@ def test_albedo_panel_is_honest_about_availability(window, qtbot):
         qtbot.waitUntil(lambda: window.albedo_view.values.size > 0, timeout=20000)
     else:
         assert "not available yet" in window.albedo_view.status.text().lower()
+
+
+def test_exports_sample_sets_and_plots(window, tmp_path):
+    _select(window, "lambert")
+    window.sampling_view.strategy.setCurrentText("cosine")
+    rows = {}
+    for suffix in ("csv", "npy", "ply"):
+        out = window.export_samples(tmp_path / f"s.{suffix}", n=500)
+        assert out is not None and out.exists()
+    rows["csv"] = np.loadtxt(tmp_path / "s.csv", delimiter=",", skiprows=1)
+    rows["npy"] = np.load(tmp_path / "s.npy")
+    ply = (tmp_path / "s.ply").read_text().splitlines()
+    rows["ply"] = np.array([[float(v) for v in line.split()] for line in ply[ply.index("end_header") + 1 :]])
+    assert "element vertex 500" in ply
+    for r in rows.values():
+        assert r.shape == (500, 5)
+        assert np.allclose(np.linalg.norm(r[:, :3], axis=1), 1.0, atol=1e-6)
+        # cosine sampling of Lambert: pdf = cos/pi, weight = f cos/pdf = albedo (luminance of kd)
+        assert np.allclose(r[:, 3], r[:, 2] / np.pi, rtol=1e-6)
+        kd = window.document.material().params["kd"]
+        assert np.allclose(r[:, 4], 0.2126 * kd[0] + 0.7152 * kd[1] + 0.0722 * kd[2], rtol=1e-6)
+    assert window.export_samples(tmp_path / "s.txt") is None and "use .csv" in window.errors[-1]
+    plots = window.export_plots(tmp_path, "svg")
+    assert len(plots) == 3 and all(p.read_text().lstrip().startswith("<?xml") for p in plots)
+
+
+def test_measured_material_from_a_merl_file(window):
+    from importlib.resources import files
+
+    merl = next(
+        (p for p in files("resources").joinpath("materials").iterdir() if p.name.endswith(".binary")), None
+    )
+    if merl is None:
+        pytest.skip("no bundled MERL file in this build")
+    name = window.document.add_material("lambert", name="measured")
+    before = np.array(window.lobe_view.mesh.points)
+    assert window.load_measured(str(merl))
+    window.refresh_now()
+    assert window.document.material(name).measured is not None
+    assert "MERL" in window.material_editor.model_box.currentText()
+    assert not window.material_editor.param_editor.isVisibleTo(window.material_editor)
+    assert np.max(np.abs(np.array(window.lobe_view.mesh.points) - before)) > 1e-3
+    window.document.undo()
+    assert window.document.material(name).measured is None

@@ -1,0 +1,160 @@
+"""The scene tree: objects (each with a material chooser), materials, lights and the camera; selection is
+the document's, both ways."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import QAbstractItemView, QComboBox, QMenu, QTreeWidget, QTreeWidgetItem
+
+from app.state import Document
+from core.errors import BrdfStudioError
+
+ROLE_KIND = Qt.ItemDataRole.UserRole
+ROLE_NAME = Qt.ItemDataRole.UserRole + 1
+
+
+class SceneTree(QTreeWidget):
+    """Emits ``error(str)`` for edits the document refuses."""
+
+    error = Signal(str)
+
+    def __init__(self, document: Document, parent=None):
+        super().__init__(parent)
+        self.document = document
+        self.setColumnCount(2)
+        self.setHeaderLabels(["Scene", "Material / model"])
+        self.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.setContextMenuPolicy(Qt.ContextMenuPolicy.CustomContextMenu)
+        self.customContextMenuRequested.connect(self._context_menu)
+        self.roots = {}
+        for key, label in (
+            ("objects", "Objects"),
+            ("materials", "Materials"),
+            ("lights", "Lights"),
+            ("camera", "Camera"),
+        ):
+            item = QTreeWidgetItem([label])
+            item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+            self.addTopLevelItem(item)
+            self.roots[key] = item
+        self.combos: dict[str, QComboBox] = {}
+        self.itemSelectionChanged.connect(self._selection_from_tree)
+        ev = document.events
+        ev.objects_changed.connect(self.rebuild)
+        ev.materials_changed.connect(self.rebuild)
+        ev.material_changed.connect(lambda _n: self._relabel_materials())
+        ev.selection_changed.connect(self._selection_from_document)
+        self.rebuild()
+
+    def rebuild(self) -> None:
+        doc = self.document
+        self.blockSignals(True)
+        for root in self.roots.values():
+            root.takeChildren()
+        self.combos.clear()
+        for o in doc.data.objects:
+            item = QTreeWidgetItem([o.name, ""])
+            item.setData(0, ROLE_KIND, "object")
+            item.setData(0, ROLE_NAME, o.name)
+            self.roots["objects"].addChild(item)
+            combo = QComboBox()
+            combo.addItems(doc.material_names())
+            combo.setCurrentText(o.material)
+            combo.activated.connect(lambda i, n=o.name, c=combo: self._assign(n, c.itemText(i)))
+            self.setItemWidget(item, 1, combo)
+            self.combos[o.name] = combo
+        for m in doc.data.materials:
+            item = QTreeWidgetItem([m.name, ""])
+            item.setData(0, ROLE_KIND, "material")
+            item.setData(0, ROLE_NAME, m.name)
+            self.roots["materials"].addChild(item)
+        for i, light in enumerate(doc.data.extras.get("lights", []) or []):
+            item = QTreeWidgetItem([f"{light.get('type', 'light')} light {i + 1}", ""])
+            item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+            self.roots["lights"].addChild(item)
+        env = doc.data.extras.get("environment")
+        if env:
+            item = QTreeWidgetItem([f"environment ({env.get('type')})", ""])
+            item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+            self.roots["lights"].addChild(item)
+        cam = doc.data.extras.get("camera")
+        text = "pinhole" if not cam else f"pinhole, fov {cam.get('fov_deg', 40):g} deg"
+        cam_item = QTreeWidgetItem([text, ""])
+        cam_item.setFlags(cam_item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+        self.roots["camera"].addChild(cam_item)
+        for root in self.roots.values():
+            root.setExpanded(True)
+        self._relabel_materials()
+        self.blockSignals(False)
+        self._selection_from_document()
+        self.resizeColumnToContents(0)
+
+    def _relabel_materials(self) -> None:
+        doc = self.document
+        root = self.roots["materials"]
+        for i in range(root.childCount()):
+            item = root.child(i)
+            try:
+                label = doc.brdf(item.data(0, ROLE_NAME)).model.label
+            except (BrdfStudioError, KeyError):
+                label = "?"
+            item.setText(1, label)
+
+    def item_for(self, kind: str, name: str) -> QTreeWidgetItem | None:
+        root = self.roots["objects" if kind == "object" else "materials"]
+        for i in range(root.childCount()):
+            if root.child(i).data(0, ROLE_NAME) == name:
+                return root.child(i)
+        return None
+
+    def _assign(self, obj: str, material: str) -> None:
+        try:
+            self.document.assign_material(obj, material)
+        except BrdfStudioError as exc:
+            self.error.emit(str(exc))
+
+    def _selection_from_tree(self) -> None:
+        items = self.selectedItems()
+        if not items:
+            return
+        kind, name = items[0].data(0, ROLE_KIND), items[0].data(0, ROLE_NAME)
+        if kind == "object":
+            self.document.select_object(name)
+        elif kind == "material":
+            self.document.select_object(None)
+            self.document.select_material(name)
+
+    def _selection_from_document(self) -> None:
+        doc = self.document
+        item = None
+        if doc.selected_object:
+            item = self.item_for("object", doc.selected_object)
+        elif doc.current_material:
+            item = self.item_for("material", doc.current_material)
+        self.blockSignals(True)
+        self.clearSelection()
+        if item is not None:
+            item.setSelected(True)
+            self.scrollToItem(item)
+        self.blockSignals(False)
+
+    def _context_menu(self, pos) -> None:
+        item = self.itemAt(pos)
+        if item is None or item.data(0, ROLE_KIND) is None:
+            return
+        kind, name = item.data(0, ROLE_KIND), item.data(0, ROLE_NAME)
+        menu = QMenu(self)
+        if kind == "object":
+            assign = menu.addMenu("Assign material")
+            for m in self.document.material_names():
+                assign.addAction(m, lambda m=m: self._assign(name, m))
+            menu.addAction("Delete object", lambda: self._guard(self.document.remove_object, name))
+        else:
+            menu.addAction("Delete material", lambda: self._guard(self.document.remove_material, name))
+        menu.exec(self.viewport().mapToGlobal(pos))
+
+    def _guard(self, fn, *args) -> None:
+        try:
+            fn(*args)
+        except (BrdfStudioError, KeyError) as exc:
+            self.error.emit(str(exc))

@@ -1,0 +1,151 @@
+"""Between the app's document and the project file (the renderer's scene format, :mod:`core.scene`).
+
+A mesh file becomes one object, or one object per group when it holds several (``group_materials`` in the
+scene); paths are written relative to the project file. Camera, lights, environment and render settings are
+carried through unchanged (the document keeps them in ``extras``).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from app.capabilities import MEASURED_MODEL
+from app.state import DocumentData, Material, SceneObject
+from core.errors import BrdfStudioError
+from core.scene import Mesh, Scene, SceneError, load_scene, save_scene, scene_from_dict
+
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
+EXTRA_KEYS = ("name", "camera", "lights", "environment", "render")
+
+PartLister = Callable[[Path], list[str]]
+
+
+def mesh_parts(path: Path) -> list[str]:
+    """The group names of a mesh file as the renderer reads it (``SceneError`` if unreadable or empty)."""
+    from app.meshes import load_parts
+
+    return [p.name for p in load_parts(path)]
+
+
+def objects_from_mesh(path: Path, material: str, parts: PartLister = mesh_parts) -> list[SceneObject]:
+    """One object for a single-part file, one per part for a multi-part file."""
+    path = Path(path)
+    if path.suffix.lower() not in MESH_SUFFIXES:
+        raise SceneError(
+            f"'{path.name}' is not a mesh file this app reads (expected one of {', '.join(MESH_SUFFIXES)})"
+        )
+    names = parts(path)
+    if len(names) <= 1:
+        return [SceneObject(path.stem, str(path), None, material)]
+    return [SceneObject(f"{path.stem}/{n or i}", str(path), n, material) for i, n in enumerate(names)]
+
+
+def _rel(path: str, base: Path) -> str:
+    p = Path(path)
+    if not p.is_absolute():
+        return p.as_posix()
+    try:
+        return Path(os.path.relpath(p, base)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return p.as_posix()
+
+
+def document_to_scene(data: DocumentData, project: Path) -> Scene:
+    """A validated :class:`Scene` for ``data`` saved as ``project`` (paths made relative to its folder)."""
+    base = Path(project).resolve().parent
+    materials = []
+    for m in data.materials:
+        entry: dict = {"name": m.name, "notes": m.notes, "tags": list(m.tags)}
+        if m.measured:
+            entry["measured"] = _rel(m.measured, base)
+        else:
+            entry["model"] = m.model
+            entry["params"] = {k: list(v) if isinstance(v, tuple) else v for k, v in m.params.items()}
+        emission = data.extras.get("emission", {}).get(m.name)
+        if emission:
+            entry["emission"] = emission
+        materials.append(entry)
+    meshes: list[dict] = []
+    by_file: dict[str, dict] = {}
+    for o in data.objects:
+        if o.part is None:
+            meshes.append({"name": o.name, "path": _rel(o.mesh, base), "material": o.material})
+            continue
+        entry = by_file.get(o.mesh)
+        if entry is None:
+            entry = {"name": Path(o.mesh).stem, "path": _rel(o.mesh, base), "material": o.material}
+            entry["group_materials"] = {}
+            by_file[o.mesh] = entry
+            meshes.append(entry)
+        entry["group_materials"][o.part] = o.material
+    for m in meshes:
+        m.update(data.extras.get("mesh_options", {}).get(m["path"], {}))
+    raw = {"version": 1, "materials": materials, "meshes": meshes}
+    for k in EXTRA_KEYS:
+        if k in data.extras and data.extras[k] is not None:
+            raw[k] = data.extras[k]
+    return scene_from_dict(raw, source=Path(project).name, base_dir=base, check_files=False)
+
+
+def save_project(data: DocumentData, project: Path) -> None:
+    """Validate and write atomically (``BrdfStudioError`` with the reason on failure)."""
+    scene = document_to_scene(data, project)
+    try:
+        save_scene(scene, project)
+    except OSError as exc:
+        raise BrdfStudioError(f"cannot save '{project}': {exc.strerror or exc}") from None
+
+
+def scene_to_document(scene: Scene, parts: PartLister = mesh_parts) -> DocumentData:
+    """The document for a loaded scene; mesh files are listed (not loaded into the document)."""
+    data = DocumentData()
+    emission = {}
+    for m in scene.materials:
+        if m.measured:
+            data.materials.append(Material(m.name, MEASURED_MODEL, {}, str(scene.resolve(m.measured))))
+        else:
+            params = {k: tuple(v) if isinstance(v, list) else v for k, v in m.params.items()}
+            from core.model import get_model
+
+            values = get_model(m.model or "").resolve(params)
+            data.materials.append(Material(m.name, m.model or "", dict(values)))
+        data.materials[-1].notes = getattr(m, "notes", "") or ""
+        data.materials[-1].tags = list(getattr(m, "tags", []) or [])
+        if m.emissive:
+            emission[m.name] = list(m.emission)
+    mesh_options = {}
+    for i, mesh in enumerate(scene.meshes):
+        full = scene.resolve(mesh.path)
+        name = mesh.name or Path(mesh.path).stem
+        opts = {k: v for k, v in mesh.model_dump(mode="json").items() if k in ("transform", "smooth")}
+        if opts.get("smooth") is False:
+            opts.pop("smooth")
+        if opts.get("transform") == Mesh(path="x", material="x").model_dump(mode="json")["transform"]:
+            opts.pop("transform")
+        if opts:
+            mesh_options[Path(mesh.path).as_posix()] = opts
+        try:
+            names = parts(full)
+        except BrdfStudioError as exc:
+            raise SceneError(f"{scene.source}: meshes[{i}].path: {exc}") from None
+        if len(names) <= 1 and not mesh.group_materials:
+            data.objects.append(SceneObject(name, str(full), None, mesh.material))
+        else:
+            for n in names:
+                data.objects.append(
+                    SceneObject(f"{name}/{n}", str(full), n, mesh.group_materials.get(n, mesh.material))
+                )
+    dumped = scene.model_dump(mode="json")
+    data.extras = {k: dumped[k] for k in EXTRA_KEYS if dumped.get(k) is not None}
+    if emission:
+        data.extras["emission"] = emission
+    if mesh_options:
+        data.extras["mesh_options"] = mesh_options
+    return data
+
+
+def load_project(path: Path, parts: PartLister = mesh_parts) -> DocumentData:
+    """Read a project file into a document (``SceneError`` with the file and field at fault)."""
+    return scene_to_document(load_scene(path), parts)

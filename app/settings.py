@@ -1,0 +1,102 @@
+"""Per-user files of the app: recent projects and crash-recovery autosaves (JSON in a config folder).
+
+The folder is ``$BRDF_STUDIO_CONFIG_DIR`` if set (the tests set it), else ``$XDG_CONFIG_HOME/brdf-studio`` or
+``~/.config/brdf-studio``. Plain files, no Qt, so they are testable and readable by hand.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from core.io import atomic_write_text
+
+MAX_RECENT = 10
+
+
+def config_dir() -> Path:
+    env = os.environ.get("BRDF_STUDIO_CONFIG_DIR")
+    if env:
+        folder = Path(env)
+    else:
+        base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+        folder = Path(base) / "brdf-studio"
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def recent_files() -> list[Path]:
+    """Recent projects, newest first, only those that still exist."""
+    try:
+        raw = json.loads((config_dir() / "recent.json").read_text(encoding="utf-8"))
+        items = [Path(p) for p in raw if isinstance(p, str)]
+    except (OSError, ValueError):
+        return []
+    return [p for p in items if p.is_file()]
+
+
+def add_recent(path: Path) -> list[Path]:
+    path = Path(path).resolve()
+    items = [path] + [p for p in recent_files() if p.resolve() != path]
+    items = items[:MAX_RECENT]
+    with contextlib.suppress(OSError):
+        atomic_write_text(config_dir() / "recent.json", json.dumps([str(p) for p in items], indent=1))
+    return items
+
+
+# ---- crash recovery ------------------------------------------------------------------------------------
+def autosave_path(pid: int | None = None) -> Path:
+    return config_dir() / f"autosave-{os.getpid() if pid is None else pid}.json"
+
+
+def write_autosave(document: dict[str, Any], project: Path | None) -> Path:
+    """Write the unsaved document for this process (atomically)."""
+    path = autosave_path()
+    payload = {"time": time.time(), "project": str(project) if project else None, "document": document}
+    atomic_write_text(path, json.dumps(payload))
+    return path
+
+
+def clear_autosave() -> None:
+    with contextlib.suppress(OSError):
+        autosave_path().unlink()
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def orphaned_autosaves() -> list[Path]:
+    """Autosaves left by sessions that are no longer running (they crashed or were killed), newest first."""
+    out = []
+    for p in config_dir().glob("autosave-*.json"):
+        try:
+            pid = int(p.stem.split("-", 1)[1])
+        except ValueError:
+            continue
+        if not _alive(pid):
+            out.append(p)
+    return sorted(out, key=lambda p: p.stat().st_mtime, reverse=True)
+
+
+def read_autosave(path: Path) -> dict[str, Any]:
+    """The payload of an autosave file (``time``, ``project``, ``document``); ``ValueError`` if unreadable."""
+    try:
+        payload = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"autosave '{path.name}' is unreadable: {exc}") from None
+    if not isinstance(payload, dict) or "document" not in payload:
+        raise ValueError(f"autosave '{path.name}' holds no document")
+    return payload

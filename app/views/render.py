@@ -1,0 +1,275 @@
+"""The render panel: two strategies side by side on the same scene and budget (equal spp or equal time),
+rendered progressively in a worker thread; synchronized pan and zoom, live counters, error against a
+reference over time, cancel and restart, and exports (EXR, PNG, the labelled composite, error curves)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDoubleSpinBox,
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSpinBox,
+    QSplitter,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.render_session import render_events
+from app.views.figure import FigureView
+from app.views.images import ImageView
+from app.workers import GeneratorWorker, WorkerPool
+from core.errors import BrdfStudioError, OutputError
+from core.sampler import sampler_names
+from core.scene import Scene
+
+
+class RenderPanel(QWidget):
+    """Renders what ``scene_provider()`` returns. Emits ``error(str)``."""
+
+    error = Signal(str)
+
+    def __init__(self, scene_provider: Callable[[], Scene], workers: WorkerPool, parent=None):
+        super().__init__(parent)
+        self.scene_provider = scene_provider
+        self.workers = workers
+        self.worker: GeneratorWorker | None = None
+        self.frames: dict[str, dict] = {}
+        self.curves: dict[str, list[dict]] = {}
+        self.reference: np.ndarray | None = None
+        self.status_text = ""
+
+        names = sampler_names()
+        self.strategy_a = QComboBox()
+        self.strategy_b = QComboBox()
+        self.strategy_a.addItems(names)
+        self.strategy_b.addItems(["(none)", *names])
+        self.strategy_a.setCurrentText("uniform")
+        self.strategy_b.setCurrentText("adaptive" if "adaptive" in names else "cosine")
+        self.mode = QComboBox()
+        self.mode.addItem("equal spp", "spp")
+        self.mode.addItem("equal time", "time")
+        self.spp = QSpinBox()
+        self.spp.setRange(1, 100_000)
+        self.spp.setValue(16)
+        self.spp.setSuffix(" spp")
+        self.seconds = QDoubleSpinBox()
+        self.seconds.setRange(0.1, 36_000)
+        self.seconds.setValue(5.0)
+        self.seconds.setSuffix(" s")
+        self.width_box = QSpinBox()
+        self.width_box.setRange(8, 4096)
+        self.width_box.setValue(256)
+        self.height_box = QSpinBox()
+        self.height_box.setRange(8, 4096)
+        self.height_box.setValue(192)
+        self.start_button = QPushButton("Render")
+        self.start_button.setToolTip("Start (or restart) the render (F5)")
+        self.cancel_button = QPushButton("Cancel")
+        self.cancel_button.setEnabled(False)
+        self.mode.currentIndexChanged.connect(self._mode_changed)
+        self.start_button.clicked.connect(self.start)
+        self.cancel_button.clicked.connect(self.cancel)
+
+        controls = QHBoxLayout()
+        for label, w in (
+            ("A", self.strategy_a), ("B", self.strategy_b), ("", self.mode), ("", self.spp), ("", self.seconds),
+            ("size", self.width_box), ("x", self.height_box),
+        ):  # fmt: skip
+            if label:
+                controls.addWidget(QLabel(label))
+            controls.addWidget(w)
+        controls.addWidget(self.start_button)
+        controls.addWidget(self.cancel_button)
+        controls.addStretch(1)
+
+        self.view_a = ImageView()
+        self.view_b = ImageView()
+        self.view_a.link(self.view_b)
+        self.counter_a = QLabel("")
+        self.counter_b = QLabel("")
+        images = QWidget()
+        grid = QGridLayout(images)
+        grid.setContentsMargins(0, 0, 0, 0)
+        grid.addWidget(self.view_a, 0, 0)
+        grid.addWidget(self.view_b, 0, 1)
+        grid.addWidget(self.counter_a, 1, 0)
+        grid.addWidget(self.counter_b, 1, 1)
+        self.error_plot = FigureView(size=(6.0, 2.2))
+        self.status = QLabel("Set up the scene, then Render. Renders use the Scene tab's camera.")
+        self.status.setWordWrap(True)
+        split = QSplitter()
+        split.setOrientation(split.orientation().Vertical)
+        split.addWidget(images)
+        split.addWidget(self.error_plot)
+        split.setSizes([500, 180])
+        layout = QVBoxLayout(self)
+        layout.addLayout(controls)
+        layout.addWidget(split, 1)
+        layout.addWidget(self.status)
+        self._mode_changed()
+        self._plot_errors()
+
+    # ---- control ---------------------------------------------------------------------------------------
+    def _mode_changed(self) -> None:
+        spp = self.mode.currentData() == "spp"
+        self.spp.setVisible(spp)
+        self.seconds.setVisible(not spp)
+
+    def strategies(self) -> list[str]:
+        names = [self.strategy_a.currentText()]
+        b = self.strategy_b.currentText()
+        if b and b != "(none)" and b != names[0]:
+            names.append(b)
+        return names
+
+    @property
+    def running(self) -> bool:
+        return self.worker is not None
+
+    def start(self) -> None:
+        """Start a render (cancelling a running one first: Render while rendering restarts)."""
+        self.cancel()
+        try:
+            scene = self.scene_provider()
+        except BrdfStudioError as exc:
+            self.error.emit(str(exc))
+            return
+        mode = self.mode.currentData()
+        budget = self.spp.value() if mode == "spp" else self.seconds.value()
+        self.frames.clear()
+        self.curves = {name: [] for name in self.strategies()}
+        worker = GeneratorWorker(
+            render_events, scene, self.strategies(), mode, budget,
+            self.width_box.value(), self.height_box.value(), 0, self.reference,
+        )  # fmt: skip
+        worker.yielded.connect(lambda event, w=worker: self._on_event(w, event))
+        worker.failed.connect(lambda msg, w=worker: self._on_failed(w, msg))
+        worker.finished.connect(lambda w=worker: self._on_finished(w))
+        self.worker = worker
+        self.start_button.setText("Restart")
+        self.cancel_button.setEnabled(True)
+        self.set_status("Starting ...")
+        self.workers.start(worker)
+
+    def cancel(self) -> None:
+        """Stop the running render after its current pass (returns at once; the UI never waits)."""
+        if self.worker is not None:
+            self.worker.cancel()
+            self.set_status("Cancelled.")
+            self.worker = None
+        self.cancel_button.setEnabled(False)
+        self.start_button.setText("Render")
+
+    def set_status(self, text: str) -> None:
+        self.status_text = text
+        self.status.setText(text)
+
+    def _on_event(self, worker: GeneratorWorker, event: dict) -> None:
+        if worker is not self.worker:
+            return  # a cancelled render's last frames
+        if event["kind"] == "status":
+            self.set_status(event["text"])
+        elif event["kind"] == "frame":
+            self._show_frame(event)
+        elif event["kind"] == "done":
+            self.set_status("Done. " + self._summary())
+
+    def _on_failed(self, worker: GeneratorWorker, message: str) -> None:
+        if worker is self.worker:
+            self.set_status(f"Render failed: {message}")
+            self.error.emit(message)
+
+    def _on_finished(self, worker: GeneratorWorker) -> None:
+        if worker is self.worker:
+            self.worker = None
+            self.cancel_button.setEnabled(False)
+            self.start_button.setText("Render")
+
+    def _show_frame(self, event: dict) -> None:
+        from renderer.image_io import tonemap
+
+        name = event["strategy"]
+        self.frames[name] = event
+        self.curves.setdefault(name, []).append({k: event[k] for k in ("spp", "seconds", "rmse", "relmse")})
+        names = self.strategies()
+        view, counter = (self.view_a, self.counter_a) if name == names[0] else (self.view_b, self.counter_b)
+        view.set_image(tonemap(event["image"]))
+        rate = event["rays"] / event["seconds"] / 1e6 if event["seconds"] > 0 else 0.0
+        err = f"RMSE {event['rmse']:.4g}" if math.isfinite(event["rmse"]) else "RMSE: no reference"
+        counter.setText(
+            f"<b>{name}</b>: {event['spp']} spp, {event['seconds']:.2f} s, {rate:.2f} Mrays/s, {err}"
+        )
+        self._plot_errors()
+
+    def _summary(self) -> str:
+        return "; ".join(f"{n}: {f['spp']} spp in {f['seconds']:.2f} s" for n, f in self.frames.items())
+
+    def _plot_errors(self) -> None:
+        ax = self.error_plot.axes
+        ax.clear()
+        drawn = False
+        for name, recs in self.curves.items():
+            pts = [(r["seconds"], r["rmse"]) for r in recs if math.isfinite(r["rmse"]) and r["rmse"] > 0]
+            if pts:
+                t, e = zip(*pts, strict=True)
+                ax.loglog(t, e, marker="o", ms=3, label=name)
+                drawn = True
+        if drawn:
+            ax.set_xlabel("render time (s)")
+            ax.set_ylabel("RMSE")
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3, which="both")
+        else:
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "Error vs time: load a reference EXR to measure RMSE", ha="center", va="center",
+                    transform=ax.transAxes, fontsize=9)  # fmt: skip
+        self.error_plot.redraw()
+
+    # ---- reference and exports --------------------------------------------------------------------------
+    def load_reference(self, path: str | Path) -> None:
+        from renderer.image_io import read_exr
+
+        image = read_exr(path)
+        self.reference = image
+        self.height_box.setValue(image.shape[0])
+        self.width_box.setValue(image.shape[1])
+        self.set_status(f"Reference {Path(path).name} ({image.shape[1]}x{image.shape[0]}) loaded.")
+
+    def export(self, kind: str, path: str | Path) -> list[Path]:
+        """Write ``exr`` / ``png`` (one file per strategy, ``<stem>_<strategy>``), ``composite`` (one PNG)
+        or ``errors`` (``<stem>.csv`` and ``<stem>.png``). Returns the files written."""
+        from renderer.image_io import composite, write_error_curves, write_exr, write_png
+
+        if not self.frames:
+            raise OutputError("nothing to export yet: render first")
+        path = Path(path)
+        out: list[Path] = []
+        if kind in ("exr", "png"):
+            for name, frame in self.frames.items():
+                target = path.with_name(f"{path.stem}_{name}.{kind}")
+                if kind == "exr":
+                    write_exr(target, frame["image"], {"strategy": name, "spp": frame["spp"]})
+                else:
+                    write_png(target, frame["image"])
+                out.append(target)
+        elif kind == "composite":
+            names = list(self.frames)
+            labels = [f"{n} {self.frames[n]['spp']} spp {self.frames[n]['seconds']:.1f} s" for n in names]
+            target = path.with_suffix(".png")
+            write_png(target, composite([self.frames[n]["image"] for n in names], labels))
+            out.append(target)
+        elif kind == "errors":
+            out += list(write_error_curves(path.with_suffix(""), self.curves, title="RMSE vs time"))
+        else:
+            raise OutputError(f"unknown export kind '{kind}'")
+        self.set_status("Exported " + ", ".join(p.name for p in out))
+        return out

@@ -1,0 +1,214 @@
+"""The scene viewport: every object's mesh shaded in its material's colour, the selection highlighted,
+lights drawn as outlines, click to select. Its camera is the one renders use."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pyvista as pv
+import vtk
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
+from pyvistaqt import QtInteractor
+
+from app.meshes import part
+from app.state import Document
+from core.errors import BrdfStudioError
+from core.model import BRDF
+from core.scene import Transform
+
+SELECTED_EDGE = "#ffb300"
+
+
+def display_colour(brdf: BRDF) -> tuple[float, float, float]:
+    """A flat colour for a material: ``pi f(wo, n)`` with ``wo`` at 45 degrees, away from any mirror peak
+    (a diffuse-reflectance look-alike), clipped to [0, 1] and gamma-encoded for display."""
+    wo = np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5)])
+    rgb = np.clip(math.pi * brdf.eval(wo, np.array([0.0, 0.0, 1.0]))[0], 0.0, 1.0)
+    return tuple(float(c) ** (1 / 2.2) for c in rgb)  # type: ignore[return-value]
+
+
+def polydata_for(mesh: str, group: str | None, transform: dict | None = None) -> pv.PolyData:
+    parts = part(mesh, group)
+    verts, faces, offset = [], [], 0
+    t = Transform(**transform) if transform else None
+    for p in parts:
+        v = p.vertices
+        if t is not None:
+            m = np.asarray(t.matrix())
+            v = v @ m[:3, :3].T + m[:3, 3]
+        verts.append(v)
+        faces.append(p.faces + offset)
+        offset += len(v)
+    v = np.concatenate(verts)
+    f = np.concatenate(faces)
+    cells = np.hstack([np.full((len(f), 1), 3), f]).ravel()
+    return pv.PolyData(v, cells)
+
+
+class SceneViewport(QWidget):
+    """Emits ``object_picked(name)`` (empty string: clicked on nothing)."""
+
+    object_picked = Signal(str)
+
+    def __init__(self, document: Document, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.document = document
+        self.plotter = QtInteractor(self)
+        self.plotter.set_background("#3a3f44", top="#8a949c")
+        self.status = QLabel("")
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.plotter.interactor, 1)
+        layout.addWidget(self.status)
+        self.actors: dict[str, vtk.vtkActor] = {}
+        self.meshes: dict[str, pv.PolyData] = {}
+        self._light_actors: list = []
+        self._keys: dict[str, tuple] = {}
+        self.plotter.add_axes()
+        self._picker = vtk.vtkPropPicker()
+        self._press: tuple[int, int] | None = None
+        self.plotter.iren.add_observer("LeftButtonPressEvent", self._on_press)
+        self.plotter.iren.add_observer("LeftButtonReleaseEvent", self._on_release)
+        ev = document.events
+        ev.objects_changed.connect(self.sync)
+        ev.material_changed.connect(lambda _name: self.recolour())
+        ev.materials_changed.connect(self.recolour)
+        ev.selection_changed.connect(self.highlight)
+        self._camera_set = False
+        self.sync()
+
+    # ---- document -> actors ----------------------------------------------------------------------------
+    def sync(self) -> None:
+        """Add, remove and update actors to match the document's objects."""
+        doc = self.document
+        wanted = {o.name: o for o in doc.data.objects}
+        for name in list(self.actors):
+            if name not in wanted:
+                self.plotter.remove_actor(self.actors.pop(name), render=False)
+                self.meshes.pop(name, None)
+                self._keys.pop(name, None)
+        problems = []
+        opts = doc.data.extras.get("mesh_options", {})
+        for name, o in wanted.items():
+            transform = None
+            for key, value in opts.items():
+                if o.mesh.replace("\\", "/").endswith(key):
+                    transform = value.get("transform")
+            key = (o.mesh, o.part, repr(transform))
+            if self._keys.get(name) == key:
+                continue
+            if name in self.actors:
+                self.plotter.remove_actor(self.actors.pop(name), render=False)
+            try:
+                mesh = polydata_for(o.mesh, o.part, transform)
+            except BrdfStudioError as exc:
+                problems.append(str(exc))
+                continue
+            self.meshes[name] = mesh
+            self.actors[name] = self.plotter.add_mesh(mesh, color="white", smooth_shading=False, render=False)
+            self._keys[name] = key
+        self._draw_lights()
+        self.recolour(render=False)
+        self.highlight(render=False)
+        if not self._camera_set and self.actors:
+            self.apply_camera(doc.data.extras.get("camera"))
+        self.status.setText(
+            f"{len(self.actors)} object(s)" + ("; problems: " + "; ".join(problems) if problems else "")
+        )
+        self.plotter.render()
+
+    def _draw_lights(self) -> None:
+        for a in self._light_actors:
+            self.plotter.remove_actor(a, render=False)
+        self._light_actors = []
+        for light in self.document.data.extras.get("lights", []) or []:
+            if light.get("type") == "quad":
+                c, e1, e2 = (np.asarray(light[k], dtype=float) for k in ("corner", "edge1", "edge2"))
+                pts = np.array([c, c + e1, c + e1 + e2, c + e2, c])
+                actor = self.plotter.add_lines(pts, color="yellow", width=3, connected=True)
+            elif light.get("type") == "point":
+                actor = self.plotter.add_mesh(
+                    pv.Sphere(radius=0.05, center=light["position"]), color="yellow", render=False
+                )
+            else:
+                continue
+            self._light_actors.append(actor)
+
+    def recolour(self, render: bool = True) -> None:
+        doc = self.document
+        for o in doc.data.objects:
+            actor = self.actors.get(o.name)
+            if actor is None:
+                continue
+            try:
+                colour = display_colour(doc.brdf(o.material))
+            except (BrdfStudioError, KeyError):
+                colour = (1.0, 0.0, 1.0)  # a material that cannot be evaluated shows magenta
+            actor.GetProperty().SetColor(*colour)
+        if render:
+            self.plotter.render()
+
+    def highlight(self, render: bool = True) -> None:
+        selected = self.document.selected_object
+        for name, actor in self.actors.items():
+            prop = actor.GetProperty()
+            on = name == selected
+            prop.SetEdgeVisibility(on)
+            prop.SetEdgeColor(*pv.Color(SELECTED_EDGE).float_rgb)
+            prop.SetLineWidth(1.5 if on else 1.0)
+        if render:
+            self.plotter.render()
+
+    # ---- camera ----------------------------------------------------------------------------------------
+    def apply_camera(self, camera: dict | None) -> None:
+        if camera:
+            cam = self.plotter.camera
+            cam.position = tuple(camera.get("position", (0, 1, 4)))
+            cam.focal_point = tuple(camera.get("target", (0, 0, 0)))
+            cam.up = tuple(camera.get("up", (0, 1, 0)))
+            cam.view_angle = float(camera.get("fov_deg", 40.0))
+        else:
+            self.plotter.reset_camera()
+        self._camera_set = True
+
+    def camera(self) -> dict:
+        """The viewport's camera in the project's terms (what a render from the viewport uses)."""
+        cam = self.plotter.camera
+        return {
+            "position": [float(v) for v in cam.position],
+            "target": [float(v) for v in cam.focal_point],
+            "up": [float(v) for v in cam.up],
+            "fov_deg": float(cam.view_angle),
+        }
+
+    # ---- picking -------------------------------------------------------------------------------------
+    def pick_at(self, x: int, y: int) -> str:
+        """The object under display coordinates ``(x, y)`` (VTK's: origin bottom-left), or ``""``."""
+        self._picker.Pick(x, y, 0, self.plotter.renderer)
+        actor = self._picker.GetActor()
+        for name, a in self.actors.items():
+            if a is actor:
+                return name
+        return ""
+
+    def display_point(self, world: np.ndarray) -> tuple[int, int]:
+        """Display coordinates (VTK's) of a world point."""
+        r = self.plotter.renderer
+        r.SetWorldPoint(*world, 1.0)
+        r.WorldToDisplay()
+        x, y, _ = r.GetDisplayPoint()
+        return int(round(x)), int(round(y))
+
+    def _on_press(self, iren, _event) -> None:
+        self._press = iren.GetEventPosition()
+
+    def _on_release(self, iren, _event) -> None:
+        pos = iren.GetEventPosition()
+        if self._press is not None and abs(pos[0] - self._press[0]) + abs(pos[1] - self._press[1]) <= 3:
+            self.object_picked.emit(self.pick_at(*pos))  # a click, not a drag of the camera
+        self._press = None
+
+    def close_view(self) -> None:
+        self.plotter.close()

@@ -1,0 +1,81 @@
+"""Document <-> project file (core.scene), without Qt or mesh files."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from app.project import document_to_scene, load_project, objects_from_mesh, save_project, scene_to_document
+from app.state import DocumentData, Material, SceneObject
+from core.scene import SceneError, load_scene
+
+PARTS = {"cubes.obj": ["a", "b"], "one.obj": ["one"]}
+
+
+def lister(path):
+    return PARTS[path.name]
+
+
+def _data(tmp_path):
+    return DocumentData(
+        [
+            Material("white", "lambert", {"kd": (0.8, 0.8, 0.8)}, notes="chalk", tags=["diffuse"]),
+            Material("gloss", "phong", {}),
+        ],
+        [
+            SceneObject("one", str(tmp_path / "one.obj"), None, "white"),
+            SceneObject("cubes/a", str(tmp_path / "cubes.obj"), "a", "white"),
+            SceneObject("cubes/b", str(tmp_path / "cubes.obj"), "b", "gloss"),
+        ],
+        {"camera": {"position": [0, 2, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 35.0}},
+    )
+
+
+def test_multi_part_meshes_become_group_materials(tmp_path):
+    scene = document_to_scene(_data(tmp_path), tmp_path / "p.json")
+    assert [m.path for m in scene.meshes] == ["one.obj", "cubes.obj"]  # relative to the project
+    assert scene.meshes[1].group_materials == {"a": "white", "b": "gloss"}
+    assert scene.materials[0].notes == "chalk" and scene.materials[0].tags == ["diffuse"]
+    assert scene.camera.fov_deg == 35.0
+
+
+def test_save_and_load_round_trip(tmp_path):
+    data = _data(tmp_path)
+    for name in PARTS:
+        (tmp_path / name).write_text("o x\n")
+    save_project(data, tmp_path / "p.json")
+    raw = json.loads((tmp_path / "p.json").read_text())
+    assert raw["version"] == 1
+    load_scene(tmp_path / "p.json")  # the renderer's loader accepts it
+    back = load_project(tmp_path / "p.json", lister)
+    assert [(o.name, o.part, o.material) for o in back.objects] == [
+        (o.name, o.part, o.material) for o in data.objects
+    ]
+    assert back.materials[0] == data.materials[0]
+    assert back.materials[1].params == dict(back.materials[1].params)  # phong defaults were resolved
+    assert back.extras["camera"]["fov_deg"] == 35.0
+
+
+def test_objects_from_mesh_splits_parts(tmp_path):
+    objs = objects_from_mesh(tmp_path / "cubes.obj", "white", lister)
+    assert [(o.name, o.part) for o in objs] == [("cubes/a", "a"), ("cubes/b", "b")]
+    assert [o.part for o in objects_from_mesh(tmp_path / "one.obj", "white", lister)] == [None]
+    with pytest.raises(SceneError, match="not a mesh file"):
+        objects_from_mesh(tmp_path / "notes.txt", "white", lister)
+
+
+def test_bad_parameter_in_a_project_names_the_field(tmp_path):
+    data = _data(tmp_path)
+    data.materials[0].params["kd"] = (2.0, 0.0, 0.0)
+    with pytest.raises(SceneError, match=r"materials\[0\]\.params\.kd"):
+        document_to_scene(data, tmp_path / "p.json")
+
+
+def test_scene_to_document_reports_unreadable_meshes(tmp_path):
+    def broken(path):
+        raise SceneError("cannot read")
+
+    scene = document_to_scene(_data(tmp_path), tmp_path / "p.json")
+    with pytest.raises(SceneError, match=r"meshes\[0\]\.path"):
+        scene_to_document(scene, broken)
