@@ -148,8 +148,9 @@ def _plot(rows: list[dict], path: Path) -> None:
     ax1.set_xscale("log")
     ax1.set_xlabel("million evaluations / s (eval_batch)")
     ax1.legend()
-    for r in rows:
-        ax2.plot(THETAS_DEG, [r[f"rho_{t:g}_Y"] for t in THETAS_DEG], marker="o", label=r["model"])
+    for i, r in enumerate(rows):
+        style = ("-", "--", ":")[(i // 10) % 3]  # the colour cycle has 10 entries
+        ax2.plot(THETAS_DEG, [r[f"rho_{t:g}_Y"] for t in THETAS_DEG], style, marker="o", label=r["model"])
     ax2.set_xlabel("theta_o (deg)")
     ax2.set_ylabel("directional albedo (luminance)")
     ax2.legend(fontsize=7, ncol=2)
