@@ -75,17 +75,21 @@ def half_diff_angles(wi, wo):
         hx, hy, hz = 0.0, 0.0, 1.0
     else:
         hx, hy, hz = hx / n, hy / n, hz / n
-    theta_h = math.acos(min(1.0, max(-1.0, hz)))
-    phi_h = math.atan2(hy, hx)
+    # cos/sin of theta_h and phi_h straight from h (no trig calls); atan2 keeps small angles accurate.
+    r = math.sqrt(hx * hx + hy * hy)
+    theta_h = math.atan2(r, hz)
+    if r > 0.0:
+        c, s = hx / r, hy / r
+    else:
+        c, s = 1.0, 0.0
     # d = R_y(-theta_h) R_z(-phi_h) wi: wi seen from the half vector's frame.
-    c, s = math.cos(phi_h), math.sin(phi_h)
     x = wi[0] * c + wi[1] * s
     y = wi[1] * c - wi[0] * s
     z = wi[2]
-    ct, st = math.cos(theta_h), math.sin(theta_h)
+    ct, st = hz, r
     dx = x * ct - z * st
     dz = x * st + z * ct
-    theta_d = math.acos(min(1.0, max(-1.0, dz)))
+    theta_d = math.atan2(math.sqrt(dx * dx + y * y), dz)
     phi_d = math.atan2(y, dx)
     return theta_h, theta_d, phi_d
 
