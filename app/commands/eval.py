@@ -40,6 +40,8 @@ def brdf_from_args(args: argparse.Namespace) -> BRDF:
         return measured_brdf(args.measured)
     if args.model is None:
         raise ParameterError("give --model M (see 'brdf-studio models') or --measured FILE")
+    if args.model == "merl":
+        raise ParameterError("a measured BRDF is read from a file: give --measured FILE")
     return make_brdf(args.model, args.param)
 
 

@@ -118,6 +118,7 @@ def test_albedo_measured(capsys, constant_merl):
         (["eval", "--model", "lambert", "--wi", "0,0", "--wo", "a,b"], "--wo must be two numbers"),
         (["eval", "--model", "lambert", "--wi", "0,inf", "--wo", "0,0"], "finite"),
         (["eval", "--wi", "0,0", "--wo", "0,0"], "give --model"),
+        (["eval", "--model", "merl", "--wi", "0,0", "--wo", "0,0"], "give --measured FILE"),
         (["albedo", "--model", "lambert", "--theta", "95"], r"--theta must be within \[0, 90\]"),
         (["albedo", "--model", "lambert", "--theta", "x"], "--theta must be a number"),
         (["albedo", "--model", "nope"], "unknown model"),
