@@ -195,8 +195,10 @@ class CDFSampler(Sampler):
                 raise ParameterError(f"{label} must be a positive integer, got {v}")
         if not (0.0 <= tol < 1.0) or not (0.0 < defensive < 1.0):
             raise ParameterError("tol must be in [0, 1) and defensive in (0, 1)")
-        if n_phi_o is None:
-            n_phi_o = 1 if brdf.model.isotropic else 16
+        if n_phi_o is None:  # anisotropic: a coarser (theta_o, phi_o) grid keeps memory in check
+            n_phi_o = 1 if brdf.model.isotropic else 8
+            if not brdf.model.isotropic:
+                n_theta_o = min(n_theta_o, 16)
         self.n_theta_o, self.n_phi_o = int(n_theta_o), int(n_phi_o)
         self.n_theta, self.n_phi, self.substeps = int(n_theta), int(n_phi), int(substeps)
         self.tol, self.defensive = float(tol), float(defensive)

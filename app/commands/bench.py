@@ -1,0 +1,80 @@
+"""``brdf-studio bench samplers``: the sampler study (precompute, memory, speed, error of L_r)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from tqdm import tqdm
+
+from core.errors import ParameterError, UnknownNameError
+from core.model import get_model
+from core.sampler import sampler_names
+from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results
+
+QUICK_MODELS = ("lambert", "phong", "ward")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> list[str]:
+    p = sub.add_parser("bench", help="run a benchmark study (samplers)")
+    p.add_argument("study", choices=["samplers"], help="which study")
+    p.add_argument("--models", nargs="+", metavar="M", help="models to include (default: all)")
+    p.add_argument("--measured", nargs="*", default=None, metavar="FILE", help="MERL files to include")
+    p.add_argument(
+        "--samplers", nargs="+", metavar="S", help=f"strategies (default: {' '.join(DEFAULT_SAMPLERS)})"
+    )
+    p.add_argument("--thetas", nargs="+", type=float, metavar="DEG", help="incident angles in degrees")
+    p.add_argument("--quick", action="store_true", help="a small smoke run (under a minute)")
+    p.add_argument("--out", type=Path, default=Path("results/samplers"), help="results folder")
+    return ["bench"]
+
+
+def _config(args: argparse.Namespace) -> StudyConfig:
+    if args.quick:
+        cfg = StudyConfig(thetas=(30.0,), counts=(16, 64, 256), reps=16, reference_samples=1 << 17)
+    else:
+        cfg = StudyConfig()
+    if args.thetas:
+        bad = [t for t in args.thetas if not 0.0 <= t <= 90.0]
+        if bad:
+            raise ParameterError(f"incident angles must be within [0, 90] degrees, got {bad}")
+        cfg.thetas = tuple(args.thetas)
+    if args.samplers:
+        unknown = [s for s in args.samplers if s not in sampler_names() and s != "ris"]
+        if unknown:
+            raise UnknownNameError(
+                f"unknown sampler(s) {', '.join(unknown)}; known: {', '.join(sampler_names())}, ris"
+            )
+        cfg.samplers = tuple(args.samplers)
+    else:
+        cfg.samplers = tuple(s for s in DEFAULT_SAMPLERS if s in sampler_names() or s == "ris")
+    return cfg
+
+
+def _measured_default() -> list[Path]:
+    try:
+        from core.merl import demo_merl_path
+    except ImportError:
+        return []
+    path = demo_merl_path()
+    return [path] if path and Path(path).exists() else []
+
+
+def run(args: argparse.Namespace) -> int:
+    cfg = _config(args)
+    names = args.models or (QUICK_MODELS if args.quick else None)
+    for n in names or ():
+        get_model(n)  # a clear error for an unknown name before any work
+    measured = args.measured if args.measured is not None else ([] if args.quick else _measured_default())
+    mats = materials(names, measured)
+    lights = default_lights()
+    steps = len(mats) * len(cfg.thetas) * len(lights) * len(cfg.samplers)
+    rows = []
+    with tqdm(total=steps, desc="sampler study", unit="case", disable=None) as bar:
+        for label, brdf in mats:
+            bar.set_postfix_str(label)
+            rows += study_material(label, brdf, cfg, lights, tick=bar.update)
+    paths = write_results(rows, args.out)
+    print(paths["markdown"].read_text())
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0

@@ -1,0 +1,308 @@
+"""The sampler study: precomputation, memory, speed and the error of the reflected-radiance estimator.
+
+For every BRDF, incident angle and light (white furnace, a small bright light, an HDR environment map), each
+sampling strategy estimates ``L_r(wo) = integral f L cos d(omega)`` with ``N`` samples, ``reps`` times over.
+The error is the relative RMSE against a reference made with many samples of the strategy that had the lowest
+variance in a pilot run (its own standard error is reported too). Speed is measured on the same runs, so the
+error-against-time curves and the efficiency ``1 / (variance * time per sample)`` (the seed's definition)
+come from one measurement.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.geometry import degrees_to_dir
+from core.io import atomic_write_text
+from core.lighting import CapLight, Furnace, LatLongEnvironment
+from core.model import BRDF, LUMINANCE, all_models
+from core.ris import ris_sample
+from core.sampler import Sampler, make_sampler
+
+DEFAULT_SAMPLERS = (
+    "uniform",
+    "cosine",
+    "analytic",
+    "adaptive",
+    "uniform_cdf",
+    "compress_cdf",
+    "factored",
+    "ris",
+)
+RIS_CANDIDATES = 8
+
+
+def default_lights() -> list[Any]:
+    return [
+        Furnace(),
+        CapLight(axis=degrees_to_dir(40.0, 180.0), half_angle=math.radians(4.0), radiance=200.0),
+        LatLongEnvironment(LatLongEnvironment.procedural_sky()),
+    ]
+
+
+@dataclass
+class Row:
+    material: str
+    theta_o: float
+    light: str
+    sampler: str
+    samples: int
+    rel_rmse: float
+    seconds_per_sample: float
+    reference: float
+    reference_rel_stderr: float
+    efficiency: float
+    precompute_seconds: float
+    memory_bytes: int
+    samples_per_second: float
+
+
+@dataclass
+class StudyConfig:
+    thetas: Sequence[float] = (0.0, 30.0, 60.0, 80.0)
+    counts: Sequence[int] = (16, 64, 256, 1024)
+    reps: int = 32
+    reference_samples: int = 1 << 20
+    samplers: Sequence[str] = DEFAULT_SAMPLERS
+    options: dict[str, dict[str, Any]] = field(default_factory=lambda: {"adaptive": {"n_max": 2.0}})
+
+
+class _Estimator:
+    """One strategy's estimator of ``L_r``: ``draw(wo, n, seed) -> per-sample contributions (n,)``."""
+
+    def __init__(self, name: str, brdf: BRDF, options: dict[str, Any]):
+        self.name = name
+        self.brdf = brdf
+        t0 = time.perf_counter()
+        if name == "ris":
+            source = "analytic" if brdf.model.sample is not None else "cosine"
+            self.sampler: Sampler = make_sampler(source, brdf)
+        else:
+            self.sampler = make_sampler(name, brdf, **options.get(name, {}))
+        self.precompute = time.perf_counter() - t0
+
+    def warm(self, wo: np.ndarray, light: Any) -> float:
+        """First use at ``wo`` (lazy tables are built here); returns its seconds."""
+        t0 = time.perf_counter()
+        self.draw(wo, 64, light, seed=1)
+        return time.perf_counter() - t0
+
+    def draw(self, wo: np.ndarray, n: int, light: Any, seed: int) -> np.ndarray:
+        if self.name == "ris":
+            wi, weight = ris_sample(self.sampler, wo, light.radiance, n, RIS_CANDIDATES, seed=seed)
+            g = (self.brdf.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
+            return g * weight
+        wi, pdf = self.sampler.sample(wo, n, seed=seed)
+        g = (self.brdf.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
+        return np.where(pdf > 0.0, g / np.where(pdf > 0.0, pdf, 1.0), 0.0)
+
+    def memory(self) -> int:
+        return int(self.sampler.info().get("memory_bytes", 0))
+
+
+def _applicable(name: str, brdf: BRDF) -> bool:
+    return not (name == "analytic" and brdf.model.sample is None)
+
+
+def study_material(
+    label: str,
+    brdf: BRDF,
+    config: StudyConfig,
+    lights: Sequence[Any],
+    tick: Callable[[], None] = lambda: None,
+) -> list[Row]:
+    """Every row of the study for one material."""
+    estimators = [_Estimator(s, brdf, config.options) for s in config.samplers if _applicable(s, brdf)]
+    rows: list[Row] = []
+    for theta in config.thetas:
+        wo = degrees_to_dir(min(theta, 89.9))
+        warm = {e.name: e.warm(wo, lights[0]) for e in estimators}
+        for light in lights:
+            pilot = {e.name: np.var(e.draw(wo, 4096, light, seed=7)) for e in estimators}
+            best = min(estimators, key=lambda e: pilot[e.name])
+            ref_samples = best.draw(wo, config.reference_samples, light, seed=99)
+            reference = float(ref_samples.mean())
+            ref_err = float(ref_samples.std() / math.sqrt(len(ref_samples)))
+            for e in estimators:
+                total = int(sum(config.counts)) * config.reps
+                t0 = time.perf_counter()
+                batches = {n: e.draw(wo, n * config.reps, light, seed=1000 + n) for n in config.counts}
+                per_sample = (time.perf_counter() - t0) / total
+                for n, values in batches.items():
+                    means = values.reshape(config.reps, n).mean(axis=1)
+                    mse = float(np.mean((means - reference) ** 2))
+                    scale = abs(reference) if reference != 0.0 else 1.0
+                    var_per_sample = mse * n
+                    rows.append(
+                        Row(
+                            material=label,
+                            theta_o=float(theta),
+                            light=light.name,
+                            sampler=e.name,
+                            samples=int(n),
+                            rel_rmse=math.sqrt(mse) / scale,
+                            seconds_per_sample=per_sample,
+                            reference=reference,
+                            reference_rel_stderr=ref_err / scale,
+                            efficiency=1.0 / (var_per_sample * per_sample)
+                            if var_per_sample > 0
+                            else math.inf,
+                            precompute_seconds=e.precompute + warm[e.name],
+                            memory_bytes=e.memory(),
+                            samples_per_second=1.0 / per_sample,
+                        )
+                    )
+                tick()
+    return rows
+
+
+def materials(
+    names: Iterable[str] | None = None, measured: Iterable[str | Path] = ()
+) -> list[tuple[str, BRDF]]:
+    """Registered models at their default (seed) parameters, plus measured files."""
+    out = []
+    wanted = set(names) if names else None
+    for m in all_models():
+        if wanted is None or m.name in wanted:
+            out.append((m.name, m.bind()))
+    for path in measured:
+        from core.merl import measured_brdf
+
+        out.append((f"merl:{Path(path).stem}", measured_brdf(path)))
+    return out
+
+
+def write_results(rows: list[Row], out_dir: Path) -> dict[str, Path]:
+    """CSV, a Markdown summary and log-log plots (error vs samples and vs time, one line per sampler)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = {"csv": out_dir / "study.csv", "markdown": out_dir / "study.md"}
+    fields = list(asdict(rows[0]).keys()) if rows else []
+    lines = [",".join(fields)]
+    for r in rows:
+        lines.append(",".join(_fmt(v) for v in asdict(r).values()))
+    atomic_write_text(paths["csv"], "\n".join(lines) + "\n")
+    atomic_write_text(paths["markdown"], summary_markdown(rows))
+    paths.update(plot(rows, out_dir))
+    return paths
+
+
+def _fmt(v: Any) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def _geomean(values: Iterable[float]) -> float:
+    v = [max(x, 1e-16) for x in values if math.isfinite(x)]
+    return float(np.exp(np.mean(np.log(v)))) if v else float("nan")
+
+
+def summary_markdown(rows: list[Row]) -> str:
+    """Per material: precompute, memory, samples/s, relative RMSE at the largest N per light; then averages."""
+    if not rows:
+        return "(no results)\n"
+    n_max = max(r.samples for r in rows)
+    samplers = list(dict.fromkeys(r.sampler for r in rows))
+    lights = list(dict.fromkeys(r.light for r in rows))
+    out = [f"Relative RMSE of L_r at N = {n_max} samples (geometric mean over incident angles), per light.\n"]
+    header = "| material | sampler | precompute s | memory KB | Msamples/s | " + " | ".join(lights) + " |"
+    out += [header, "|" + "---|" * (5 + len(lights))]
+    for mat in dict.fromkeys(r.material for r in rows):
+        for s in samplers:
+            sel = [r for r in rows if r.material == mat and r.sampler == s]
+            if not sel:
+                continue
+            errs = [
+                _geomean(r.rel_rmse for r in sel if r.light == li and r.samples == n_max) for li in lights
+            ]
+            out.append(
+                f"| {mat} | {s} | {max(r.precompute_seconds for r in sel):.3f} | {sel[0].memory_bytes / 1024:.1f} | "
+                f"{_geomean(r.samples_per_second for r in sel) / 1e6:.2f} | "
+                + " | ".join(f"{e:.2e}" for e in errs)
+                + " |"
+            )
+    out.append(
+        "\nAcross all materials and angles (geometric means): relative RMSE at N, and efficiency 1/(var*time).\n"
+    )
+    out.append(
+        "| sampler | "
+        + " | ".join(f"RMSE {li}" for li in lights)
+        + " | "
+        + " | ".join(f"eff {li}" for li in lights)
+        + " |"
+    )
+    out.append("|" + "---|" * (1 + 2 * len(lights)))
+    for s in samplers:
+        errs = [
+            _geomean(r.rel_rmse for r in rows if r.sampler == s and r.light == li and r.samples == n_max)
+            for li in lights
+        ]
+        effs = [
+            _geomean(r.efficiency for r in rows if r.sampler == s and r.light == li and r.samples == n_max)
+            for li in lights
+        ]
+        out.append(
+            f"| {s} | "
+            + " | ".join(f"{e:.2e}" for e in errs)
+            + " | "
+            + " | ".join(f"{e:.3g}" for e in effs)
+            + " |"
+        )
+    return "\n".join(out) + "\n"
+
+
+def plot(rows: list[Row], out_dir: Path) -> dict[str, Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = {}
+    lights = list(dict.fromkeys(r.light for r in rows))
+    samplers = list(dict.fromkeys(r.sampler for r in rows))
+    for xaxis in ("samples", "time"):
+        fig, axes = plt.subplots(1, len(lights), figsize=(5 * len(lights), 4), squeeze=False)
+        for ax, li in zip(axes[0], lights, strict=True):
+            for s in samplers:
+                counts = sorted({r.samples for r in rows if r.sampler == s and r.light == li})
+                if not counts:
+                    continue
+                err = [
+                    _geomean(r.rel_rmse for r in rows if r.sampler == s and r.light == li and r.samples == n)
+                    for n in counts
+                ]
+                if xaxis == "samples":
+                    x = counts
+                else:
+                    sec = _geomean(r.seconds_per_sample for r in rows if r.sampler == s and r.light == li)
+                    x = [n * sec for n in counts]
+                ax.loglog(x, err, marker="o", label=s)
+            ax.set_title(li)
+            ax.set_xlabel("samples" if xaxis == "samples" else "seconds per estimate")
+            ax.set_ylabel("relative RMSE (geometric mean)")
+            ax.grid(True, which="both", alpha=0.3)
+        axes[0][0].legend(fontsize=8)
+        fig.tight_layout()
+        path = out_dir / f"error_vs_{xaxis}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths[f"error_vs_{xaxis}"] = path
+    return paths
+
+
+def write_csv_rows(path: Path, rows: list[dict[str, Any]]) -> None:
+    """A small helper for benchmarks: rows of dicts to CSV (atomic)."""
+    import io
+
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    atomic_write_text(path, buf.getvalue())

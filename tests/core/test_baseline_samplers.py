@@ -1,0 +1,178 @@
+"""The seed's comparison samplers (UniformCDF, CompressCDF, Factored) and RIS: exact densities, proven by
+chi-square tests (1e6 samples, alpha = 0.01 Sidak-corrected over the tests of this module), the integral of
+the pdf, sample/pdf agreement, and the building blocks (Douglas-Peucker, NMF) on their own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core.chi2 import chi2_test, integrate_pdf, sampler_functions
+from core.errors import ParameterError
+from core.geometry import degrees_to_dir
+from core.lighting import CapLight, LatLongEnvironment
+from core.model import LUMINANCE, make_brdf
+from core.ris import ris_sample
+from core.sampler import make_sampler
+from core.samplers.factored import nmf
+from core.samplers.tabulated import douglas_peucker
+
+BASELINES = ["uniform_cdf", "compress_cdf", "factored"]
+FAST_CASES = [
+    ("phong", "uniform_cdf", 30.0, "sphere"),
+    ("phong", "compress_cdf", 60.0, "disk"),
+    ("ward", "compress_cdf", 30.0, "sphere"),
+    ("ward", "factored", 30.0, "disk"),
+    ("lambert", "factored", 80.0, "disk"),
+    ("blinn", "uniform_cdf", 89.0, "disk"),
+]
+N_TESTS = len(FAST_CASES)
+# The densities are piecewise constant: a coarse per-cell tolerance (0.1 expected counts) is plenty.
+CHI2 = dict(n_samples=1_000_000, cell_tol=1e-7, order=2)
+
+_cache: dict[tuple[str, str], object] = {}
+
+
+def _sampler(model: str, name: str):
+    key = (model, name)
+    if key not in _cache:
+        _cache[key] = make_sampler(name, make_brdf(model))
+    return _cache[key]
+
+
+@pytest.mark.parametrize("model,name,theta,domain", FAST_CASES)
+def test_chi2(model, name, theta, domain):
+    s = _sampler(model, name)
+    r = chi2_test(
+        *sampler_functions(s, degrees_to_dir(theta, 20.0)), domain=domain, seed=11, n_tests=N_TESTS, **CHI2
+    )
+    assert r.passed, r.reason
+    assert abs(r.integral - 1.0) < 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", BASELINES)
+@pytest.mark.parametrize("theta", [0.0, 30.0, 60.0, 80.0, 89.0])
+@pytest.mark.parametrize("domain", ["sphere", "disk"])
+@pytest.mark.parametrize(
+    "model", ["lambert", "phong", "blinn", "lewis", "ward", "cook_torrance", "ggx", "oren_nayar"]
+)
+def test_chi2_sweep(model, name, theta, domain):
+    s = _sampler(model, name)
+    r = chi2_test(
+        *sampler_functions(s, degrees_to_dir(theta, 20.0)),
+        domain=domain,
+        seed=12,
+        n_tests=8 * 3 * 5 * 2,
+        **CHI2,
+    )
+    assert r.passed, r.reason
+
+
+def test_a_wrong_pdf_is_caught():
+    """The test can fail: the UniformCDF density scaled up by 10% on half the hemisphere is rejected."""
+    s = _sampler("phong", "uniform_cdf")
+    sample, pdf = sampler_functions(s, degrees_to_dir(30.0))
+
+    def wrong(wi):
+        return pdf(wi) * np.where(wi[:, 1] > 0.0, 1.1, 0.9)
+
+    r = chi2_test(sample, wrong, domain="disk", seed=3, integral_tol=0.2, **CHI2)
+    assert not r.passed
+
+
+@pytest.mark.parametrize("name", BASELINES)
+@pytest.mark.parametrize("model", ["phong", "ward"])
+def test_pdf_of_sample_matches_pdf_function_and_integrates_to_one(model, name):
+    s = _sampler(model, name)
+    for theta in (0.0, 45.0, 89.9):
+        wo = degrees_to_dir(theta, 70.0)
+        wi, pdf = s.sample(wo, 20_000, seed=5)
+        assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+        np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9)
+        up = wi[:, 2] > 1e-6  # below the horizon the half-vector map degenerates near wi = -wo
+        np.testing.assert_allclose(s.pdf(wo, wi[up]), pdf[up], rtol=1e-9)
+        assert (
+            abs(integrate_pdf(lambda w, wo=wo: s.pdf(np.broadcast_to(wo, w.shape), w), cell_tol=1e-6) - 1.0)
+            < 2e-3
+        )
+
+
+@pytest.mark.parametrize("name", BASELINES)
+def test_grazing_and_hard_cases_are_finite(name):
+    for model, params in (("phong", {"n": 1e4}), ("ward", {"sx": 0.005, "sy": 0.005})):
+        s = make_sampler(name, make_brdf(model, params))
+        for theta in (0.0, 89.9, 90.0):
+            wo = degrees_to_dir(theta)
+            wi, pdf = s.sample(wo, 5000, seed=1)
+            f = s.eval(wo, wi)
+            assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(np.isfinite(f))
+
+
+def test_compression_shrinks_memory_and_keeps_the_estimate():
+    u = _sampler("phong", "uniform_cdf")
+    c = _sampler("phong", "compress_cdf")
+    assert c.info()["memory_bytes"] < u.info()["memory_bytes"] / 5
+    wo = degrees_to_dir(30.0)
+    estimates = []
+    for s in (u, c):
+        wi, pdf = s.sample(wo, 400_000, seed=9)
+        g = (s.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) / pdf
+        estimates.append((g.mean(), g.std() / np.sqrt(len(g))))
+    (a, sa), (b, sb) = estimates
+    assert abs(a - b) < 5.0 * np.hypot(sa, sb)  # both unbiased for the same albedo
+
+
+def test_bad_options_are_rejected_clearly():
+    b = make_brdf("lambert")
+    with pytest.raises(ParameterError, match="n_theta"):
+        make_sampler("uniform_cdf", b, n_theta=0)
+    with pytest.raises(ParameterError, match="tolerance"):
+        make_sampler("compress_cdf", b, tol=0.0)
+    with pytest.raises(ParameterError, match="unknown factored-sampler option"):
+        make_sampler("factored", b, terms=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(0.0, 10.0), min_size=3, max_size=80), st.floats(1e-4, 0.2))
+def test_douglas_peucker_error_is_within_tolerance(increments, tol):
+    y = np.concatenate([[0.0], np.cumsum(increments)])
+    y = y / y[-1] if y[-1] > 0 else np.linspace(0.0, 1.0, len(y))
+    x = np.linspace(0.0, 1.0, len(y))
+    keep = douglas_peucker(x, y, tol)
+    assert keep[0] == 0 and keep[-1] == len(y) - 1 and np.all(np.diff(keep) > 0)
+    assert np.max(np.abs(np.interp(x, x[keep], y[keep]) - y)) <= tol + 1e-12
+
+
+def test_nmf_recovers_a_non_negative_rank_two_matrix(rng):
+    W = rng.uniform(0.1, 1.0, (30, 2))
+    H = rng.uniform(0.1, 1.0, (2, 40))
+    Y = W @ H
+    W2, H2 = nmf(Y, 2, iterations=2000)
+    assert np.all(W2 >= 0) and np.all(H2 >= 0)
+    assert np.linalg.norm(W2 @ H2 - Y) / np.linalg.norm(Y) < 1e-2
+
+
+@pytest.mark.parametrize("light_kind", ["cap", "environment"])
+def test_ris_is_unbiased(light_kind):
+    """RIS (8 candidates from the cosine sampler) agrees with light sampling, the best estimator here,
+    within 5 combined standard errors."""
+    brdf = make_brdf("phong")
+    wo = degrees_to_dir(30.0)
+    if light_kind == "cap":
+        light = CapLight(axis=degrees_to_dir(35.0, 180.0), half_angle=0.2, radiance=50.0)
+    else:
+        light = LatLongEnvironment(LatLongEnvironment.procedural_sky(64, 32))
+
+    def g(wi):
+        return (brdf.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
+
+    wl, pl = light.sample(400_000, np.random.default_rng(1))
+    ref = g(wl) / pl
+    y, w = ris_sample(make_sampler("cosine", brdf), wo, light.radiance, 100_000, 8, seed=2)
+    est = g(y) * w
+    assert np.all(np.isfinite(est))
+    diff = abs(est.mean() - ref.mean())
+    assert diff < 5.0 * np.hypot(est.std() / np.sqrt(len(est)), ref.std() / np.sqrt(len(ref)))
