@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.chi2 import chi2_test, integrate_pdf, sampler_functions
+from core.chi2 import chi2_test, sampler_functions
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.lighting import CapLight, LatLongEnvironment
@@ -85,7 +85,8 @@ def test_a_wrong_pdf_is_caught():
 
 @pytest.mark.parametrize("name", BASELINES)
 @pytest.mark.parametrize("model", ["phong", "ward"])
-def test_pdf_of_sample_matches_pdf_function_and_integrates_to_one(model, name):
+def test_pdf_of_sample_matches_pdf_function(model, name):
+    """(The integral of each density is checked by the chi-square tests above, which integrate it per cell.)"""
     s = _sampler(model, name)
     for theta in (0.0, 45.0, 89.9):
         wo = degrees_to_dir(theta, 70.0)
@@ -94,10 +95,6 @@ def test_pdf_of_sample_matches_pdf_function_and_integrates_to_one(model, name):
         np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9)
         up = wi[:, 2] > 1e-6  # below the horizon the half-vector map degenerates near wi = -wo
         np.testing.assert_allclose(s.pdf(wo, wi[up]), pdf[up], rtol=1e-9)
-        assert (
-            abs(integrate_pdf(lambda w, wo=wo: s.pdf(np.broadcast_to(wo, w.shape), w), cell_tol=1e-6) - 1.0)
-            < 2e-3
-        )
 
 
 @pytest.mark.parametrize("name", BASELINES)
