@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from core.model import LUMINANCE
 
@@ -31,6 +32,9 @@ class ConstantEnvironment:
 
     def eval(self, d: np.ndarray) -> np.ndarray:
         return np.broadcast_to(self.radiance, (len(d), 3)).copy()
+
+    def lookup(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.eval(d), self.pdf(d)
 
     def pdf(self, d: np.ndarray) -> np.ndarray:
         return np.full(len(d), INV_FOUR_PI)
@@ -83,38 +87,69 @@ class EnvironmentMap:
     def power_weight(self) -> float:
         return float(self.mean_radiance @ LUMINANCE)
 
-    def _uv(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Pixel row, column and sin(theta) of world directions ``d (n, 3)``."""
-        cos_t = np.clip(d[:, 1], -1.0, 1.0)
-        theta = np.arccos(cos_t)
-        phi = np.mod(np.arctan2(d[:, 2], d[:, 0]) - self.rotation, 2.0 * np.pi)
-        row = np.minimum((theta / np.pi * self.h).astype(np.int64), self.h - 1)
-        col = np.minimum((phi / (2.0 * np.pi) * self.w).astype(np.int64), self.w - 1)
-        return row, col, np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+    def lookup(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Radiance ``(n, 3)`` and pdf per solid angle ``(n,)`` of world directions ``d (n, 3)``."""
+        return _env_lookup(
+            np.ascontiguousarray(d, dtype=np.float64), self._pixel_pmf, self.image, self.rotation
+        )
 
     def eval(self, d: np.ndarray) -> np.ndarray:
-        row, col, _ = self._uv(d)
-        return self.image[row, col]
+        return self.lookup(d)[0]
 
     def pdf(self, d: np.ndarray) -> np.ndarray:
-        row, col, sin_t = self._uv(d)
-        p = self._pixel_pmf[row, col] * (self.w * self.h) / (2.0 * np.pi * np.pi)
-        return np.where(sin_t > 1e-12, p / np.maximum(sin_t, 1e-12), 0.0)
+        return self.lookup(d)[1]
 
     def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``u (n, 4)`` uniforms -> directions ``(n, 3)``, radiance ``(n, 3)``, pdf per solid angle ``(n,)``."""
-        row = np.minimum(np.searchsorted(self._row_cdf, u[:, 0], side="right"), self.h - 1)
-        flat = np.searchsorted(self._col_cdf_flat, row + u[:, 1], side="right")
-        col = np.clip(flat - row * self.w, 0, self.w - 1)
-        v = (row + u[:, 2]) / self.h
-        uu = (col + u[:, 3]) / self.w
-        theta = v * np.pi
-        phi = uu * 2.0 * np.pi + self.rotation
-        s = np.sin(theta)
-        d = np.stack([s * np.cos(phi), np.cos(theta), s * np.sin(phi)], axis=1)
-        p = self._pixel_pmf[row, col] * (self.w * self.h) / (2.0 * np.pi * np.pi)
-        pdf = np.where(s > 1e-12, p / np.maximum(s, 1e-12), 0.0)
-        return d, self.image[row, col], pdf
+        return _env_sample(
+            np.ascontiguousarray(u, dtype=np.float64),
+            self._row_cdf,
+            self._col_cdf_flat,
+            self._pixel_pmf,
+            self.image,
+            self.rotation,
+        )
+
+
+INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
+
+
+@njit(nogil=True, cache=True)
+def _env_lookup(d, pmf, image, rotation):
+    h, w = pmf.shape
+    n = d.shape[0]
+    le = np.empty((n, 3))
+    pdf = np.empty(n)
+    for i in range(n):
+        cos_t = min(1.0, max(-1.0, d[i, 1]))
+        theta = math.acos(cos_t)
+        phi = (math.atan2(d[i, 2], d[i, 0]) - rotation) % (2.0 * math.pi)
+        row = min(int(theta / math.pi * h), h - 1)
+        col = min(int(phi / (2.0 * math.pi) * w), w - 1)
+        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+        le[i, 0], le[i, 1], le[i, 2] = image[row, col, 0], image[row, col, 1], image[row, col, 2]
+        pdf[i] = pmf[row, col] * (w * h) * INV_2PI2 / sin_t if sin_t > 1e-12 else 0.0
+    return le, pdf
+
+
+@njit(nogil=True, cache=True)
+def _env_sample(u, row_cdf, col_cdf_flat, pmf, image, rotation):
+    h, w = pmf.shape
+    n = u.shape[0]
+    d = np.empty((n, 3))
+    le = np.empty((n, 3))
+    pdf = np.empty(n)
+    for i in range(n):
+        row = min(np.searchsorted(row_cdf, u[i, 0], side="right"), h - 1)
+        flat = np.searchsorted(col_cdf_flat, row + u[i, 1], side="right")
+        col = min(max(flat - row * w, 0), w - 1)
+        theta = (row + u[i, 2]) / h * math.pi
+        phi = (col + u[i, 3]) / w * 2.0 * math.pi + rotation
+        s = math.sin(theta)
+        d[i, 0], d[i, 1], d[i, 2] = s * math.cos(phi), math.cos(theta), s * math.sin(phi)
+        le[i, 0], le[i, 1], le[i, 2] = image[row, col, 0], image[row, col, 1], image[row, col, 2]
+        pdf[i] = pmf[row, col] * (w * h) * INV_2PI2 / s if s > 1e-12 else 0.0
+    return d, le, pdf
 
 
 def load_environment(env, scene):  # type: ignore[no-untyped-def]

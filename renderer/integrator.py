@@ -21,7 +21,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.scene import Scene
-from renderer.kernels import bsdf_step, surface_frames, to_local
+from renderer.kernels import (
+    accumulate,
+    bsdf_step,
+    camera_rays,
+    light_candidates,
+    light_contributions,
+    sample_lights,
+    surface_frames,
+    to_local,
+)
 from renderer.world import NO_MATERIAL, World
 
 PARALLEL_MIN = 65536
@@ -39,11 +48,6 @@ class PassStats:
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
-
-
-def _normalize(a: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(a, axis=1, keepdims=True)
-    return a / np.where(n > 0, n, 1.0)
 
 
 def mis_weight(pdf_a: np.ndarray, pdf_b: np.ndarray, heuristic: str) -> np.ndarray:
@@ -72,11 +76,10 @@ class Camera:
         self.aspect = width / height
 
     def rays(self, pixels: np.ndarray, jitter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        row, col = np.divmod(pixels, self.width)
-        x = (2.0 * (col + jitter[:, 0]) / self.width - 1.0) * self.tan_half * self.aspect
-        y = (1.0 - 2.0 * (row + jitter[:, 1]) / self.height) * self.tan_half
-        d = self.forward + x[:, None] * self.right + y[:, None] * self.up
-        return np.broadcast_to(self.origin, d.shape).copy(), _normalize(d)
+        return camera_rays(
+            pixels, jitter, self.width, self.height, self.origin, self.forward, self.right, self.up,
+            float(self.tan_half), float(self.aspect),
+        )  # fmt: skip
 
 
 class PathTracer:
@@ -103,14 +106,7 @@ class PathTracer:
 
     def _add(self, img: np.ndarray, pix: np.ndarray, contrib: np.ndarray) -> None:
         """Add ``contrib (k, 3)`` to pixels ``pix (k,)`` (several paths may share a pixel)."""
-        ok = np.all(np.isfinite(contrib), axis=1)
-        if not np.all(ok):
-            self.stats.nonfinite += int(np.count_nonzero(~ok))
-            pix, contrib = pix[ok], contrib[ok]
-        if len(pix) == 0:
-            return
-        for c in range(3):
-            img[:, c] += np.bincount(pix, weights=contrib[:, c], minlength=len(img))
+        self.stats.nonfinite += accumulate(img, pix, np.ascontiguousarray(contrib))
 
     # ------------------------------------------------------------------------------------------ a pass
     def render_pass(self, pass_index: int, spp: int = 1) -> np.ndarray:
@@ -139,12 +135,11 @@ class PathTracer:
             # ---- light from infinity on rays that escape
             if w.env is not None and np.any(miss):
                 i = np.nonzero(miss)[0]
-                le = w.env.eval(d[i])
+                le, p_env = w.env.lookup(d[i])
                 wgt = np.ones(len(i))
                 bs = prev_pdf[i] > 0
                 if np.any(bs):
-                    p_light = w.p_env * w.env.pdf(d[i[bs]])
-                    wgt[bs] = mis_weight(prev_pdf[i[bs]], p_light, self.mis)
+                    wgt[bs] = mis_weight(prev_pdf[i[bs]], w.p_env * p_env[bs], self.mis)
                 self._add(img, pix[i], beta[i] * le * wgt[:, None])
 
             keep = ~miss
@@ -224,54 +219,19 @@ class PathTracer:
         w = self.world
         n = len(origin)
         u = self._rng(pass_index, depth, 1).random((n, 5))
-        wi = np.zeros((n, 3))
-        le = np.zeros((n, 3))
-        pdf_light = np.zeros(n)
-        t_max = np.full(n, np.inf)
-        delta = np.zeros(n, dtype=bool)
-        c_area = w.p_area
-        c_point = c_area + w.p_point
-        cat_area = u[:, 0] < c_area
-        cat_point = ~cat_area & (u[:, 0] < c_point)
-        cat_env = ~cat_area & ~cat_point
-
-        if np.any(cat_area):
-            i = np.nonzero(cat_area)[0]
-            k = np.minimum(np.searchsorted(w.emit_cdf, u[i, 1], side="right"), len(w.emit_ids) - 1)
-            tri = w.emit_ids[k]
-            su = np.sqrt(u[i, 2])
-            q = w.v0[tri] + (su * (1.0 - u[i, 3]))[:, None] * w.e1[tri] + (su * u[i, 3])[:, None] * w.e2[tri]
-            to = q - origin[i]
-            dist = np.linalg.norm(to, axis=1)
-            dirs = to / np.maximum(dist, 1e-30)[:, None]
-            cos_l = -_dot(dirs, w.tri_normal[tri])
-            front = (cos_l > 0) | w.tri_two_sided[tri]
-            good = front & (np.abs(cos_l) > 1e-9) & (dist > 0)
-            wi[i] = dirs
-            le[i] = w.tri_emission[tri] * good[:, None]
-            pdf_light[i] = np.where(
-                good, w.p_area * w.emit_pmf_per_area[tri] * dist**2 / np.maximum(np.abs(cos_l), 1e-9), 0.0
-            )
-            t_max[i] = dist * (1.0 - 1e-4)
-        if np.any(cat_point):
-            i = np.nonzero(cat_point)[0]
-            k = np.minimum(np.searchsorted(w.point_cdf, u[i, 1], side="right"), len(w.point_pos) - 1)
-            to = w.point_pos[k] - origin[i]
-            dist = np.maximum(np.linalg.norm(to, axis=1), 1e-12)
-            wi[i] = to / dist[:, None]
-            le[i] = w.point_intensity[k] / (dist**2)[:, None]
-            pdf_light[i] = w.p_point * w.point_pmf[k]
-            t_max[i] = dist * (1.0 - 1e-4)
-            delta[i] = True
-        if np.any(cat_env):
-            i = np.nonzero(cat_env)[0]
+        wi, le, pdf_light, t_max, delta, is_env = sample_lights(
+            origin, u, w.p_area, w.p_area + w.p_point, w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2,
+            w.tri_normal, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area, w.p_area,
+            w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, w.p_point,
+        )  # fmt: skip
+        if w.env is not None and np.any(is_env):
+            i = np.nonzero(is_env)[0]
             dirs, rad, pdf_e = w.env.sample(u[i, 1:5])
             wi[i] = dirs
             le[i] = rad
             pdf_light[i] = w.p_env * pdf_e
-
         wi_l = to_local(wi, *frame)
-        cand = (pdf_light > 0) & (wi_l[:, 2] > 0) & (_dot(wi, ng) > 0) & (le.max(axis=1) > 0)
+        cand = light_candidates(pdf_light, wi_l, wi, ng, le)
         f = np.zeros((n, 3))
         pdf_brdf = np.zeros(n)
         for m, idx in groups:
@@ -281,12 +241,10 @@ class PathTracer:
             rt = w.materials_by_index[m]
             f[j] = rt.brdf.eval(wo_l[j], wi_l[j], threads=len(j) > PARALLEL_MIN)
             pdf_brdf[j] = rt.sampler.pdf(wo_l[j], wi_l[j])
-        mw = np.where(delta, 1.0, mis_weight(pdf_light, pdf_brdf, self.mis))
-        scale = np.zeros(n)
-        scale[cand] = wi_l[cand, 2] * mw[cand] / pdf_light[cand]
-        contrib = beta * f * le * scale[:, None]
-        cand &= contrib.max(axis=1) > 0
-        i = np.nonzero(cand)[0]
+        contrib, need = light_contributions(
+            beta, f, le, pdf_light, pdf_brdf, wi_l, delta, cand, self.mis == "power"
+        )
+        i = np.nonzero(need)[0]
         if len(i) == 0:
             return
         blocked = w.accel.occluded(origin[i], wi[i], t_max[i])
