@@ -79,10 +79,26 @@ def effective_roughness_ratio(log_ki, log_kr):
     return 1.0 / math.sqrt(1.0 + u2)
 
 
+HALF_LOG_TWO_PI = 0.9189385332046728
+
+
 @njit(nogil=True, cache=True)
 def _log_term(m, log_g, g, a):
-    """``ln(g^m e^-g / (m! m) exp(-a/m))``."""
-    return m * log_g - g - math.lgamma(m + 1.0) - math.log(m) - a / m
+    """``ln(g^m e^-g / (m! m) exp(-a/m))``; Stirling's series for ``ln m!`` when ``m >= 10`` (error below
+    1e-12, and it reuses ``ln m``), ``lgamma`` below."""
+    lm = math.log(m)
+    if m >= 10.0:
+        r = 1.0 / m
+        r2 = r * r
+        log_fact = (
+            (m + 0.5) * lm
+            - m
+            + HALF_LOG_TWO_PI
+            + r * (1.0 / 12.0 - r2 * (1.0 / 360.0 - r2 * (1.0 / 1260.0 - r2 / 1680.0)))
+        )
+    else:
+        log_fact = math.lgamma(m + 1.0)
+    return m * log_g - g - log_fact - lm - a / m
 
 
 @njit(nogil=True, cache=True)
@@ -93,9 +109,9 @@ def diffuse_series(g, a):
     ``m``), so it has one peak. We locate it (Newton on the log-ratio), then add terms outward on both sides
     until they fall below ``SERIES_TOL`` of the running sum (adaptive truncation).
 
-    For large ``g`` the peak is about ``sqrt(g)`` terms wide; once it is far from ``m = 1`` we add every
-    ``k``-th term only (``k <= width / 1.5``) and multiply by ``k``: the trapezoidal rule on a smooth, rapidly
-    decaying sequence, whose relative error is of order ``exp(-2 pi^2 (width/k)^2) < 1e-19``. The cost is then
+    For large ``g`` the peak is about ``sqrt(g)`` terms wide; once the terms near ``m = 1`` are negligible we add every
+    ``k``-th term only (``k <= width / 2``) and multiply by ``k``: the trapezoidal rule on a smooth, rapidly
+    decaying sequence, whose relative error is of order ``exp(-2 pi^2 (width/k)^2) < 1e-34``. The cost is then
     a few dozen terms for any ``g`` (He et al. switch to the rough-surface limit ``exp(-a/g)/g`` instead, the
     leading term of this same sum; its relative error is ``O(1/g)``, so we keep the exact sum).
     """
@@ -119,13 +135,14 @@ def diffuse_series(g, a):
     mm1 = m0 * (m0 + 1.0)
     curv = -(1.0 / m0 - 2.0 / (m0 + 1.0) - a * (2.0 * m0 + 1.0) / (mm1 * mm1))
     width = 1.0 / math.sqrt(curv) if curv > 0.0 else 1.0
-    step = 1.0
-    if m0 - 10.0 * width > 1.0 and width >= 3.0:
-        step = math.floor(width / 1.5)
-
     lt0 = _log_term(m0, log_g, g, a)
     if lt0 < -745.0:
         return 0.0  # the largest term underflows: so does the sum (< 1e-300 after the sqrt(g)-wide peak)
+    step = 1.0
+    # Every k-th term only when the peak is wide and the sequence is negligible (< e^-40) at m = 1, where the
+    # sum is cut off (the trapezoidal rule needs a negligible boundary).
+    if width >= 5.0 and _log_term(1.0, log_g, g, a) - lt0 < -40.0:
+        step = math.floor(width / 2.0)
     total = 1.0
     if step == 1.0:
         # exact sum by the term ratio: T(m+1) = T(m) g m exp(a/(m(m+1))) / (m+1)^2

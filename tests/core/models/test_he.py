@@ -147,7 +147,7 @@ def test_reference_value_written_out():
 
 
 def test_series_against_brute_force_in_every_regime():
-    for g in (1e-9, 1e-3, 0.3, 2.0, 15.0, 40.0, 95.0, 150.0, 400.0, 3000.0, 5e4):
+    for g in (1e-9, 1e-3, 0.3, 2.0, 12.0, 15.0, 25.0, 40.0, 62.0, 95.0, 150.0, 400.0, 3000.0, 5e4):
         for a in (0.0, 0.01, 2.0, 50.0, 600.0):
             np.testing.assert_allclose(diffuse_series(g, a), _series(g, a), rtol=1e-9, err_msg=f"{g} {a}")
 
