@@ -143,11 +143,15 @@ def test_same_seed_same_image_other_seed_other_image(tmp_path: Path) -> None:
 
 
 def test_strategies_converge_to_the_same_image(tmp_path: Path) -> None:
-    """uniform, cosine and analytic sampling estimate the same image: 4x4-pixel blocks agree within a
-    Bonferroni-corrected two-sided z-test at alpha = 0.01 (16 blocks x 3 channels x 2 pairs)."""
+    """uniform, cosine, analytic (and adaptive, once registered) sampling estimate the same image: 4x4-pixel
+    blocks agree within a Bonferroni-corrected two-sided z-test at alpha = 0.01 (16 blocks x 3 channels x
+    the number of pairs)."""
+    from core.sampler import sampler_names
+
+    others = ["uniform", "analytic"] + (["adaptive"] if "adaptive" in sampler_names() else [])
     passes = 24
     block_means = {}
-    for s in ("cosine", "uniform", "analytic"):
+    for s in ("cosine", *others):
         job = prepare(_mixed_scene(tmp_path, s))
         per = []
         for k in range(passes):
@@ -156,10 +160,10 @@ def test_strategies_converge_to_the_same_image(tmp_path: Path) -> None:
         block_means[s] = np.array(per)  # (passes, 4, 4, 3)
     from scipy.stats import norm
 
-    tests = 16 * 3 * 2
+    tests = 16 * 3 * len(others)
     zcrit = norm.isf(0.01 / (2 * tests))
     ref = block_means["cosine"]
-    for s in ("uniform", "analytic"):
+    for s in others:
         x = block_means[s]
         diff = x.mean(0) - ref.mean(0)
         se = np.sqrt(x.var(0, ddof=1) / passes + ref.var(0, ddof=1) / passes)
