@@ -75,9 +75,13 @@ def throughput(scene, size: int, passes: int) -> dict:  # type: ignore[no-untype
 
 
 def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
-    key = hashlib.sha1(
-        json.dumps([scene.model_dump(mode="json"), size, spp, seed], sort_keys=True).encode()
-    ).hexdigest()[:10]
+    h = hashlib.sha1(json.dumps([scene.model_dump(mode="json"), size, spp, seed], sort_keys=True).encode())
+    files = [m.path for m in scene.meshes] + [m.measured for m in scene.materials if m.measured]
+    if scene.environment is not None and getattr(scene.environment, "path", None):
+        files.append(scene.environment.path)
+    for rel in sorted(set(files)):  # a changed mesh, map or table invalidates the cached reference
+        h.update(scene.resolve(rel).read_bytes())
+    key = h.hexdigest()[:10]
     path = out / f"render_reference_{size}_{spp}spp_{key}.exr"
     if path.is_file():
         print(f"reference: cached {path}")
