@@ -108,6 +108,43 @@ class PathTracer:
         """Add ``contrib (k, 3)`` to pixels ``pix (k,)`` (several paths may share a pixel)."""
         self.stats.nonfinite += accumulate(img, pix, np.ascontiguousarray(contrib))
 
+    # ------------------------------------------------------------------------------------------ warm-up
+    def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
+        """Outgoing directions (local frame) the scene presents to each material, from a small pre-pass:
+        camera rays through a coarse pixel grid, then cosine-sampled bounces. A sampler that builds tables
+        lazily (per incident-angle bin) gets them built for these directions before the first pass."""
+        w = self.world
+        n_pix = self.width * self.height
+        pix = np.unique(np.linspace(0, n_pix - 1, min(max_paths, n_pix)).astype(np.int64))
+        rng = np.random.default_rng([self.seed, 0x3A3A])
+        o, d = self.camera.rays(pix, rng.random((len(pix), 2)))
+        found: dict[int, list[np.ndarray]] = {}
+        for _ in range(bounces):
+            if len(o) == 0:
+                break
+            hits = w.accel.intersect(o, d)
+            keep = hits.prim >= 0
+            prim = hits.prim[keep]
+            mat = w.tri_material[prim]
+            live = mat != NO_MATERIAL
+            o, d, t, bu, bv = (x[keep][live] for x in (o, d, hits.t, hits.u, hits.v))
+            prim, mat = prim[live], mat[live]
+            if len(o) == 0:
+                break
+            ng, ns, tb, bb, wo_l, origin = surface_frames(
+                o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
+            )
+            for m in np.unique(mat):
+                found.setdefault(int(m), []).append(wo_l[mat == m])
+            u = rng.random((len(o), 2))
+            r = np.sqrt(u[:, 0])
+            wi_l = np.stack([r * np.cos(2 * np.pi * u[:, 1]), r * np.sin(2 * np.pi * u[:, 1]),
+                             np.sqrt(np.maximum(0.0, 1.0 - u[:, 0]))], axis=1)  # fmt: skip
+            pdf = np.full(len(o), 1.0)
+            wi, ok, _ = bsdf_step(wi_l, pdf, np.ones((len(o), 3)), tb, bb, ns, ng, np.ones((len(o), 3)))
+            o, d = origin[ok], wi[ok]
+        return {m: np.concatenate(v) for m, v in found.items()}
+
     # ------------------------------------------------------------------------------------------ a pass
     def render_pass(self, pass_index: int, spp: int = 1) -> np.ndarray:
         """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``.

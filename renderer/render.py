@@ -137,9 +137,11 @@ def prepare(
     max_depth: int | None = None,
     threads: int = 2,
     on_step: StepCallback | None = None,
+    warm_up: bool = True,
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
-    scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``)."""
+    scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
+    ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets."""
     r = scene.render
     t0 = time.perf_counter()
     world = World(scene, sampler=sampler, sampler_options=sampler_options, threads=threads)
@@ -176,7 +178,35 @@ def prepare(
         settings["mis"],
         settings["seed"],
     )
+    if warm_up and world.sampler_name not in EAGER_SAMPLERS:
+        _warm_up(world, tracer, report, on_step)
     return RenderJob(scene, world, tracer, settings, report)
+
+
+EAGER_SAMPLERS = ("uniform", "cosine", "analytic")
+"""Strategies with no tables: nothing to build before the first pass."""
+
+
+def _warm_up(world: World, tracer: PathTracer, report: dict[str, Any], on_step: StepCallback | None) -> None:
+    """Build the sampler tables the scene needs before the first pass (a sampler that builds lazily, per
+    incident-angle bin, builds those the pre-pass meets), and record their memory and build time."""
+    t0 = time.perf_counter()
+    wo_by_material = tracer.incident_directions()
+    used = [m for m in wo_by_material if world.materials_by_index[m] is not None]
+    for k, m in enumerate(used):
+        rt = world.materials_by_index[m]
+        assert rt is not None
+        if on_step:
+            on_step(f"tables for '{rt.name}'", k, len(used))
+        t1 = time.perf_counter()
+        rt.sampler.sample_each(wo_by_material[m], seed=0)
+        info = dict(rt.sampler.info())
+        info["warm_up_seconds"] = round(time.perf_counter() - t1, 3)
+        info["warm_up_directions"] = len(wo_by_material[m])
+        report["materials"][rt.name].update(info)
+    if on_step:
+        on_step("tables ready", len(used), len(used))
+    report["warm_up_seconds"] = round(time.perf_counter() - t0, 3)
 
 
 def render(scene: Scene, spp: int | None = None, time_s: float | None = None, **prepare_kw: Any) -> RenderJob:

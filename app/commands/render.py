@@ -174,7 +174,8 @@ def run(args: argparse.Namespace) -> int:
         rps = job.tracer.stats.rays / job.elapsed / 1e6 if job.elapsed > 0 else 0.0
         rmse = f"{err['rmse']:.5g}" if err else "-"
         rel = f"{err['relmse']:.5g}" if err else "-"
-        prep = job.prepare_report["compile_seconds"] + job.prepare_report["geometry_seconds"]
+        rep = job.prepare_report
+        prep = rep["compile_seconds"] + rep["geometry_seconds"] + rep.get("warm_up_seconds", 0.0)
         print(
             f"{strategy:<14}{job.film.spp:>6}{job.elapsed:>9.2f}{rps:>9.2f}{prep:>10.2f}{rmse:>12}{rel:>12}  {out}"
         )

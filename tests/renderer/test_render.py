@@ -60,6 +60,19 @@ def test_progressive_passes_callback_and_cancel(scene_file: Path) -> None:
     assert job.run(spp=3).spp == 3
 
 
+def test_pre_pass_finds_the_directions_each_material_is_seen_from(scene_file: Path) -> None:
+    """What a lazily built sampler gets asked for before the first pass: local outgoing directions of both
+    materials (the floor is also reached by the bounce from the ball), unit length, above the surface."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file))
+    found = job.tracer.incident_directions(max_paths=2000)
+    assert set(found) == {0, 1}
+    for wo in found.values():
+        assert np.allclose(np.linalg.norm(wo, axis=1), 1.0)
+        assert np.mean(wo[:, 2] > 0) > 0.99  # shading normals can tilt a few grazing ones below
+
+
 def test_equal_time_mode_stops_near_the_budget(scene_file: Path) -> None:
     from core.scene import load_scene
 
