@@ -187,3 +187,21 @@ def test_sampler_pdf_is_the_density_of_its_samples():
     )
     dof = big.sum()
     assert chi2 < stats.chi2.ppf(1 - 1e-3, dof), (chi2, dof)
+
+
+@pytest.mark.parametrize("m", [0.01, 0.05, 0.2, 0.7, 1.5])
+def test_specular_albedo_never_exceeds_one(m):
+    # The simplified geometry keeps a(V) <= 1 even for a perfect reflector (R0 = 1, F = 1): with
+    # w = (N.L)/((V.H)(N.H)) = 2 - cos(theta_V)/((V.H)(N.H)) <= 2 on the half of the facets that send L above
+    # the horizon at grazing, and w = 2 - 1/cos^2(theta_H) <= 1 at normal incidence. The tables confirm it;
+    # 1 - a >= 0 is what keeps the matte part non-negative.
+    table_a, table_b = albedo_tables(m)
+    a_max = np.max((table_a + table_b)[1:-1])  # without the ghost nodes
+    assert a_max <= 1.0 + 1e-9
+    mu = np.linspace(0.0, 1.0, 2001)
+    assert np.all(interpolate(table_a + table_b, mu) <= 1.0 + 1e-9)
+    # at normal incidence: a(0) = 2 P(theta_H < 45 deg) - E[1 + tan^2] there = 1 - m^2 + (1 + m^2) e^(-1/m^2)
+    # (integrating (1 + m^2 ln u) du from u = e^(-1/m^2) to 1)
+    np.testing.assert_allclose(
+        interpolate(table_a + table_b, 1.0), 1 - m**2 + m**2 * np.exp(-1 / m**2), atol=1e-9
+    )
