@@ -168,3 +168,14 @@ def test_demo_renders(tmp_path: Path) -> None:
     )
     img = read_exr(out)
     assert np.all(np.isfinite(img)) and img.mean() > 0.05
+
+
+def test_bad_measured_file_names_the_material(scene_file: Path, tmp_path: Path) -> None:
+    from core.scene import SceneError, load_scene
+
+    (tmp_path / "broken.binary").write_bytes(b"\x5a\x00\x00\x00" * 3 + b"\x00" * 100)
+    data = json.loads(scene_file.read_text())
+    data["materials"][1] = {"name": "ball", "measured": "broken.binary"}
+    scene_file.write_text(json.dumps(data))
+    with pytest.raises(SceneError, match=r"scene\.json: materials\[1\]\.measured: .*broken\.binary"):
+        prepare(load_scene(scene_file))
