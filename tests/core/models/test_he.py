@@ -248,3 +248,18 @@ def test_normal_incidence_energy_split_between_delta_and_directional_diffuse(val
     albedo = brdf.eval(np.repeat(v[None], len(wl), 0), wl)[:, 0] @ weights
     f0 = ((2.8 - 1) ** 2 + 8.4**2) / ((2.8 + 1) ** 2 + 8.4**2)
     np.testing.assert_allclose(albedo + specular_weight(brdf.params, 0.0)[0], f0, rtol=3e-3)
+
+
+@pytest.mark.slow
+def test_matches_the_paper_formulas_on_random_settings(rng):
+    # A sweep over the parameter box and the hemisphere (directions within 88 degrees of the normal).
+    for _ in range(40):
+        sigma = float(np.exp(rng.uniform(np.log(0.005), np.log(10.0))))
+        tau = float(np.exp(rng.uniform(np.log(0.05), np.log(100.0))))
+        lam = float(rng.uniform(200.0, 3000.0))
+        n, k = float(rng.uniform(0.1, 5.0)), float(rng.uniform(0.0, 10.0))
+        wi = degrees_to_dir(rng.uniform(0.0, 88.0), rng.uniform(0.0, 360.0))
+        wo = degrees_to_dir(rng.uniform(0.0, 88.0), rng.uniform(0.0, 360.0))
+        values = {"sigma": sigma, "tau": tau, "wavelength": lam, "n": n, "k": k}
+        ref, _ = _he_dd(wi, wo, sigma, tau, lam, n, k)
+        np.testing.assert_allclose(_f(values, wi, wo)[0], ref, rtol=1e-7, atol=1e-300, err_msg=str(values))

@@ -167,3 +167,34 @@ def test_anisotropic_highlight_stretches_across_the_cylinders():
     assert across > 100.0 * along
     rotated = brdf.eval(degrees_to_dir(60.0, 0.0), degrees_to_dir(40.0, 180.0))[0, 0]
     assert not np.isclose(across, rotated, rtol=1e-3)
+
+
+@pytest.mark.slow
+def test_matches_brute_force_on_random_settings(rng):
+    for i in range(16):
+        values = {
+            "d": float(np.exp(rng.uniform(np.log(2.0), np.log(8.0)))),
+            "h": float(np.exp(rng.uniform(np.log(0.01), 0.0))),
+            "n": float(np.exp(rng.uniform(0.0, np.log(1e4)))),
+            "ks": 0.7,
+            "kd": 0.3,
+            "grooves": bool(i % 2),
+        }
+        wi = degrees_to_dir(rng.uniform(0.0, 89.0), rng.uniform(0.0, 360.0))
+        wo = degrees_to_dir(rng.uniform(0.0, 89.0), rng.uniform(0.0, 360.0))
+        if i % 3 == 0:  # near the mirror direction, where the Phong lobe matters
+            wo = np.array([-wi[0], -wi[1], wi[2]]) + rng.normal(scale=0.05, size=3)
+            wo[2] = abs(wo[2])
+            wo /= np.linalg.norm(wo)
+        expected = _brute(
+            wi,
+            wo,
+            values["d"],
+            values["h"],
+            values["n"],
+            0.7,
+            0.3,
+            count=1_000_000,
+            grooves=values["grooves"],
+        )
+        np.testing.assert_allclose(_f(values, wi, wo), expected, rtol=1e-4, err_msg=str(values))
