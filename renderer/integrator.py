@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.model import LUMINANCE
 from core.scene import Scene
 from renderer.kernels import (
     accumulate,
@@ -86,9 +87,27 @@ class PathTracer:
     """Renders passes of one sample per pixel for a compiled :class:`World`."""
 
     def __init__(
-        self, world: World, width: int, height: int, max_depth: int, rr_depth: int, mis: str, seed: int
+        self,
+        world: World,
+        width: int,
+        height: int,
+        max_depth: int,
+        rr_depth: int,
+        mis: str,
+        seed: int,
+        ris_candidates: int = 0,
     ):
         self.world = world
+        # RIS (Talbot et al. 2005) for the environment: with M > 0 candidates, direct light from the sky comes
+        # from resampling M BRDF samples by f cos L (one shadow ray); the sky then leaves the light-type choice
+        # of NEE, and BRDF-sampled rays that escape after a bounce add no sky radiance (no double counting).
+        self.ris = int(ris_candidates) if world.env is not None else 0
+        shares = [len(world.emit_ids) > 0, len(world.point_pos) > 0, world.env is not None and not self.ris]
+        k = sum(shares)
+        self.p_area, self.p_point, self.p_env = (
+            ((1.0 / k if on else 0.0) for on in shares) if k else (0.0,) * 3
+        )
+        self.has_nee_lights = k > 0
         self.camera = Camera(world.scene, width, height)
         self.width, self.height = width, height
         self.max_depth = max_depth
@@ -176,7 +195,10 @@ class PathTracer:
                 wgt = np.ones(len(i))
                 bs = prev_pdf[i] > 0
                 if np.any(bs):
-                    wgt[bs] = mis_weight(prev_pdf[i[bs]], w.p_env * p_env[bs], self.mis)
+                    if self.ris:
+                        wgt[bs] = 0.0  # the sky's direct light was resampled at the previous vertex
+                    else:
+                        wgt[bs] = mis_weight(prev_pdf[i[bs]], self.p_env * p_env[bs], self.mis)
                 self._add(img, pix[i], beta[i] * le * wgt[:, None])
 
             keep = ~miss
@@ -198,7 +220,7 @@ class PathTracer:
                 if np.any(bs):
                     j = i[bs]
                     p_light = (
-                        w.p_area
+                        self.p_area
                         * w.emit_pmf_per_area[prim[j]]
                         * t[j] ** 2
                         / np.maximum(np.abs(cos_l[bs]), 1e-12)
@@ -225,8 +247,12 @@ class PathTracer:
             groups = [(m, np.nonzero(mat == m)[0]) for m in np.unique(mat)]
 
             # ---- next-event estimation
-            if w.has_lights:
+            if self.has_nee_lights:
                 self._next_event(img, pass_index, depth, origin, ng, wo_l, (tb, bb, ns), beta, pix, groups)
+            if self.ris:
+                self._ris_environment(
+                    img, pass_index, depth, origin, ng, wo_l, (tb, bb, ns), beta, pix, groups
+                )
 
             # ---- BRDF sampling with the chosen strategy, material by material
             wi_l = np.zeros((n, 3))
@@ -257,16 +283,16 @@ class PathTracer:
         n = len(origin)
         u = self._rng(pass_index, depth, 1).random((n, 5))
         wi, le, pdf_light, t_max, delta, is_env = sample_lights(
-            origin, u, w.p_area, w.p_area + w.p_point, w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2,
-            w.tri_normal, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area, w.p_area,
-            w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, w.p_point,
+            origin, u, self.p_area, self.p_area + self.p_point, w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2,
+            w.tri_normal, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area, self.p_area,
+            w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, self.p_point,
         )  # fmt: skip
         if w.env is not None and np.any(is_env):
             i = np.nonzero(is_env)[0]
             dirs, rad, pdf_e = w.env.sample(u[i, 1:5])
             wi[i] = dirs
             le[i] = rad
-            pdf_light[i] = w.p_env * pdf_e
+            pdf_light[i] = self.p_env * pdf_e
         wi_l = to_local(wi, *frame)
         cand = light_candidates(pdf_light, wi_l, wi, ng, le)
         f = np.zeros((n, 3))
@@ -288,3 +314,43 @@ class PathTracer:
         self.stats.rays += len(i)
         i = i[~blocked]
         self._add(img, pix[i], contrib[i])
+
+    def _ris_environment(self, img, pass_index, depth, origin, ng, wo_l, frame, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
+        """Direct light from the sky by resampled importance sampling: ``M`` candidates from the material's
+        sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos L)`` (unoccluded), one kept with
+        probability ``w_k / sum w``; estimate ``f cos L V * mean(w) / p_hat(y)`` with one shadow ray."""
+        w = self.world
+        m_c = self.ris
+        n = len(origin)
+        tb, bb, ns = frame
+        wi_l = np.zeros((n * m_c, 3))
+        pdf = np.zeros(n * m_c)
+        f = np.zeros((n * m_c, 3))
+        wo_rep = np.repeat(wo_l, m_c, axis=0)
+        for m, idx in groups:
+            rows = (idx[:, None] * m_c + np.arange(m_c)).ravel()
+            rt = w.materials_by_index[m]
+            seed = self._seed(pass_index, depth, int(m) + 0x10000)
+            s_wi, s_pdf = rt.sampler.sample_each(wo_rep[rows], seed=seed)
+            wi_l[rows] = s_wi
+            pdf[rows] = s_pdf
+            f[rows] = rt.brdf.eval(wo_rep[rows], s_wi, threads=len(rows) > PARALLEL_MIN)
+        rep = (np.repeat(x, m_c, axis=0) for x in (tb, bb, ns, ng))
+        wi, ok, fcos_over_p = bsdf_step(wi_l, pdf, f, *rep, np.ones((n * m_c, 3)))
+        le = w.env.lookup(wi)[0]
+        weight = np.where(ok, (fcos_over_p * le) @ LUMINANCE, 0.0).reshape(n, m_c)  # p_hat / p
+        total = weight.sum(axis=1)
+        u = self._rng(pass_index, depth, 7).random(n)
+        pick = np.minimum((np.cumsum(weight, axis=1) <= (u * total)[:, None]).sum(axis=1), m_c - 1)
+        chosen = np.arange(n) * m_c + pick
+        fcos_le = f[chosen] * wi_l[chosen, 2:3] * le[chosen]
+        p_hat = fcos_le @ LUMINANCE
+        good = (total > 0) & (p_hat > 0) & ok[chosen]
+        i = np.nonzero(good)[0]
+        if len(i) == 0:
+            return
+        contrib = beta[i] * fcos_le[i] * ((total[i] / m_c) / p_hat[i])[:, None]
+        blocked = w.accel.occluded(origin[i], wi[chosen[i]])
+        self.stats.rays += len(i)
+        keep = ~blocked
+        self._add(img, pix[i[keep]], contrib[keep])

@@ -138,10 +138,12 @@ def prepare(
     threads: int = 2,
     on_step: StepCallback | None = None,
     warm_up: bool = True,
+    ris_candidates: int = 0,
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
     scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
-    ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets."""
+    ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets.
+    ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates."""
     r = scene.render
     t0 = time.perf_counter()
     world = World(scene, sampler=sampler, sampler_options=sampler_options, threads=threads)
@@ -164,7 +166,12 @@ def prepare(
         "rr_depth": r.rr_depth,
         "mis": r.mis,
         "seed": int(r.seed if seed is None else seed),
+        "ris_candidates": int(ris_candidates),
     }
+    if ris_candidates < 0:
+        raise ParameterError(
+            f"the number of RIS candidates must be 0 (off) or positive, got {ris_candidates}"
+        )
     if settings["width"] < 1 or settings["height"] < 1:
         raise ParameterError("the image width and height must be at least 1 pixel")
     if settings["max_depth"] < 1:
@@ -177,6 +184,7 @@ def prepare(
         settings["rr_depth"],
         settings["mis"],
         settings["seed"],
+        settings["ris_candidates"],
     )
     if warm_up and world.sampler_name not in EAGER_SAMPLERS:
         _warm_up(world, tracer, report, on_step)

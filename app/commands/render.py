@@ -4,6 +4,7 @@
 
     brdf-studio render SCENE.json [--sampler S] [--spp N | --time SEC] -o OUT.exr
                        [--compare uniform,adaptive] [--reference REF.exr] [--seed K] [--width W --height H]
+                       [--ris M] [--n-max X] [--max-depth D] [--exposure EV]
     brdf-studio render --demo
 
 Writes ``OUT.exr`` (linear HDR), ``OUT.png`` (tone-mapped sRGB) and ``OUT.json`` (settings, time, spp, versions).
@@ -44,6 +45,13 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
     p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
     p.add_argument("--max-depth", type=int, help="maximum number of bounces")
+    p.add_argument(
+        "--ris",
+        type=int,
+        default=0,
+        metavar="M",
+        help="light from the sky by RIS with M candidates (default off)",
+    )
     p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return ["render"]
@@ -99,6 +107,8 @@ def run(args: argparse.Namespace) -> int:
         v = getattr(args, name)
         if v is not None and v < 1:
             raise ParameterError(f"--{name.replace('_', '-')} must be at least 1, got {v}")
+    if args.ris < 0:
+        raise ParameterError(f"--ris must be 0 (off) or a positive number of candidates, got {args.ris}")
     if args.seed is not None and args.seed < 0:
         raise ParameterError(f"--seed must be non-negative, got {args.seed}")
     strategies = _strategies(args, scene.render.sampler)
@@ -132,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
             seed=args.seed,
             max_depth=args.max_depth,
             on_step=on_step,
+            ris_candidates=args.ris,
         )
         bar.close()
         if reference is not None:
