@@ -31,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 def _config(args: argparse.Namespace) -> StudyConfig:
     if args.quick:
-        cfg = StudyConfig(thetas=(30.0,), counts=(16, 64, 256), reps=16, reference_samples=1 << 17)
+        cfg = StudyConfig(thetas=(30.0,), counts=(16, 64, 256), batch=1 << 14, reference_samples=1 << 17)
     else:
         cfg = StudyConfig()
     if args.thetas:
