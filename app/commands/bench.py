@@ -52,12 +52,10 @@ def _config(args: argparse.Namespace) -> StudyConfig:
 
 
 def _measured_default() -> list[Path]:
-    try:
-        from core.merl import demo_merl_path
-    except ImportError:
-        return []
-    path = demo_merl_path()
-    return [path] if path and Path(path).exists() else []
+    """The bundled synthetic MERL material(s)."""
+    from resources.materials import demo_materials
+
+    return [Path(m["measured"]) for m in demo_materials() if "measured" in m and Path(m["measured"]).exists()]
 
 
 def run(args: argparse.Namespace) -> int:
