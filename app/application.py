@@ -8,18 +8,34 @@ from pathlib import Path
 from core.errors import BrdfStudioError
 
 
-def run_app(path: Path | None = None, empty: bool = False) -> int:
-    """Open the main window on ``path`` (or the demo scene, or an empty project) and run until closed."""
+def run_app(path: Path | None = None, empty: bool = False, quit_after: float | None = None) -> int:
+    """Open the main window on ``path`` (or the demo scene, or an empty project) and run until closed
+    (or ``quit_after`` seconds, for smoke tests)."""
+    import os
+
+    from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 
     from app.main_window import APP_NAME, MainWindow
 
     if path is not None and not Path(path).is_file():
         raise BrdfStudioError(f"project file '{path}' not found")
+    if (
+        not os.environ.get("DISPLAY")
+        and not os.environ.get("WAYLAND_DISPLAY")
+        and sys.platform.startswith("linux")
+    ):
+        raise BrdfStudioError(
+            "no display: the desktop app needs a screen (on a headless machine run it under Xvfb, "
+            "e.g. 'xvfb-run -a brdf-studio')"
+        )
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName(APP_NAME)
     app.setOrganizationName("brdf-studio")
     window = MainWindow()
     window.show()
-    window.start(path, empty=empty)
+    window.start(path, empty=empty, restore="no" if quit_after is not None else "ask")
+    if quit_after is not None:
+        window.ask_unsaved = lambda: "discard"
+        QTimer.singleShot(int(quit_after * 1000), window.close)
     return int(app.exec())

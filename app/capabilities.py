@@ -80,6 +80,10 @@ def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> 
     q = _module("core.quadtree")
     if q is None or not quadtree_available():
         raise Unavailable("the adaptive quadtree (core/quadtree.py) is not available yet in this build")
+    from core.sampler import sampler_names
+
+    if "adaptive" in sampler_names():
+        return _sampler_tree(q, brdf, theta_deg, phi_deg, n_max)
     opts = q.BuildOptions(n_max=n_max)
     iso = brdf.model.isotropic
     edges = q.theta_edges(opts.theta_step, opts.z_min)
@@ -113,9 +117,49 @@ def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> 
         raise Unavailable(
             f"the adaptive quadtree could not be built here ({type(exc).__name__}: {exc})"
         ) from None
+    projection = getattr(tree, "projection", getattr(opts, "projection", "orthographic"))
+    if isinstance(projection, int | np.integer) and hasattr(q, "PROJECTIONS"):
+        projection = q.PROJECTIONS[int(projection)]  # stored as an index in the table
+    if projection not in ("orthographic", "equidistant"):
+        raise Unavailable(f"the tree's disk projection '{projection}' is not one this view can draw")
     return {
         "leaves": np.asarray(tree.leaf)[:, :5],
-        "projection": getattr(opts, "projection", "orthographic"),
+        "projection": str(projection),
+        "total_mass": tree.total_mass,
+        "integral": integral,
+        "nbytes": tree.nbytes,
+        "build_seconds": tree.build_seconds,
+        "bin_deg": (float(np.degrees(rng[0])), float(np.degrees(rng[1]))),
+    }
+
+
+def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> dict[str, Any]:
+    """The tree the adaptive sampler itself uses for this direction (built on demand, cached by it)."""
+    from core.sampler import make_sampler
+
+    sampler = make_sampler("adaptive", brdf, n_max=n_max)
+    table = sampler.table
+    t, p = np.radians(theta_deg), np.radians(phi_deg)
+    wo = np.array([[np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)]])
+    try:
+        bins, theta, phi = table.locate(wo)
+        b = int(bins[0])
+        if b < 0:
+            raise Unavailable("at this grazing angle the adaptive sampler falls back to the cosine density")
+        table.ensure(bins)
+        tree = table.bins[b]
+        integral = float(table.normalizer(bins, theta, phi)[0])
+        rng = table.bin_range(b)
+        projection = getattr(tree, "projection", 0)
+    except (TypeError, AttributeError, ValueError, IndexError, KeyError) as exc:
+        raise Unavailable(
+            f"the adaptive sampler's tree could not be read ({type(exc).__name__}: {exc})"
+        ) from None
+    if isinstance(projection, int | np.integer):
+        projection = q.PROJECTIONS[int(projection)]
+    return {
+        "leaves": np.asarray(tree.leaf)[:, :5],
+        "projection": str(projection),
         "total_mass": tree.total_mass,
         "integral": integral,
         "nbytes": tree.nbytes,

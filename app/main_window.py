@@ -50,6 +50,7 @@ from core.scene import validate_scene
 
 APP_NAME = "BRDF Studio"
 AUTOSAVE_MS = 20_000
+SLOW_JOB_DELAY_MS = 300
 MESH_FILTER = "Meshes (*.obj *.ply *.stl *.off *.glb *.gltf)"
 PROJECT_FILTER = "Projects (*.json)"
 
@@ -87,6 +88,10 @@ class MainWindow(QMainWindow):
         self._refresh_timer.setInterval(0)
         self._refresh_timer.timeout.connect(self.refresh_now)
         self._async_jobs: dict[str, dict[str, Any]] = {}
+        self._slow_timer = QTimer(self)
+        self._slow_timer.setSingleShot(True)
+        self._slow_timer.setInterval(SLOW_JOB_DELAY_MS)
+        self._slow_timer.timeout.connect(self._start_slow_jobs)
         self._sampling_stale = True
         self._sampling_requested = 0.0
         self.job_errors: dict[str, str] = {}
@@ -282,14 +287,7 @@ class MainWindow(QMainWindow):
             self.show_error("Material", str(exc))
             return
         wo = np.array(self.document.wo())
-        if pending & {"brdf", "direction"}:
-            self._timed("lobe", self.lobe_view.show_lobe, brdf, wo)
-            self._timed("polar", self.polar_view.show_slice, brdf, wo)
-        if pending & {"brdf", "light"}:
-            self._timed("sphere", self.sphere_view.show_material, brdf, self.document.light_dir)
-        if "brdf" in pending:
-            self._start_job("albedo", self._albedo_job, (brdf,), brdf.key())
-            self._start_job("adaptive", adaptive_line, (brdf,), brdf.key())
+        # The sampler view's tree is built in a worker: start it first so it runs while this thread draws.
         if pending & {"brdf", "direction", "sampling", "tab"}:
             self._sampling_stale = True
         if self._sampling_stale and (
@@ -301,6 +299,29 @@ class MainWindow(QMainWindow):
             key = (brdf.key(), d.theta_deg, d.phi_deg, tuple(sorted(opts.items())))
             self._sampling_requested = time.perf_counter()
             self._start_job("sampling", sampling_snapshot, (brdf, d.theta_deg, d.phi_deg), key, opts)
+        if pending & {"brdf", "direction"}:
+            self._timed("lobe", self.lobe_view.show_lobe, brdf, wo)
+            self._timed("polar", self.polar_view.show_slice, brdf, wo)
+        if pending & {"brdf", "light"}:
+            self._timed("sphere", self.sphere_view.show_material, brdf, self.document.light_dir)
+        if "brdf" in pending:
+            self._slow_timer.start()  # restarts: the quadrature waits until edits pause
+
+    def _start_slow_jobs(self) -> None:
+        """Albedo quadrature and adaptive-table facts: seconds of work, started once edits pause so that a
+        slider drag keeps the CPU for the lobe and the tree."""
+        try:
+            brdf = self.document.brdf()
+        except (BrdfStudioError, KeyError):
+            return
+        self._start_job("albedo", self._albedo_job, (brdf,), brdf.key())
+        self._start_job("adaptive", adaptive_line, (brdf,), brdf.key())
+
+    def flush_slow_jobs(self) -> None:
+        """Start the delayed jobs now (tests)."""
+        if self._slow_timer.isActive():
+            self._slow_timer.stop()
+            self._start_slow_jobs()
 
     def _timed(self, name: str, fn, *args) -> None:
         t0 = time.perf_counter()
@@ -326,7 +347,7 @@ class MainWindow(QMainWindow):
 
     def _launch_job(self, kind: str) -> None:
         job = self._async_jobs[kind]
-        if job["next"] is None:
+        if job["next"] is None or getattr(self, "_closed", False):
             job["worker"] = None
             return
         fn, args, kwargs, key = job["next"]
@@ -725,9 +746,12 @@ class MainWindow(QMainWindow):
 
     def shutdown(self) -> None:
         """Stop workers and release the 3D views (safe to call twice)."""
+        already = getattr(self, "_closed", False)
+        self._closed = True  # no new job starts from here on (a finished one would queue the next)
+        for timer in (self._refresh_timer, self._slow_timer, self.autosave_timer):
+            timer.stop()
         self.workers.shutdown()
-        if not getattr(self, "_closed", False):
-            self._closed = True
+        if not already:
             self.autosave_timer.stop()
             self.lobe_view.close_view()
             self.viewport.close_view()

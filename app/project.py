@@ -7,12 +7,13 @@ carried through unchanged (the document keeps them in ``extras``).
 
 from __future__ import annotations
 
+import copy
 import os
 from collections.abc import Callable
 from pathlib import Path
 
 from app.capabilities import MEASURED_MODEL
-from app.state import DocumentData, Material, SceneObject
+from app.state import DocumentData, Material, SceneObject, unique_name
 from core.errors import BrdfStudioError
 from core.scene import Mesh, Scene, SceneError, load_scene, save_scene, scene_from_dict
 
@@ -68,24 +69,30 @@ def document_to_scene(data: DocumentData, project: Path) -> Scene:
             entry["emission"] = emission
         materials.append(entry)
     meshes: list[dict] = []
-    by_file: dict[str, dict] = {}
+    by_entry: dict[tuple[str, str], dict] = {}
     for o in data.objects:
+        options: dict = {}
+        if o.transform:
+            options["transform"] = o.transform
+        if o.smooth:
+            options["smooth"] = True
         if o.part is None:
-            meshes.append({"name": o.name, "path": _rel(o.mesh, base), "material": o.material})
+            meshes.append({"name": o.name, "path": _rel(o.mesh, base), "material": o.material, **options})
             continue
-        entry = by_file.get(o.mesh)
+        key = (o.mesh, o.entry or Path(o.mesh).stem)
+        entry = by_entry.get(key)
         if entry is None:
-            entry = {"name": Path(o.mesh).stem, "path": _rel(o.mesh, base), "material": o.material}
+            entry = {"name": key[1], "path": _rel(o.mesh, base), "material": o.material, **options}
             entry["group_materials"] = {}
-            by_file[o.mesh] = entry
+            by_entry[key] = entry
             meshes.append(entry)
         entry["group_materials"][o.part] = o.material
-    for m in meshes:
-        m.update(data.extras.get("mesh_options", {}).get(m["path"], {}))
     raw = {"version": 1, "materials": materials, "meshes": meshes}
     for k in EXTRA_KEYS:
         if k in data.extras and data.extras[k] is not None:
-            raw[k] = data.extras[k]
+            raw[k] = copy.deepcopy(data.extras[k])
+    if raw.get("environment", {}).get("path"):
+        raw["environment"]["path"] = _rel(raw["environment"]["path"], base)
     return scene_from_dict(raw, source=Path(project).name, base_dir=base, check_files=False)
 
 
@@ -115,34 +122,45 @@ def scene_to_document(scene: Scene, parts: PartLister = mesh_parts) -> DocumentD
         data.materials[-1].tags = list(getattr(m, "tags", []) or [])
         if m.emissive:
             emission[m.name] = list(m.emission)
-    mesh_options = {}
+    identity = Mesh(path="x", material="x").transform.model_dump(mode="json")
     for i, mesh in enumerate(scene.meshes):
         full = scene.resolve(mesh.path)
         name = mesh.name or Path(mesh.path).stem
-        opts = {k: v for k, v in mesh.model_dump(mode="json").items() if k in ("transform", "smooth")}
-        if opts.get("smooth") is False:
-            opts.pop("smooth")
-        if opts.get("transform") == Mesh(path="x", material="x").model_dump(mode="json")["transform"]:
-            opts.pop("transform")
-        if opts:
-            mesh_options[Path(mesh.path).as_posix()] = opts
+        transform = mesh.transform.model_dump(mode="json")
+        transform = None if transform == identity else transform
         try:
             names = parts(full)
         except BrdfStudioError as exc:
             raise SceneError(f"{scene.source}: meshes[{i}].path: {exc}") from None
         if len(names) <= 1 and not mesh.group_materials:
-            data.objects.append(SceneObject(name, str(full), None, mesh.material))
+            data.objects.append(
+                SceneObject(name, str(full), None, mesh.material, True, transform, mesh.smooth)
+            )
         else:
             for n in names:
                 data.objects.append(
-                    SceneObject(f"{name}/{n}", str(full), n, mesh.group_materials.get(n, mesh.material))
+                    SceneObject(
+                        f"{name}/{n}",
+                        str(full),
+                        n,
+                        mesh.group_materials.get(n, mesh.material),
+                        True,
+                        transform,
+                        mesh.smooth,
+                        name,
+                    )  # fmt: skip
                 )
+    taken: list[str] = []
+    for o in data.objects:  # names identify objects in the app: keep them unique
+        o.name = unique_name(o.name, taken)
+        taken.append(o.name)
     dumped = scene.model_dump(mode="json")
     data.extras = {k: dumped[k] for k in EXTRA_KEYS if dumped.get(k) is not None}
+    env = data.extras.get("environment")
+    if env and env.get("path"):  # absolute while in the app; relative again when saved
+        env["path"] = str(scene.resolve(env["path"]))
     if emission:
         data.extras["emission"] = emission
-    if mesh_options:
-        data.extras["mesh_options"] = mesh_options
     return data
 
 

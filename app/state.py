@@ -63,6 +63,11 @@ class SceneObject:
     """Geometry name inside a multi-part file (``None``: the whole file)."""
     material: str = ""
     visible: bool = True
+    transform: dict[str, Any] | None = None
+    """The project's transform of the mesh (``core.scene.Transform`` fields), ``None`` for identity."""
+    smooth: bool = False
+    entry: str = ""
+    """Objects that are parts of one file share the project's mesh entry of this name."""
 
 
 @dataclass
@@ -463,7 +468,16 @@ class Document:
                 )
             )
         objs = [
-            SceneObject(o["name"], o["mesh"], o.get("part"), o.get("material", ""), o.get("visible", True))
+            SceneObject(
+                o["name"],
+                o["mesh"],
+                o.get("part"),
+                o.get("material", ""),
+                o.get("visible", True),
+                o.get("transform"),
+                bool(o.get("smooth", False)),
+                o.get("entry", ""),
+            )  # fmt: skip
             for o in raw.get("objects", [])
         ]
         return DocumentData(mats, objs, dict(raw.get("extras", {})))

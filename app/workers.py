@@ -74,16 +74,25 @@ class WorkerPool:
 
     def start(self, worker: GeneratorWorker) -> GeneratorWorker:
         self._workers.add(worker)
-        worker.finished.connect(lambda w=worker: self._workers.discard(w))
+        worker.finished.connect(lambda w=worker: self._release(w))
         worker.start()
         return worker
+
+    def _release(self, worker: GeneratorWorker) -> None:
+        # ``finished`` is emitted just before the thread exits: wait for it, or dropping the last reference
+        # here would destroy a QThread that still runs (Qt aborts the process).
+        worker.wait()
+        self._workers.discard(worker)
 
     def running(self) -> list[GeneratorWorker]:
         return [w for w in self._workers if w.isRunning()]
 
-    def shutdown(self, timeout_ms: int = 5000) -> None:
+    def shutdown(self) -> None:
+        """Cancel every worker and wait for each to reach its next ``yield`` (or its end). Waiting is what
+        keeps a thread from being destroyed while it runs (Qt aborts the process then); the wait is one
+        step of work: a render pass, one model's kernel compilation, one quadrature."""
         for w in list(self._workers):
             w.cancel()
         for w in list(self._workers):
-            w.wait(timeout_ms)
+            w.wait()
         self._workers.clear()

@@ -182,8 +182,11 @@ class MaterialEditor(QWidget):
         self.badges.setText(trait_badges(model))
         if self.param_editor is None or self.param_editor.model is not model:
             if self.param_editor is not None:
-                self.params_layout.removeWidget(self.param_editor)
-                self.param_editor.deleteLater()
+                old = self.param_editor
+                self.params_layout.removeWidget(old)
+                old.hide()
+                old.setParent(None)  # gone now, not at the next turn of the event loop
+                old.deleteLater()
             self.param_editor = ParamEditor(model)
             self.param_editor.value_edited.connect(lambda n, v: self._guard(doc.set_param, n, v))
             self.param_editor.edit_finished.connect(doc.end_merge)

@@ -15,7 +15,7 @@ from app.view_data import leaf_raster
 from app.views.figure import FigureView
 from core.sampler import sampler_names
 
-RASTER = 256
+RASTER = 192
 
 
 class SamplingView(QWidget):
@@ -51,6 +51,7 @@ class SamplingView(QWidget):
         fig = self.figure_view.figure
         fig.clear()
         self.ax_tree, self.ax_ratio = fig.subplots(1, 2)
+        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.08, top=0.92, wspace=0.2)
         layout = QVBoxLayout(self)
         layout.addLayout(controls)
         layout.addWidget(self.figure_view, 1)
@@ -77,39 +78,88 @@ class SamplingView(QWidget):
             "n_samples": int(self.n_samples.value()),
         }
 
-    def show_message(self, text: str) -> None:
-        self.stats.setText(text)
-        for ax in (self.ax_tree, self.ax_ratio):
-            ax.clear()
-            ax.set_axis_off()
-        self.ax_tree.text(
-            0.5, 0.5, text, ha="center", va="center", wrap=True, transform=self.ax_tree.transAxes
-        )
-        self.figure_view.redraw()
-
-    def show_snapshot(self, snap: dict) -> None:
-        self.snapshot = snap
+    def _make_artists(self) -> None:
+        """Create the plot's artists once; redraws only update their data."""
         ax = self.ax_tree
-        ax.clear()
         ax.set_aspect("equal")
         ax.set_xlim(-1.02, 1.02)
         ax.set_ylim(-1.02, 1.02)
-        tree = snap.get("tree")
+        empty = np.ma.masked_all((RASTER, RASTER))
+        self._tree_img = ax.imshow(
+            empty,
+            extent=(-1, 1, -1, 1),
+            origin="lower",
+            cmap="magma",
+            norm=LogNorm(vmin=1e-3, vmax=1.0),
+            interpolation="nearest",
+        )
+        self.leaf_edges = LineCollection([], colors="white", linewidths=0.3, alpha=0.5)
+        ax.add_collection(self.leaf_edges)
+        self._samples = ax.scatter([], [], s=1.5, c="cyan", alpha=0.7, linewidths=0)
+        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
+        (self._wo_mark,) = ax.plot([], [], marker="x", color="red", ms=8, ls="none")
+        self._tree_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
+        ax.set_title("leaves: trial density M/V on the disk (log); samples", fontsize=9)
+        ax = self.ax_ratio
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.02, 1.02)
+        ax.set_ylim(-1.02, 1.02)
+        self._ratio_img = ax.imshow(
+            np.full((2, 2), np.nan),
+            extent=(-1, 1, -1, 1),
+            origin="lower",
+            cmap="coolwarm",
+            vmin=-2,
+            vmax=2,
+            interpolation="nearest",
+        )
+        self._colorbar = self.figure_view.figure.colorbar(self._ratio_img, ax=ax, fraction=0.046, pad=0.04)
+        self._colorbar.set_label("log2(pdf / (f cos / I))")
+        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
+        self._ratio_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
+        self._ratio_title = ax.set_title("", fontsize=9)
+        for a in (self.ax_tree, self.ax_ratio):  # few tick labels: text is most of a redraw's cost
+            a.set_xticks([-1, 0, 1])
+            a.set_yticks([-1, 0, 1])
+        self._colorbar.set_ticks([-2, -1, 0, 1, 2])
+        self._artists = True
+
+    def show_message(self, text: str) -> None:
+        if not getattr(self, "_artists", False):
+            self._make_artists()
+        self.stats.setText(text)
+        self._tree_msg.set_text(text)
+        self._tree_img.set_visible(False)
+        self.leaf_edges.set_segments([])
+        self._samples.set_offsets(np.zeros((0, 2)))
+        self._ratio_img.set_visible(False)
+        self.figure_view.redraw()
+
+    def show_snapshot(self, snap: dict) -> None:
+        if not getattr(self, "_artists", False):
+            self._make_artists()
+        self.snapshot = snap
         lines = []
+        tree = snap.get("tree")
+        projection = snap.get("projection", "orthographic")
         if tree is not None:
             leaves = tree["leaves"]
             v = tree["total_mass"]
             density = leaf_raster(leaves, RASTER) / v if v > 0 else np.zeros((RASTER, RASTER))
             positive = density[density > 0]
             if positive.size:
-                norm = LogNorm(vmin=max(positive.min(), positive.max() * 1e-6), vmax=positive.max())
-                masked = np.ma.masked_less_equal(density, 0.0)
-                ax.imshow(masked, extent=(-1, 1, -1, 1), origin="lower", cmap="magma", norm=norm)
-            segs = []
-            for _m, x0, y0, x1, y1 in leaves:
-                if x1 > x0:
-                    segs.append([(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)])
-            ax.add_collection(LineCollection(segs, colors="white", linewidths=0.3, alpha=0.5))
+                self._tree_img.set_data(np.ma.masked_less_equal(density, 0.0))
+                self._tree_img.set_norm(
+                    LogNorm(vmin=max(positive.min(), positive.max() * 1e-6), vmax=positive.max())
+                )
+            self._tree_img.set_visible(bool(positive.size))
+            keep = leaves[:, 3] > leaves[:, 1]
+            x0, y0, x1, y1 = (leaves[keep, k] for k in (1, 2, 3, 4))
+            segs = np.stack(
+                [np.stack(p, axis=-1) for p in ((x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0))], axis=1
+            )
+            self.leaf_edges.set_segments(segs)
+            self._tree_msg.set_text("")
             lo, hi = tree["bin_deg"]
             lines.append(
                 f"Tree for theta_o in [{lo:.2f}, {hi:.2f}] deg: {len(leaves)} leaves, "
@@ -118,11 +168,13 @@ class SamplingView(QWidget):
                 f"expected acceptance per trial I/V = {snap['acceptance']:.3f} (>= 1/n_max = {1 / snap['n_max']:.3f})"
             )
         else:
-            ax.text(0, 0, snap.get("tree_error", ""), ha="center", va="center", wrap=True, fontsize=8)
+            self._tree_img.set_visible(False)
+            self.leaf_edges.set_segments([])
+            self._tree_msg.set_text(snap.get("tree_error", ""))
             lines.append(f"Tree: {snap.get('tree_error', '')}")
         samples = snap.get("samples")
         if samples is not None:
-            ax.scatter(samples[:, 0], samples[:, 1], s=1.5, c="cyan", alpha=0.7, linewidths=0)
+            self._samples.set_offsets(samples)
             info = snap.get("sampler_info", {})
             extra = ", ".join(
                 f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
@@ -131,33 +183,22 @@ class SamplingView(QWidget):
             )
             lines.append(f"Adaptive samples: {len(samples)}" + (f" ({extra})" if extra else ""))
         else:
+            self._samples.set_offsets(np.zeros((0, 2)))
             lines.append(f"Samples: {snap.get('samples_error', '')}")
-        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         wx, wy = snap["wo_disk"]
-        ax.plot([wx], [wy], marker="x", color="red", ms=8)
-        ax.set_title("leaves: trial density M/V on the disk (log); samples", fontsize=9)
-        if tree is not None and snap.get("projection", "orthographic") != "orthographic":
-            wx, wy = to_disk(
-                np.array([[wx, wy, np.sqrt(max(0.0, 1 - wx * wx - wy * wy))]]), snap["projection"]
-            )[0]
-            ax.lines[-1].set_data([wx], [wy])
+        if projection != "orthographic":
+            wx, wy = to_disk(np.array([[wx, wy, np.sqrt(max(0.0, 1 - wx * wx - wy * wy))]]), projection)[0]
+        self._wo_mark.set_data([wx], [wy])
 
-        ax = self.ax_ratio
-        ax.clear()
-        ax.set_aspect("equal")
         ratio = snap.get("ratio")
         name = snap.get("ratio_sampler", "")
         if ratio is not None:
             with np.errstate(divide="ignore", invalid="ignore"):
                 log_ratio = np.log2(ratio)
             log_ratio = np.where(np.isinf(log_ratio), np.sign(log_ratio) * 4.0, log_ratio)
-            im = ax.imshow(log_ratio, extent=(-1, 1, -1, 1), origin="lower", cmap="coolwarm", vmin=-2, vmax=2)
-            if not hasattr(self, "_colorbar"):
-                self._colorbar = self.figure_view.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
-                self._colorbar.set_label("log2(pdf / (f cos / I))")
-            else:
-                self._colorbar.update_normal(im)
-            ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
+            self._ratio_img.set_data(log_ratio)
+            self._ratio_img.set_visible(True)
+            self._ratio_msg.set_text("")
             finite = ratio[np.isfinite(ratio) & (ratio > 0)]
             spread = (
                 f"{np.percentile(finite, 5):.3g} .. {np.percentile(finite, 95):.3g}" if finite.size else "-"
@@ -167,13 +208,11 @@ class SamplingView(QWidget):
                 f"relative std of the weight f cos / pdf = {snap['weight_rel_std']:.3g}"
             )
         else:
-            ax.text(0, 0, snap.get("ratio_error", ""), ha="center", va="center", wrap=True, fontsize=8)
+            self._ratio_img.set_visible(False)
+            self._ratio_msg.set_text(snap.get("ratio_error", ""))
             lines.append(f"Ratio map: {snap.get('ratio_error', '')}")
-        ax.set_xlim(-1.02, 1.02)
-        ax.set_ylim(-1.02, 1.02)
-        ax.set_title(f"ratio map: {name} vs ideal (white = 1)", fontsize=9)
+        self._ratio_title.set_text(f"ratio map: {name} vs ideal (white = 1)")
         frame = "rotated so that wo has phi = 0" if snap.get("frame_rotated") else "local frame"
-        projection = snap.get("projection", "orthographic")
         meaning = "(x, y) = (wi.x, wi.y)" if projection == "orthographic" else "radius = theta_i / 90 deg"
         lines.append(f"Disk: {projection} projection, {meaning}; {frame}.")
         self.stats.setText("<br>".join(lines))

@@ -16,7 +16,7 @@ class SphereView(QWidget):
 
     light_dragged = Signal(float, float, float)
 
-    def __init__(self, parent: QWidget | None = None, resolution: int = 160):
+    def __init__(self, parent: QWidget | None = None, resolution: int = 128):
         super().__init__(parent)
         self.resolution = resolution
         self.image_rgb = np.zeros((resolution, resolution, 3), dtype=np.uint8)

@@ -21,11 +21,24 @@ from core.scene import Transform
 SELECTED_EDGE = "#ffb300"
 
 
+_STRATA = 48
+
+
+def _cosine_directions(n: int = _STRATA) -> np.ndarray:
+    """``n * n`` stratified cosine-weighted directions (fixed, so colours do not flicker)."""
+    u = (np.stack(np.meshgrid(np.arange(n), np.arange(n), indexing="ij"), -1).reshape(-1, 2) + 0.5) / n
+    r, phi = np.sqrt(u[:, 0]), 2.0 * math.pi * u[:, 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(0.0, 1.0 - u[:, 0]))], axis=1)
+
+
+_COSINE = _cosine_directions()
+
+
 def display_colour(brdf: BRDF) -> tuple[float, float, float]:
-    """A flat colour for a material: ``pi f(wo, n)`` with ``wo`` at 45 degrees, away from any mirror peak
-    (a diffuse-reflectance look-alike), clipped to [0, 1] and gamma-encoded for display."""
-    wo = np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5)])
-    rgb = np.clip(math.pi * brdf.eval(wo, np.array([0.0, 0.0, 1.0]))[0], 0.0, 1.0)
+    """A flat colour for a material: its directional albedo at 20 degrees (stratified cosine-weighted
+    estimate, ``mean(pi f)``), clipped to [0, 1] and gamma-encoded for display."""
+    wo = np.array([math.sin(math.radians(20.0)), 0.0, math.cos(math.radians(20.0))])
+    rgb = np.clip(math.pi * brdf.eval(wo, _COSINE).mean(axis=0), 0.0, 1.0)
     return tuple(float(c) ** (1 / 2.2) for c in rgb)  # type: ignore[return-value]
 
 
@@ -90,13 +103,9 @@ class SceneViewport(QWidget):
                 self.meshes.pop(name, None)
                 self._keys.pop(name, None)
         problems = []
-        opts = doc.data.extras.get("mesh_options", {})
         for name, o in wanted.items():
-            transform = None
-            for key, value in opts.items():
-                if o.mesh.replace("\\", "/").endswith(key):
-                    transform = value.get("transform")
-            key = (o.mesh, o.part, repr(transform))
+            transform = o.transform
+            key = (o.mesh, o.part, repr(transform), o.smooth)
             if self._keys.get(name) == key:
                 continue
             if name in self.actors:
@@ -107,7 +116,9 @@ class SceneViewport(QWidget):
                 problems.append(str(exc))
                 continue
             self.meshes[name] = mesh
-            self.actors[name] = self.plotter.add_mesh(mesh, color="white", smooth_shading=False, render=False)
+            self.actors[name] = self.plotter.add_mesh(
+                mesh, color="white", smooth_shading=o.smooth, render=False
+            )
             self._keys[name] = key
         self._draw_lights()
         self.recolour(render=False)

@@ -121,8 +121,16 @@ def test_albedo_panel_is_honest_about_availability(window, qtbot):
     from app.capabilities import albedo_available
 
     _select(window, "lambert")
+    window.document.set_param("kd", (0.3, 0.5, 0.7))
+    window.refresh_now()
     if albedo_available():
-        qtbot.waitUntil(lambda: window.albedo_view.values.size > 0, timeout=20000)
+        window.flush_slow_jobs()
+        view = window.albedo_view
+        qtbot.waitUntil(lambda: window.jobs_idle("albedo") and view.values.size > 0, timeout=60000)
+        # Lambert's directional albedo is kd at every angle (the quadrature states ~1e-3 accuracy here)
+        assert np.allclose(view.values, [0.3, 0.5, 0.7], atol=2e-3)
+        lum = 0.2126 * 0.3 + 0.7152 * 0.5 + 0.0722 * 0.7  # the info line quotes the luminance
+        assert f"0&deg;: {lum:.3f}" in window.material_editor.info.text()
     else:
         assert "not available yet" in window.albedo_view.status.text().lower()
 

@@ -79,3 +79,26 @@ def test_scene_to_document_reports_unreadable_meshes(tmp_path):
     scene = document_to_scene(_data(tmp_path), tmp_path / "p.json")
     with pytest.raises(SceneError, match=r"meshes\[0\]\.path"):
         scene_to_document(scene, broken)
+
+
+def test_bundled_demo_scene_round_trips(tmp_path):
+    from app.main_window import demo_scene_path
+
+    demo = demo_scene_path()
+    if demo is None:
+        pytest.skip("no bundled demo scene in this build")
+    original = load_scene(demo)
+    data = load_project(demo)
+    assert len(data.objects) == len(original.meshes)
+    save_project(data, tmp_path / "copy.json")
+    again = load_scene(tmp_path / "copy.json")  # paths rewritten relative to the new place
+    assert [m.name for m in again.materials] == [m.name for m in original.materials]
+    for a, b in zip(again.meshes, original.meshes, strict=True):
+        assert again.resolve(a.path).resolve() == original.resolve(b.path).resolve()
+        assert a.transform == b.transform and a.smooth == b.smooth and a.material == b.material
+    assert again.camera == original.camera and again.lights == original.lights
+    assert again.environment.type == original.environment.type
+    assert (
+        again.resolve(again.environment.path).resolve()
+        == original.resolve(original.environment.path).resolve()
+    )

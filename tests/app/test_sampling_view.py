@@ -47,7 +47,7 @@ def test_tree_follows_parameter_direction_and_n_max(window, qtbot):
     ratio = snap["ratio"]
     if snap["ratio_sampler"] == "adaptive":
         assert np.nanmax(np.abs(np.log2(ratio))) < 1e-6
-    drawn_leaves = len(window.sampling_view.ax_tree.collections[0].get_segments())
+    drawn_leaves = len(window.sampling_view.leaf_edges.get_segments())
     assert drawn_leaves == int(np.sum(tree["leaves"][:, 3] > tree["leaves"][:, 1]))
 
     # a parameter edit: the bounds scale with kd

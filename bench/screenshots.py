@@ -1,0 +1,112 @@
+"""Save a screenshot of every panel of the desktop app to docs/screenshots/ (PNG).
+
+    .venv/bin/python bench/screenshots.py [--out docs/screenshots]
+
+Opens the app on the bundled demo scene (under Xvfb when there is no display), drives it to a meaningful
+state (a glossy material at 45 degrees, the sampler view, a short side-by-side render) and grabs each panel
+from the screen, so the OpenGL views are captured too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _display import ensure_display  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "screenshots")
+    parser.add_argument("--material", default="polished copper")
+    args = parser.parse_args()
+    ensure_display()
+    os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-shots-"))
+
+    from PySide6.QtCore import QRect
+    from PySide6.QtWidgets import QApplication, QWidget
+
+    from app.main_window import MainWindow, demo_scene_path
+
+    app = QApplication.instance() or QApplication([])
+    window = MainWindow(warm_up=False)
+    window.ask_unsaved = lambda: "discard"
+    window.resize(1500, 950)
+    window.show()
+    window.start(demo_scene_path(), restore="no")
+    doc = window.document
+
+    def settle(seconds: float = 0.5, until=None, timeout: float = 300.0) -> None:
+        end = time.monotonic() + timeout
+        stop = time.monotonic() + seconds
+        while time.monotonic() < stop or (until is not None and not until() and time.monotonic() < end):
+            app.processEvents()
+            time.sleep(0.02)
+        window.refresh_now()
+        app.processEvents()
+
+    def grab(widget: QWidget, name: str) -> None:
+        top_left = widget.mapToGlobal(widget.rect().topLeft())
+        rect = QRect(top_left, widget.size())
+        pixmap = widget.screen().grabWindow(0, rect.x(), rect.y(), rect.width(), rect.height())
+        args.out.mkdir(parents=True, exist_ok=True)
+        path = args.out / f"{name}.png"
+        pixmap.save(str(path), "PNG")
+        print(
+            f"wrote {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path} ({rect.width()}x{rect.height()})"
+        )
+
+    if args.material in doc.material_names():
+        doc.select_material(args.material)
+    doc.set_direction(45.0, 0.0)
+    settle(1.0, until=lambda: window.jobs_idle("albedo", "adaptive"))
+    window.tabs.setCurrentWidget(window.explore)
+    settle(0.5)
+    grab(window, "window")
+    grab(window.explore, "explore")
+    grab(window.lobe_view, "lobe")
+    grab(window.polar_view, "polar")
+    grab(window.albedo_view, "albedo")
+    grab(window.sphere_view, "lit_sphere")
+    grab(window.direction_editor, "direction")
+    grab(window.material_dock, "material_editor")
+    grab(window.tree_dock, "scene_tree")
+
+    window.tabs.setCurrentWidget(window.sampling_panel)
+    settle(0.5, until=lambda: window.jobs_idle("sampling") and window.sampling_view.snapshot is not None)
+    grab(window.sampling_panel, "sampling")
+
+    window.tabs.setCurrentWidget(window.scene_panel)
+    objects = [o.name for o in doc.data.objects]
+    if objects:
+        doc.select_object(objects[min(1, len(objects) - 1)])
+    settle(0.5)
+    grab(window.scene_panel, "scene")
+
+    if hasattr(window, "render_view"):
+        panel = window.render_view
+        panel.width_box.setValue(240)
+        panel.height_box.setValue(160)
+        panel.spp.setValue(8)
+        panel.strategy_a.setCurrentText("uniform")
+        panel.strategy_b.setCurrentText(
+            "adaptive"
+            if "adaptive" in [panel.strategy_b.itemText(i) for i in range(panel.strategy_b.count())]
+            else "analytic"
+        )
+        window.start_render()
+        settle(0.5, until=lambda: not panel.running, timeout=600)
+        grab(window.render_panel, "render")
+    window.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
