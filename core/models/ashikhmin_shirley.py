@@ -32,8 +32,8 @@ import math
 from numba import njit
 
 from core.model import Model, Param, Traits, register
-from core.models.cook_torrance import lobe_probability, luminance3, reflect_about
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+from core.models._microfacet import reflect_about, upper_half_vector
+from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -63,13 +63,7 @@ def eval_ashikhmin_shirley(wi, wo, p):
         return 0.0, 0.0, 0.0
     nu = p[0]
     nv = p[1]
-    hx = wi[0] + wo[0]
-    hy = wi[1] + wo[1]
-    hz = wi[2] + wo[2]
-    norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    hx /= norm
-    hy /= norm
-    hz /= norm
+    hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = |wi + wo| / 2 > 0
     lobe = (
         math.sqrt((nu + 1.0) * (nv + 1.0))
@@ -106,32 +100,28 @@ def _half_vector_sample(nu, nv, u1, u2):
 
 @njit(nogil=True, cache=True)
 def _lobe_pdf(wo, wi, nu, nv):
-    sx = wi[0] + wo[0]
-    sy = wi[1] + wo[1]
-    sz = wi[2] + wo[2]
-    norm = math.sqrt(sx * sx + sy * sy + sz * sz)
-    if norm == 0.0:
-        return 0.0
-    hx = sx / norm
-    hy = sy / norm
-    hz = abs(sz) / norm  # the sampled half vector is the one in the upper hemisphere
-    if hz <= 0.0:
+    hx, hy, hz, norm = upper_half_vector(wo, wi)  # the sampled half vector is the upper one
+    if hz <= 0.0:  # also at wi = -wo, where norm = 0
         return 0.0
     p_h = math.sqrt((nu + 1.0) * (nv + 1.0)) / TWO_PI * _pow_cos(hz, anisotropic_exponent(hx, hy, nu, nv))
     return p_h / (2.0 * norm)  # 4 |wo.h| = 2 |wi + wo|
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(p):
+    return lobe_probability(luminance_at(p, 2), luminance_at(p, 5))  # ks, kd
+
+
 @njit(nogil=True, cache=True)
 def pdf_ashikhmin_shirley(wo, wi, p):
-    ps = lobe_probability(luminance3(p[2], p[3], p[4]), luminance3(p[5], p[6], p[7]))
+    ps = _lobe_probability(p)
     lobe = _lobe_pdf(wo, wi, p[0], p[1]) if ps > 0.0 else 0.0
-    return ps * lobe + (1.0 - ps) * cosine_hemisphere_pdf(wi[2])
+    return mixture_pdf(ps, lobe, wi[2])
 
 
 @njit(nogil=True, cache=True)
 def sample_ashikhmin_shirley(wo, p, u1, u2, u3):
-    ps = lobe_probability(luminance3(p[2], p[3], p[4]), luminance3(p[5], p[6], p[7]))
-    if u3 < ps:
+    if u3 < _lobe_probability(p):
         hx, hy, hz = _half_vector_sample(p[0], p[1], u1, u2)
         wi = reflect_about(wo, hx, hy, hz)
     else:

@@ -21,12 +21,10 @@ from numba import njit
 from core.geometry import half_vector
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
-    cosine_hemisphere,
-    cosine_hemisphere_pdf,
-    half_vector_lobe,
-    half_vector_lobe_pdf,
+    half_vector_mixture_pdf,
+    half_vector_mixture_sample,
+    lobe_probability_clamped,
     luminance_at,
-    mixture_probability,
 )
 
 INV_PI = 0.3183098861837907
@@ -52,22 +50,19 @@ def _lobe_probability(wo, p):
     # Estimated specular albedo: for a narrow lobe h ~ n, d(omega_i) = 4 (wo.h) d(omega_h) and
     # cos(theta_i) ~ wo.z, so the integral of (n.h)^n cos(theta_i) is about 8 pi wo.z^2 / (n + 2).
     cz = max(wo[2], 0.0)
-    return mixture_probability(luminance_at(p, 1) * EIGHT_PI * cz * cz / (p[0] + 2.0), luminance_at(p, 4))
+    return lobe_probability_clamped(
+        luminance_at(p, 1) * EIGHT_PI * cz * cz / (p[0] + 2.0), luminance_at(p, 4)
+    )
 
 
 @njit(nogil=True, cache=True)
 def pdf_blinn(wo, wi, p):
-    q = _lobe_probability(wo, p)
-    return q * half_vector_lobe_pdf(wo, wi, p[0]) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+    return half_vector_mixture_pdf(wo, p[0], _lobe_probability(wo, p), wi)
 
 
 @njit(nogil=True, cache=True)
 def sample_blinn(wo, p, u1, u2, u3):
-    if u3 < _lobe_probability(wo, p):
-        w = half_vector_lobe(wo, p[0], u1, u2)
-    else:
-        w = cosine_hemisphere(u1, u2)
-    return w[0], w[1], w[2], pdf_blinn(wo, w, p)
+    return half_vector_mixture_sample(wo, p[0], _lobe_probability(wo, p), u1, u2, u3)
 
 
 BLINN = register(

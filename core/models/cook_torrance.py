@@ -31,75 +31,16 @@ from numba import njit
 
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+from core.models._microfacet import (
+    beckmann_reflection_pdf,
+    beckmann_sample_h,
+    reflect_about,
+    upper_half_vector,
+)
+from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
-TWO_PI = 2.0 * math.pi
-LUMA = (0.2126, 0.7152, 0.0722)
-
-
-@njit(inline="always", nogil=True, cache=True)
-def luminance3(r, g, b):
-    return LUMA[0] * r + LUMA[1] * g + LUMA[2] * b
-
-
-@njit(inline="always", nogil=True, cache=True)
-def lobe_probability(w_lobe, w_diffuse):
-    """Probability of the specular lobe in a lobe + cosine mixture, from non-negative weights."""
-    total = w_lobe + w_diffuse
-    if total <= 0.0:
-        return 0.5
-    return w_lobe / total
-
-
-@njit(nogil=True, cache=True)
-def beckmann_sample_h(ax, ay, u1, u2):
-    """A half vector (upper hemisphere) whose slopes ``(-h.x/h.z, -h.y/h.z)`` are Gaussian with variances
-    ``ax^2 / 2``, ``ay^2 / 2``: density ``D_B(h) cos(theta_h)`` per unit solid angle of ``h`` (anisotropic
-    Beckmann; also Ward's lobe, Walter 2005)."""
-    r = math.sqrt(-math.log(1.0 - u1))  # 1 - u1 in (0, 1]
-    phi = TWO_PI * u2
-    sx = ax * r * math.cos(phi)
-    sy = ay * r * math.sin(phi)
-    inv = 1.0 / math.sqrt(sx * sx + sy * sy + 1.0)
-    return -sx * inv, -sy * inv, inv
-
-
-@njit(nogil=True, cache=True)
-def beckmann_pdf_h(hx, hy, hz, ax, ay):
-    """Density of :func:`beckmann_sample_h` per unit solid angle at unit ``h`` with ``hz > 0``:
-    the slope density ``exp(-(x^2/ax^2 + y^2/ay^2)) / (pi ax ay)`` times ``d(slope) / d(omega_h) =
-    1 / cos^3(theta_h)``."""
-    if hz <= 0.0:
-        return 0.0
-    e = ((hx / ax) ** 2 + (hy / ay) ** 2) / (hz * hz)
-    if e > 700.0:
-        return 0.0
-    return math.exp(-e) / (PI * ax * ay * hz * hz * hz)
-
-
-@njit(nogil=True, cache=True)
-def reflect_about(wo, hx, hy, hz):
-    d2 = 2.0 * (wo[0] * hx + wo[1] * hy + wo[2] * hz)
-    return d2 * hx - wo[0], d2 * hy - wo[1], d2 * hz - wo[2]
-
-
-@njit(nogil=True, cache=True)
-def beckmann_reflection_pdf(wo, wi, ax, ay):
-    """Density per unit solid angle of ``wi`` = ``wo`` reflected about a :func:`beckmann_sample_h` half
-    vector. ``h = +-(wi + wo) / |wi + wo|`` with the sign giving ``h.z >= 0``, and
-    ``|wo.h| = |wi + wo| / 2``; 0 at ``wi = -wo`` (measure zero)."""
-    sx = wi[0] + wo[0]
-    sy = wi[1] + wo[1]
-    sz = wi[2] + wo[2]
-    norm = math.sqrt(sx * sx + sy * sy + sz * sz)
-    if norm == 0.0:
-        return 0.0
-    if sz < 0.0:
-        sx, sy, sz = -sx, -sy, -sz
-    p_h = beckmann_pdf_h(sx / norm, sy / norm, sz / norm, ax, ay)
-    return p_h / (2.0 * norm)  # 4 |wo.h| = 2 |wi + wo|
 
 
 @njit(nogil=True, cache=True)
@@ -107,13 +48,7 @@ def eval_cook_torrance(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
     m = p[0]
-    hx = wi[0] + wo[0]
-    hy = wi[1] + wo[1]
-    hz = wi[2] + wo[2]
-    norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    hx /= norm
-    hy /= norm
-    hz /= norm
+    hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = wo.h > 0 when both lie above the horizon
     tan2 = (hx * hx + hy * hy) / (hz * hz)
     e = tan2 / (m * m)
@@ -130,17 +65,21 @@ def eval_cook_torrance(wi, wo, p):
     )
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(p):
+    return lobe_probability(luminance_at(p, 3), luminance_at(p, 6))  # ks, kd
+
+
 @njit(nogil=True, cache=True)
 def pdf_cook_torrance(wo, wi, p):
-    ps = lobe_probability(luminance3(p[3], p[4], p[5]), luminance3(p[6], p[7], p[8]))
+    ps = _lobe_probability(p)
     lobe = beckmann_reflection_pdf(wo, wi, p[0], p[0]) if ps > 0.0 else 0.0
-    return ps * lobe + (1.0 - ps) * cosine_hemisphere_pdf(wi[2])
+    return mixture_pdf(ps, lobe, wi[2])
 
 
 @njit(nogil=True, cache=True)
 def sample_cook_torrance(wo, p, u1, u2, u3):
-    ps = lobe_probability(luminance3(p[3], p[4], p[5]), luminance3(p[6], p[7], p[8]))
-    if u3 < ps:
+    if u3 < _lobe_probability(p):
         hx, hy, hz = beckmann_sample_h(p[0], p[0], u1, u2)
         wi = reflect_about(wo, hx, hy, hz)
     else:

@@ -43,11 +43,11 @@ from numba import njit
 
 from core.model import Model, Param, Traits, register
 from core.models._kelemen_albedo import N_TABLE, albedo_tables, hemispherical_average, table_map
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+from core.models._microfacet import beckmann_d, reflect_about
+from core.models.lobes import LUMA, cosine_hemisphere, cosine_hemisphere_pdf, lobe_probability, luminance3
 
 INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
-LUM_R, LUM_G, LUM_B = 0.2126, 0.7152, 0.0722
 
 # Kernel vector layout: m, R0 (3), R_m (3); then mu0, K, A_avg, B_avg, table A (N+2), table B (N+2).
 _M, _R0, _RM = 0, 1, 4
@@ -92,20 +92,6 @@ def _albedo(p, channel, table_a, table_b):
 
 
 @njit(nogil=True, cache=True)
-def _beckmann(m, hx, hy, hz):
-    """Beckmann density ``exp(-tan^2/m^2) / (pi m^2 cos^4)`` of the (unnormalized) halfway vector ``h``."""
-    if hz <= 0.0:
-        return 0.0
-    hz2 = hz * hz
-    tan2 = (hx * hx + hy * hy) / hz2
-    e = tan2 / (m * m)
-    if e > 700.0:
-        return 0.0
-    cos2 = hz2 / (hx * hx + hy * hy + hz2)
-    return math.exp(-e) / (math.pi * m * m * cos2 * cos2)
-
-
-@njit(nogil=True, cache=True)
 def eval_coupled(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -114,7 +100,7 @@ def eval_coupled(wi, wo, p):
     hy = wi[1] + wo[1]
     hz = wi[2] + wo[2]
     hh = hx * hx + hy * hy + hz * hz
-    spec = _beckmann(m, hx, hy, hz) / hh
+    spec = beckmann_d(m, hx, hy, hz) / hh
     cos_vh = min(0.5 * math.sqrt(hh), 1.0)
     c = 1.0 - cos_vh
     c2 = c * c
@@ -154,12 +140,14 @@ def _specular_probability(wo, p):
     a_r = _albedo(p, 0, ta, tb)
     a_g = _albedo(p, 1, ta, tb)
     a_b = _albedo(p, 2, ta, tb)
-    spec = LUM_R * a_r + LUM_G * a_g + LUM_B * a_b
-    matte = LUM_R * p[_RM] * (1.0 - a_r) + LUM_G * p[_RM + 1] * (1.0 - a_g) + LUM_B * p[_RM + 2] * (1.0 - a_b)
-    total = spec + max(matte, 0.0)
-    if total <= 0.0:
-        return 0.5
-    return spec / total
+    spec = luminance3(a_r, a_g, a_b)
+    # Not luminance3 of the products: this order of the multiplications is the one the model always used.
+    matte = (
+        LUMA[0] * p[_RM] * (1.0 - a_r)
+        + LUMA[1] * p[_RM + 1] * (1.0 - a_g)
+        + LUMA[2] * p[_RM + 2] * (1.0 - a_b)
+    )
+    return lobe_probability(spec, max(matte, 0.0))
 
 
 @njit(nogil=True, cache=True)
@@ -177,7 +165,7 @@ def _specular_pdf(wo, wi, m):
     cos_vh = abs(wo[0] * hx + wo[1] * hy + wo[2] * hz) / n
     if cos_h <= 0.0 or cos_vh < 1e-12:
         return 0.0
-    return _beckmann(m, hx, hy, hz) * cos_h / (4.0 * cos_vh)
+    return beckmann_d(m, hx, hy, hz) * cos_h / (4.0 * cos_vh)
 
 
 @njit(nogil=True, cache=True)
@@ -198,9 +186,7 @@ def sample_coupled(wo, p, u1, u2, u3):
         cos_h = 1.0 / math.sqrt(1.0 + tan2)
         sin_h = math.sqrt(max(0.0, 1.0 - cos_h * cos_h))
         phi = TWO_PI * u2
-        h = (sin_h * math.cos(phi), sin_h * math.sin(phi), cos_h)
-        d = 2.0 * (wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2])
-        wi = (d * h[0] - wo[0], d * h[1] - wo[1], d * h[2] - wo[2])
+        wi = reflect_about(wo, sin_h * math.cos(phi), sin_h * math.sin(phi), cos_h)
     else:
         wi = cosine_hemisphere(u1, u2)
     return wi[0], wi[1], wi[2], pdf_coupled(wo, wi, p)

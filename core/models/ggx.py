@@ -32,8 +32,14 @@ from numba import njit
 
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
-from core.models.cook_torrance import lobe_probability, luminance3, reflect_about
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+from core.models._microfacet import reflect_about, upper_half_vector
+from core.models.lobes import (
+    cosine_hemisphere,
+    cosine_hemisphere_pdf,
+    lobe_probability,
+    luminance3,
+    mixture_pdf,
+)
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
@@ -65,13 +71,7 @@ def eval_ggx(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
     alpha = p[0]
-    hx = wi[0] + wo[0]
-    hy = wi[1] + wo[1]
-    hz = wi[2] + wo[2]
-    norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    hx /= norm
-    hy /= norm
-    hz /= norm
+    hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = wo.h > 0: both masking terms are non-zero
     common = 0.25 * ggx_d(hx, hy, hz, alpha) * smith_g1_over_cos(wi, alpha) * smith_g1_over_cos(wo, alpha)
     return (
@@ -121,18 +121,11 @@ def visible_normal(wo, alpha, u1, u2):
 
 @njit(nogil=True, cache=True)
 def _lobe_pdf(wo, wi, alpha):
-    sx = wi[0] + wo[0]
-    sy = wi[1] + wo[1]
-    sz = wi[2] + wo[2]
-    norm = math.sqrt(sx * sx + sy * sy + sz * sz)
-    if norm == 0.0:
+    # Visible normals face wo, so wo.h = |wi + wo| / 2 > 0 always holds for h = (wi + wo) / |wi + wo|;
+    # D is 0 below the horizon, so pairs with (wi + wo).z <= 0 have density 0 (no flip to the upper side).
+    if wi[2] + wo[2] <= 0.0:
         return 0.0
-    hx = sx / norm
-    hy = sy / norm
-    hz = sz / norm
-    # Visible normals face wo, so wo.h = |wi + wo| / 2 > 0 always holds for h = (wi + wo) / |wi + wo|.
-    if hz <= 0.0:
-        return 0.0
+    hx, hy, hz, _ = upper_half_vector(wo, wi)
     return 0.25 * smith_g1_over_cos(wo, alpha) * ggx_d(hx, hy, hz, alpha)
 
 
@@ -142,7 +135,7 @@ def pdf_ggx(wo, wi, p):
         return cosine_hemisphere_pdf(wi[2])
     ps = p[P_LOBE]
     lobe = _lobe_pdf(wo, wi, p[0]) if ps > 0.0 else 0.0
-    return ps * lobe + (1.0 - ps) * cosine_hemisphere_pdf(wi[2])
+    return mixture_pdf(ps, lobe, wi[2])
 
 
 @njit(nogil=True, cache=True)

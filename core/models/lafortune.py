@@ -30,12 +30,10 @@ from numba import njit
 from core.geometry import normalize
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
-    cosine_hemisphere,
-    cosine_hemisphere_pdf,
-    cosine_power_lobe,
-    cosine_power_lobe_pdf,
+    cosine_lobe_mixture_pdf,
+    cosine_lobe_mixture_sample,
+    lobe_probability_clamped,
     luminance_at,
-    mixture_probability,
 )
 
 INV_PI = 0.3183098861837907
@@ -74,24 +72,19 @@ def _lobe_probability(axis, length, p):
     w_lobe = 0.0
     if length > 0.0:
         w_lobe = luminance_at(p, 4) * length**n * TWO_PI / (n + 2.0) * max(axis[2], 0.05)
-    return mixture_probability(w_lobe, luminance_at(p, 7))
+    return lobe_probability_clamped(w_lobe, luminance_at(p, 7))
 
 
 @njit(nogil=True, cache=True)
 def pdf_lafortune(wo, wi, p):
     axis, length = _lobe_axis(wo, p)
-    q = _lobe_probability(axis, length, p)
-    return q * cosine_power_lobe_pdf(axis, p[3], wi) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+    return cosine_lobe_mixture_pdf(axis, p[3], _lobe_probability(axis, length, p), wi)
 
 
 @njit(nogil=True, cache=True)
 def sample_lafortune(wo, p, u1, u2, u3):
     axis, length = _lobe_axis(wo, p)
-    if u3 < _lobe_probability(axis, length, p):
-        w = cosine_power_lobe(axis, p[3], u1, u2)
-    else:
-        w = cosine_hemisphere(u1, u2)
-    return w[0], w[1], w[2], pdf_lafortune(wo, w, p)
+    return cosine_lobe_mixture_sample(axis, p[3], _lobe_probability(axis, length, p), u1, u2, u3)
 
 
 LAFORTUNE = register(

@@ -21,12 +21,10 @@ from numba import njit
 from core.geometry import dot, mirror
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
-    cosine_hemisphere,
-    cosine_hemisphere_pdf,
-    cosine_power_lobe,
-    cosine_power_lobe_pdf,
+    cosine_lobe_mixture_pdf,
+    cosine_lobe_mixture_sample,
+    lobe_probability_clamped,
     luminance_at,
-    mixture_probability,
 )
 
 INV_PI = 0.3183098861837907
@@ -52,22 +50,17 @@ def eval_lewis(wi, wo, p):
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_probability(wo, p):
     # Specular albedo of a lobe that stays above the horizon: ks * cos(theta_o) exactly.
-    return mixture_probability(luminance_at(p, 1) * max(wo[2], 0.0), luminance_at(p, 4))
+    return lobe_probability_clamped(luminance_at(p, 1) * max(wo[2], 0.0), luminance_at(p, 4))
 
 
 @njit(nogil=True, cache=True)
 def pdf_lewis(wo, wi, p):
-    q = _lobe_probability(wo, p)
-    return q * cosine_power_lobe_pdf(mirror(wo), p[0], wi) + (1.0 - q) * cosine_hemisphere_pdf(wi[2])
+    return cosine_lobe_mixture_pdf(mirror(wo), p[0], _lobe_probability(wo, p), wi)
 
 
 @njit(nogil=True, cache=True)
 def sample_lewis(wo, p, u1, u2, u3):
-    if u3 < _lobe_probability(wo, p):
-        w = cosine_power_lobe(mirror(wo), p[0], u1, u2)
-    else:
-        w = cosine_hemisphere(u1, u2)
-    return w[0], w[1], w[2], pdf_lewis(wo, w, p)
+    return cosine_lobe_mixture_sample(mirror(wo), p[0], _lobe_probability(wo, p), u1, u2, u3)
 
 
 LEWIS = register(

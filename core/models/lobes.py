@@ -1,7 +1,9 @@
-"""Sampling building blocks shared by the analytic samplers: cosine hemisphere, cosine-power lobes.
+"""Sampling building blocks shared by the analytic samplers: cosine hemisphere, cosine-power lobes, and the
+mixture of a lobe with the cosine hemisphere (the lobe's probability from luminance-weighted albedos).
 
 All densities are per unit solid angle. Lobes about an arbitrary axis may put mass below the horizon;
-the density returned is the lobe's own, so ``sample`` and ``pdf`` always agree.
+the density returned is the lobe's own, so ``sample`` and ``pdf`` always agree. Microfacet (half-vector
+and Beckmann) helpers are in ``core.models._microfacet``.
 """
 
 from __future__ import annotations
@@ -11,9 +13,12 @@ import math
 from numba import njit
 
 from core.geometry import basis, dot, from_frame
+from core.models._microfacet import reflect_about, upper_half_vector
 
 TWO_PI = 6.283185307179586
 INV_PI = 0.3183098861837907
+LUMA = (0.2126, 0.7152, 0.0722)
+"""Rec. 709 luminance weights of linear RGB."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -66,45 +71,90 @@ def half_vector_lobe(wo, n, u1, u2):
     :func:`half_vector_lobe_pdf` for its density.
     """
     h = cosine_power_lobe((0.0, 0.0, 1.0), n, u1, u2)
-    d2 = 2.0 * dot(wo, h)
-    return d2 * h[0] - wo[0], d2 * h[1] - wo[1], d2 * h[2] - wo[2]
+    return reflect_about(wo, h[0], h[1], h[2])
 
 
 @njit(inline="always", nogil=True, cache=True)
 def half_vector_lobe_pdf(wo, wi, n):
-    """Density per unit solid angle of :func:`half_vector_lobe` at ``wi``.
-
-    The half vector of ``wi`` is ``+-(wi + wo)/|wi + wo|``, taking the sign with ``h.z >= 0`` (the sampled
-    hemisphere); the reflection's Jacobian is ``d(omega_h)/d(omega_i) = 1 / (4 |wo.h|)``. Since
-    ``|wo.h| = |wi + wo| / 2``, the density is finite for every ``wi`` except ``wi = -wo`` (measure zero),
-    where 0 is returned.
+    """Density per unit solid angle of :func:`half_vector_lobe` at ``wi``: the half-vector density at the
+    upper half vector of ``(wo, wi)`` times the reflection Jacobian ``1 / (2 |wi + wo|)``
+    (:func:`core.models._microfacet.upper_half_vector`); finite for every ``wi`` except ``wi = -wo``
+    (measure zero), where 0 is returned.
     """
-    hx = wi[0] + wo[0]
-    hy = wi[1] + wo[1]
-    hz = wi[2] + wo[2]
-    norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if norm == 0.0:
-        return 0.0
-    cos_h = abs(hz) / norm
-    if cos_h <= 0.0:
+    _, _, cos_h, norm = upper_half_vector(wo, wi)
+    if cos_h <= 0.0:  # also at wi = -wo, where norm = 0
         return 0.0
     return (n + 1.0) / TWO_PI * cos_h**n / (2.0 * norm)
 
 
 @njit(inline="always", nogil=True, cache=True)
-def mixture_probability(w_lobe, w_diffuse):
-    """Probability of picking the lobe in a lobe + cosine-hemisphere mixture, from the two (estimated)
-    albedos. Clamped to [0.1, 0.9] when both components carry energy, so neither is ever starved (the
-    variance of ``f cos / pdf`` stays within 10x of either component's own); 1 or 0 when only one does."""
-    if w_diffuse <= 0.0:
-        return 1.0
-    if w_lobe <= 0.0:
-        return 0.0
-    q = w_lobe / (w_lobe + w_diffuse)
-    return min(0.9, max(0.1, q))
+def luminance3(r, g, b):
+    """Rec. 709 luminance of a linear RGB colour."""
+    return LUMA[0] * r + LUMA[1] * g + LUMA[2] * b
 
 
 @njit(inline="always", nogil=True, cache=True)
 def luminance_at(p, i):
-    """Rec. 709 luminance of the RGB colour stored at ``p[i:i+3]`` (mixture weights of colour lobes)."""
-    return 0.2126 * p[i] + 0.7152 * p[i + 1] + 0.0722 * p[i + 2]
+    """Luminance of the RGB colour stored at ``p[i:i+3]`` (mixture weights of colour lobes)."""
+    return luminance3(p[i], p[i + 1], p[i + 2])
+
+
+@njit(inline="always", nogil=True, cache=True)
+def lobe_probability(w_lobe, w_diffuse):
+    """Probability of the lobe in a lobe + cosine-hemisphere mixture: its share ``w_lobe / (w_lobe +
+    w_diffuse)`` of two non-negative (estimated) albedos, unclamped; 0.5 when both are 0."""
+    total = w_lobe + w_diffuse
+    if total <= 0.0:
+        return 0.5
+    return w_lobe / total
+
+
+@njit(inline="always", nogil=True, cache=True)
+def lobe_probability_clamped(w_lobe, w_diffuse):
+    """:func:`lobe_probability` clamped to [0.1, 0.9] when both components carry energy, so neither is ever
+    starved when the albedos are rough estimates (the variance of ``f cos / pdf`` stays within 10x of either
+    component's own); 1 or 0 when only one does (1 when neither does)."""
+    if w_diffuse <= 0.0:
+        return 1.0
+    if w_lobe <= 0.0:
+        return 0.0
+    return min(0.9, max(0.1, lobe_probability(w_lobe, w_diffuse)))
+
+
+@njit(inline="always", nogil=True, cache=True)
+def mixture_pdf(q, lobe_pdf, cos_theta_i):
+    """Density of the mixture: the lobe (density ``lobe_pdf`` at ``wi``) with probability ``q``, the cosine
+    hemisphere otherwise."""
+    return q * lobe_pdf + (1.0 - q) * cosine_hemisphere_pdf(cos_theta_i)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def cosine_lobe_mixture_sample(axis, n, q, u1, u2, u3):
+    """With probability ``q`` (``u3 < q``) a direction of :func:`cosine_power_lobe` about ``axis``, otherwise
+    of the cosine hemisphere, and the mixture's density there (see :func:`cosine_lobe_mixture_pdf`)."""
+    if u3 < q:
+        w = cosine_power_lobe(axis, n, u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], cosine_lobe_mixture_pdf(axis, n, q, w)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def cosine_lobe_mixture_pdf(axis, n, q, wi):
+    return mixture_pdf(q, cosine_power_lobe_pdf(axis, n, wi), wi[2])
+
+
+@njit(inline="always", nogil=True, cache=True)
+def half_vector_mixture_sample(wo, n, q, u1, u2, u3):
+    """With probability ``q`` a direction of :func:`half_vector_lobe`, otherwise of the cosine hemisphere, and
+    the mixture's density there (see :func:`half_vector_mixture_pdf`)."""
+    if u3 < q:
+        w = half_vector_lobe(wo, n, u1, u2)
+    else:
+        w = cosine_hemisphere(u1, u2)
+    return w[0], w[1], w[2], half_vector_mixture_pdf(wo, n, q, w)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def half_vector_mixture_pdf(wo, n, q, wi):
+    return mixture_pdf(q, half_vector_lobe_pdf(wo, wi, n), wi[2])

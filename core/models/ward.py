@@ -34,14 +34,8 @@ import math
 from numba import njit
 
 from core.model import Model, Param, Traits, register
-from core.models.cook_torrance import (
-    beckmann_reflection_pdf,
-    beckmann_sample_h,
-    lobe_probability,
-    luminance3,
-    reflect_about,
-)
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+from core.models._microfacet import beckmann_reflection_pdf, beckmann_sample_h, reflect_about
+from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
@@ -70,17 +64,21 @@ def eval_ward(wi, wo, p):
     )
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _lobe_probability(p):
+    return lobe_probability(luminance_at(p, 2), luminance_at(p, 5))  # ks, kd
+
+
 @njit(nogil=True, cache=True)
 def pdf_ward(wo, wi, p):
-    ps = lobe_probability(luminance3(p[2], p[3], p[4]), luminance3(p[5], p[6], p[7]))
+    ps = _lobe_probability(p)
     lobe = beckmann_reflection_pdf(wo, wi, p[0], p[1]) if ps > 0.0 else 0.0
-    return ps * lobe + (1.0 - ps) * cosine_hemisphere_pdf(wi[2])
+    return mixture_pdf(ps, lobe, wi[2])
 
 
 @njit(nogil=True, cache=True)
 def sample_ward(wo, p, u1, u2, u3):
-    ps = lobe_probability(luminance3(p[2], p[3], p[4]), luminance3(p[5], p[6], p[7]))
-    if u3 < ps:
+    if u3 < _lobe_probability(p):
         hx, hy, hz = beckmann_sample_h(p[0], p[1], u1, u2)
         wi = reflect_about(wo, hx, hy, hz)
     else:
