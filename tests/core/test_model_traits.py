@@ -15,6 +15,9 @@ from tests.conftest import all_pairs, direction_grid
 
 MODELS = all_models()
 IDS = [m.name for m in MODELS]
+KNOWN_UNITS = {"", "rad", "µm", "nm", "radii"}  # "" for dimensionless parameters
+RECIPROCAL = [m for m in MODELS if m.reciprocal]
+ISOTROPIC = [m for m in MODELS if m.isotropic]
 
 
 def _random_params(model, rng, count=3):
@@ -60,9 +63,7 @@ def test_zero_below_the_horizon(model):
     assert np.all(brdf.eval(np.tile(w, (len(below), 1)), np.repeat(below, len(w), axis=0)) == 0.0)
 
 
-@pytest.mark.parametrize(
-    "model", [m for m in MODELS if m.reciprocal], ids=[m.name for m in MODELS if m.reciprocal]
-)
+@pytest.mark.parametrize("model", RECIPROCAL, ids=[m.name for m in RECIPROCAL])
 def test_reciprocal(model, rng):
     wo, wi = all_pairs(direction_grid())
     for values in _settings(model, rng):
@@ -72,9 +73,7 @@ def test_reciprocal(model, rng):
         np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12, err_msg=f"{model.name} {values}")
 
 
-@pytest.mark.parametrize(
-    "model", [m for m in MODELS if m.isotropic], ids=[m.name for m in MODELS if m.isotropic]
-)
+@pytest.mark.parametrize("model", ISOTROPIC, ids=[m.name for m in ISOTROPIC])
 def test_isotropic_under_rotation_about_the_normal(model, rng):
     wo, wi = all_pairs(direction_grid())
     for values in _settings(model, rng):
@@ -108,5 +107,8 @@ def test_declaration_is_complete(model):
     assert model.citation and model.label and model.doc
     for p in model.params:
         assert p.lo <= (min(p.default) if isinstance(p.default, tuple) else p.default) <= p.hi
+        # The desktop app builds its property editor from these: a human label, a unit it can print.
+        assert p.label.strip(), f"{p.name}: no label"
+        assert p.unit in KNOWN_UNITS, f"{p.name}: unit {p.unit!r} is not one of {sorted(KNOWN_UNITS)}"
         assert not (p.log and p.lo <= 0.0), f"{p.name}: a log-scale parameter needs a positive lower bound"
     assert (model.sample is None) == (model.pdf is None)

@@ -9,17 +9,7 @@ import pytest
 
 from core.geometry import degrees_to_dir
 from core.model import get_model
-
-
-def _fresnel_born_wolf(cos_t, n, k):
-    """Unpolarized reflectance of n + ik from air, with the transmitted cosine from Snell's law in complex
-    form: r_s = (cos - N cos_t)/(cos + N cos_t), r_p = (N cos - cos_t)/(N cos + cos_t)."""
-    big_n = complex(n, k)
-    sin_t = math.sqrt(max(0.0, 1 - cos_t * cos_t))
-    cos_tr = np.sqrt(1 - (sin_t / big_n) ** 2 + 0j)
-    rs = (cos_t - big_n * cos_tr) / (cos_t + big_n * cos_tr)
-    rp = (big_n * cos_t - cos_tr) / (big_n * cos_t + cos_tr)
-    return 0.5 * (abs(rs) ** 2 + abs(rp) ** 2)
+from tests.core.models._checks import fresnel_reference
 
 
 def _model(wi, wo, omega, tau, n, k, rs, rd, rv, m):
@@ -29,7 +19,7 @@ def _model(wi, wo, omega, tau, n, k, rs, rd, rv, m):
     beta = math.acos(min(1.0, float(wi @ h)))
     so = (1 + theta_n / omega * (math.exp(-2 * beta / tau) if tau > 0 else 0.0)) / (1 + theta_n / omega)
     d = math.exp(-(math.tan(theta_n) ** 2) / m**2) / (math.pi * m**2 * math.cos(theta_n) ** 4)
-    ratio = _fresnel_born_wolf(math.cos(beta), n, k) / _fresnel_born_wolf(1.0, n, k)
+    ratio = fresnel_reference(math.cos(beta), n, k) / fresnel_reference(1.0, n, k)
     first = ratio * rs * d * so / (4 * wi[2] * wo[2])
     return first + rd / math.pi + 2 * rv / (math.pi * (wi[2] + wo[2]))
 
@@ -53,12 +43,12 @@ def test_reference_value_specular_geometry():
     # R(40)/R(0) for n = 0.37 + 2.82i from the Born & Wolf formula (computed here, independently of the
     # kernel's Fresnel): f = ratio rs/(4 pi m^2 cos^2 40) + rd/pi + 2 rv/(pi 2 cos 40).
     c = math.cos(math.radians(40.0))
-    ratio = _fresnel_born_wolf(c, 0.37, 2.82) / _fresnel_born_wolf(1.0, 0.37, 2.82)
+    ratio = fresnel_reference(c, 0.37, 2.82) / fresnel_reference(1.0, 0.37, 2.82)
     expected = ratio * 0.4 / (4 * math.pi * 0.09 * c * c) + 0.75 / math.pi + 2 * 0.5 / (math.pi * 2 * c)
     f = _f({}, degrees_to_dir(40.0, 30.0), degrees_to_dir(40.0, 210.0))
     np.testing.assert_allclose(f, expected, rtol=1e-9)
     # R(0) = ((n-1)^2 + k^2)/((n+1)^2 + k^2) = (0.3969 + 7.9524)/(1.8769 + 7.9524) = 8.3493/9.8293 = 0.8494298.
-    np.testing.assert_allclose(_fresnel_born_wolf(1.0, 0.37, 2.82), 0.8494298, rtol=1e-6)
+    np.testing.assert_allclose(fresnel_reference(1.0, 0.37, 2.82), 0.8494298, rtol=1e-6)
 
 
 @pytest.mark.parametrize(

@@ -15,18 +15,9 @@ from core.geometry import degrees_to_dir
 from core.model import get_model
 from core.models._he_series import diffuse_series, effective_roughness_ratio, log_k
 from core.models.he import specular_weight
+from tests.core.models._checks import fresnel_reference
 
 MODEL = get_model("he")
-
-
-def _fresnel(cos_t: float, n: float, k: float) -> float:
-    """Unpolarized Fresnel reflectance from Snell's law with a complex index: sin_t = sin_i / (n + ik)."""
-    eta = complex(n, k)
-    sin_i = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    cos_tr = np.sqrt(1.0 - (sin_i / eta) ** 2 + 0j)
-    rs = (cos_t - eta * cos_tr) / (cos_t + eta * cos_tr)
-    rp = (eta * cos_t - cos_tr) / (eta * cos_t + cos_tr)
-    return 0.5 * (abs(rs) ** 2 + abs(rp) ** 2)
 
 
 def _shadow(theta: float, sigma: float, tau: float) -> float:
@@ -96,7 +87,7 @@ def _he_dd(wi, wo, sigma, tau, lam_nm, n, k):
     d = math.pi**2 * tau**2 / (4.0 * lam**2) * _series(g, tau**2 * vxy2 / 4.0)
     cos_b = np.linalg.norm(kr - ki) / 2.0
     shadow = _shadow(ti, sigma, tau) * _shadow(tr, sigma, tau)
-    return _fresnel(cos_b, n, k) / math.pi * geom * shadow * d / (wi[2] * wo[2]), g
+    return fresnel_reference(cos_b, n, k) / math.pi * geom * shadow * d / (wi[2] * wo[2]), g
 
 
 def _f(values, wi, wo):
@@ -185,7 +176,7 @@ def test_large_g_tends_to_the_rough_surface_limit():
         m = 2.0 * _sigma0(math.radians(ti), math.radians(tr), sigma, tau) / tau
         d_beck = math.exp(-tan2 / m**2) / (math.pi * m**2 * hn[2] ** 4)
         shadow = _shadow(math.radians(ti), sigma, tau) * _shadow(math.radians(tr), sigma, tau)
-        limit = _fresnel(float(wi @ hn), 1.5, 0.0) * d_beck * shadow / (4.0 * wi[2] * wo[2])
+        limit = fresnel_reference(float(wi @ hn), 1.5, 0.0) * d_beck * shadow / (4.0 * wi[2] * wo[2])
         got = _f(values, wi, wo)[0]
         np.testing.assert_allclose(got, limit, rtol=2e-3)
 
@@ -224,7 +215,7 @@ def test_specular_weight_of_the_left_out_delta_term():
     t = math.radians(60.0)
     s0 = _sigma0(t, t, 0.05, 3.0)
     g = (2.0 * math.pi / 0.5 * s0 * 2.0 * math.cos(t)) ** 2
-    expected = _fresnel(math.cos(t), 2.8, 8.4) * math.exp(-g) * _shadow(t, 0.05, 3.0) ** 2
+    expected = fresnel_reference(math.cos(t), 2.8, 8.4) * math.exp(-g) * _shadow(t, 0.05, 3.0) ** 2
     np.testing.assert_allclose(specular_weight(brdf.params, t), expected, rtol=1e-9)
 
 

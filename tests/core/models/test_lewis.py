@@ -10,7 +10,7 @@ import pytest
 
 from core.geometry import degrees_to_dir
 from core.model import get_model
-from tests.core.test_analytic_samplers import (
+from tests.core.models._checks import (
     albedo_by_quadrature,
     assert_sample_matches_pdf,
     direction,
