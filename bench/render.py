@@ -192,6 +192,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--strategies", help="comma-separated (default: every registered strategy)")
     ap.add_argument("--passes", type=int, default=4, help="passes for the throughput measurement")
+    ap.add_argument(
+        "--sampler-options",
+        action="append",
+        default=[],
+        metavar="S:k=v,...",
+        help="options for one strategy, e.g. adaptive:theta_step=5,phi_bins=8 (repeatable)",
+    )
+    ap.add_argument("--skip-throughput", action="store_true")
     ap.add_argument("--out", default="results/bench", help="output folder")
     ap.add_argument("--cornell", action="store_true", help="only the Cornell box comparison with Mitsuba 3")
     ap.add_argument("--cornell-size", type=int, default=128)
@@ -203,6 +211,23 @@ def main(argv: list[str] | None = None) -> int:
         return cornell(args, out)
     scene = load_scene(args.scene or demo_scene_path())
 
+    per_strategy: dict[str, dict] = {}
+    for item in args.sampler_options:
+        name, _, kv = item.partition(":")
+        opts = per_strategy.setdefault(name, {})
+        for pair in filter(None, kv.split(",")):
+            k, _, v = pair.partition("=")
+            try:
+                opts[k] = int(v) if v.lstrip("-").isdigit() else float(v)
+            except ValueError:
+                opts[k] = v
+    if not args.skip_throughput:
+        report_throughput(scene, args, out)
+    run_strategies(scene, args, out, per_strategy)
+    return 0
+
+
+def report_throughput(scene, args: argparse.Namespace, out: Path) -> None:  # type: ignore[no-untyped-def]
     tp = throughput(scene, args.size, args.passes)
     print(
         f"throughput at {args.size}x{args.size}: path tracer {tp['path_tracer_Mrays_s']:.2f} M rays/s "
@@ -213,12 +238,16 @@ def main(argv: list[str] | None = None) -> int:
         ",".join(tp) + "\n" + ",".join(f"{v:.6g}" for v in tp.values()) + "\n"
     )
 
+
+def run_strategies(scene, args: argparse.Namespace, out: Path, per_strategy: dict[str, dict]) -> None:  # type: ignore[no-untyped-def]
     ref = reference(scene, args.size, args.ref_spp, out, seed=987_654)
     strategies = args.strategies.split(",") if args.strategies else sampler_names()
     curves, images, labels, rows = {}, [], [], []
+    tables: dict[str, dict] = {}
     for s in strategies:
         t0 = time.perf_counter()
-        job = prepare(scene, sampler=s, width=args.size, height=args.size, seed=1)
+        options = {**scene.render.sampler_options, **per_strategy.get(s, {})}
+        job = prepare(scene, sampler=s, sampler_options=options, width=args.size, height=args.size, seed=1)
         prep = time.perf_counter() - t0
         recs = []
         for frame in job.passes(time_s=args.time):
@@ -228,6 +257,7 @@ def main(argv: list[str] | None = None) -> int:
         images.append(img)
         labels.append(f"{s} {job.film.spp}spp")
         mem = sum(m.get("memory_bytes", 0) or 0 for m in job.prepare_report["materials"].values())
+        tables[s] = job.prepare_report["materials"]
         notes = [m["note"] for m in job.prepare_report["materials"].values() if m.get("note")]
         rows.append(
             (s, job.film.spp, job.elapsed, prep, mem, recs[-1]["rmse"], recs[-1]["relmse"], len(notes))
@@ -248,8 +278,17 @@ def main(argv: list[str] | None = None) -> int:
         )
     write_error_curves(out / "render_error", curves, title=f"{scene.source} {args.size}x{args.size}")
     write_png(out / "render_compare.png", composite(images, labels))
+    for s, opts in per_strategy.items():
+        print(f"options of {s}: {opts}")
+    for s, mats in tables.items():
+        for name, info in mats.items():
+            if info.get("memory_bytes"):
+                extra = f", trees {info['trees']}" if "trees" in info else ""
+                print(
+                    f"  {s} tables for '{name}' ({info.get('model')}): {info['memory_bytes'] / 1024:.0f} KB, "
+                    f"build {info.get('build_seconds', 0.0):.1f} s{extra}"
+                )
     print(f"wrote {out / 'render_error.csv'}, {out / 'render_error.png'}, {out / 'render_compare.png'}")
-    return 0
 
 
 if __name__ == "__main__":
