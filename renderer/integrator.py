@@ -6,9 +6,12 @@ MIS-weighted against BRDF sampling), then a BRDF sample from the material's chos
 roulette after ``rr_depth`` bounces. Rays are grouped by material so each group's BRDF kernel (one numba
 specialization per model) and sampler run on contiguous arrays: no branching on the model per ray.
 
-MIS uses the exact densities: the light density (area pdf converted to solid angle, environment-map pdf,
-uniform sphere for a constant sky) and the sampler's ``pdf(wo, wi)``; point lights are delta lights (no MIS).
-Reflection only: a direction below the geometric surface carries nothing (no transmission).
+NEE picks a light type with equal shares among those present (area, point, sky), then a light (emissive
+triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
+(area pdf converted to solid angle, environment-map pdf, uniform sphere for a constant sky) and the sampler's
+``pdf(wo, wi)``; point lights are delta lights (no MIS). Optionally (``ris_candidates``) the sky's direct light
+comes from resampled importance sampling instead. Reflection only: a direction below the geometric surface
+carries nothing (no transmission).
 
 Randomness: every draw comes from generators keyed by ``(seed, pass, bounce, role)``, so the same seed gives
 the same image, whatever the thread timing.

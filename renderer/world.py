@@ -179,13 +179,7 @@ class World:
         self.env: ConstantEnvironment | EnvironmentMap | None = load_environment(scene.environment, scene)
         if self.env is not None and self.env.power_weight <= 0.0:
             self.env = None
-        # light-type selection: equal shares among the types present (area, point, environment)
-        present = [len(self.emit_ids) > 0, len(self.point_pos) > 0, self.env is not None]
-        k = sum(present)
-        self.p_area, self.p_point, self.p_env = (
-            ((1.0 / k if p else 0.0) for p in present) if k else (0.0,) * 3
-        )
-        self.has_lights = k > 0
+        # the choice between light types (and RIS for the sky) belongs to the integrator
 
     # ------------------------------------------------------------------------------------- materials
     def compile(self, on_step: StepCallback | None = None, parallel: bool = False) -> dict[str, Any]:
