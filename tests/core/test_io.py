@@ -1,0 +1,37 @@
+"""Atomic writes: the target is replaced whole or not at all, with ordinary permissions."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import pytest
+
+from core.errors import OutputError
+from core.io import atomic_write, atomic_write_text
+
+
+def test_replaces_whole_file_with_umask_permissions(tmp_path):
+    path = tmp_path / "out.txt"
+    atomic_write_text(path, "first")
+    atomic_write_text(path, "second")
+    assert path.read_text() == "second"
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
+    assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_a_failure_midway_keeps_the_old_file(tmp_path):
+    path = tmp_path / "keep.txt"
+    atomic_write_text(path, "precious")
+    with pytest.raises(RuntimeError), atomic_write(path, "w") as fh:
+        fh.write("half")
+        raise RuntimeError("disk full")
+    assert path.read_text() == "precious"
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_missing_folder_is_a_clear_error(tmp_path):
+    with pytest.raises(OutputError, match="does not exist"):
+        atomic_write_text(tmp_path / "nope" / "x.txt", "x")
