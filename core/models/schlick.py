@@ -256,28 +256,14 @@ _NOTES = (
     "Sampler: cosine + Schlick's Z/A inversions per layer, exact mixture pdf."
 )
 
-SCHLICK_D = register(
-    Model(
-        name="schlick_d",
-        label="Schlick (1994), double layer",
-        citation=_CITATION,
-        params=_params(double=True),
-        traits=Traits.RECIPROCAL,
-        eval=eval_schlick,
-        sample=sample_schlick,
-        pdf=pdf_schlick,
-        derive=derive_schlick,
-        doc=__doc__ or "",
-        notes=_NOTES,
-    )
-)
 
-SCHLICK_S = register(
-    Model(
-        name="schlick_s",
-        label="Schlick (1994), single layer",
+def _schlick_model(name: str, label: str, double: bool) -> Model:
+    """The two registered settings share the kernels; they differ in the ``ly`` default."""
+    return Model(
+        name=name,
+        label=label,
         citation=_CITATION,
-        params=_params(double=False),
+        params=_params(double=double),
         traits=Traits.RECIPROCAL,
         eval=eval_schlick,
         sample=sample_schlick,
@@ -286,4 +272,7 @@ SCHLICK_S = register(
         doc=__doc__ or "",
         notes=_NOTES,
     )
-)
+
+
+SCHLICK_D = register(_schlick_model("schlick_d", "Schlick (1994), double layer", double=True))
+SCHLICK_S = register(_schlick_model("schlick_s", "Schlick (1994), single layer", double=False))

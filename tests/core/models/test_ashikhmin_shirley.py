@@ -123,6 +123,4 @@ SAMPLER_SETTINGS = [{}, {"nu": 10.0, "nv": 1000.0, "ks": 0.8, "kd": 0.1}, {"nu":
     sampler_sweep(SAMPLER_SETTINGS, [0.0, 50.0, 85.0], fast={(0, 50.0), (1, 85.0), (2, 0.0)}),
 )
 def test_sampler_is_exact(values, theta):
-    assert_sampler_exact(
-        AS.bind(values), degrees_to_dir(theta, 20.0), domain="disk" if theta > 60.0 else "sphere"
-    )
+    assert_sampler_exact(AS.bind(values), theta)

@@ -14,14 +14,10 @@ from tests.core.models._checks import (
     assert_albedo_estimate_matches,
     assert_pdf_integrates_to_one,
     assert_sample_matches_pdf,
+    eval_degrees,
 )
 
 MODEL = get_model("blinn")
-
-
-def f(brdf, wo_deg, wi_deg):
-    """BRDF value for directions given as (theta, phi) in degrees."""
-    return brdf.eval(degrees_to_dir(*wo_deg), degrees_to_dir(*wi_deg))[0]
 
 
 def test_declaration_matches_the_seed():
@@ -31,7 +27,9 @@ def test_declaration_matches_the_seed():
 
 def test_reference_value_at_normal_incidence():
     # wo = wi = n: h = n, (n . h)^n = 1, so f = kd/pi + ks = 0.67/pi + 1 = 1.2132676...
-    np.testing.assert_allclose(f(MODEL.bind(), (0, 0), (0, 0)), [0.67 / math.pi + 1.0] * 3, rtol=1e-12)
+    np.testing.assert_allclose(
+        eval_degrees(MODEL.bind(), (0, 0), (0, 0)), [0.67 / math.pi + 1.0] * 3, rtol=1e-12
+    )
 
 
 def test_reference_value_in_the_plane_of_incidence():
@@ -42,7 +40,7 @@ def test_reference_value_in_the_plane_of_incidence():
     kd = np.array([0.3, 0.1, 0.05])
     brdf = MODEL.bind(n=100, ks=tuple(ks), kd=tuple(kd))
     expected = kd / math.pi + ks * math.cos(math.radians(10)) ** 100
-    np.testing.assert_allclose(f(brdf, (30, 0), (50, 180)), expected, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (30, 0), (50, 180)), expected, rtol=1e-12)
 
 
 def test_reference_value_out_of_the_plane():
@@ -50,18 +48,20 @@ def test_reference_value_out_of_the_plane():
     # of length sqrt(0.75 + 0.75 + 1) = sqrt(2.5), so n . h = 1 / sqrt(2.5) = 0.63246.
     # With n = 10, ks = 1, kd = 0: f = 2.5^-5 = 0.01024.
     brdf = MODEL.bind(n=10, ks=1.0, kd=0.0)
-    np.testing.assert_allclose(f(brdf, (60, 0), (60, 90)), [2.5**-5] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (60, 0), (60, 90)), [2.5**-5] * 3, rtol=1e-12)
 
 
 def test_sharp_lobe_peak_grazing_and_90_degrees():
     brdf = MODEL.bind(n=1e4)
     # Peak: any mirror configuration has h = n, f = kd/pi + ks, also at 89.9 deg.
     for theta in (0.0, 45.0, 89.9):
-        np.testing.assert_allclose(f(brdf, (theta, 0), (theta, 180)), [0.67 / math.pi + 1.0] * 3, rtol=1e-9)
+        np.testing.assert_allclose(
+            eval_degrees(brdf, (theta, 0), (theta, 180)), [0.67 / math.pi + 1.0] * 3, rtol=1e-9
+        )
     # wo = wi at 89.9 deg: h = wo, (n . h)^1e4 = cos(89.9 deg)^1e4 underflows to 0: only the diffuse part.
-    np.testing.assert_allclose(f(brdf, (89.9, 0), (89.9, 0)), [0.67 / math.pi] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (89.9, 0), (89.9, 0)), [0.67 / math.pi] * 3, rtol=1e-12)
     # Exactly 90 deg: zero.
-    assert np.all(f(brdf, (90, 0), (90, 180)) == 0.0)
+    assert np.all(eval_degrees(brdf, (90, 0), (90, 180)) == 0.0)
     thetas = [0.0, 30.0, 60.0, 85.0, 89.0, 89.9, 90.0]
     w = np.array([degrees_to_dir(t, p) for t in thetas for p in (0.0, 90.0, 180.0, 271.0)])
     values = brdf.eval(np.repeat(w, len(w), axis=0), np.tile(w, (len(w), 1)))
@@ -73,7 +73,7 @@ def test_sharp_lobe_half_a_degree_off():
     # cos(0.5 deg)^1e4 = exp(1e4 ln cos(0.5 deg)) = 0.6833.
     brdf = MODEL.bind(n=1e4, kd=0.0)
     expected = math.cos(math.radians(0.5)) ** 1e4
-    np.testing.assert_allclose(f(brdf, (45, 0), (46, 180)), [expected] * 3, rtol=1e-9)
+    np.testing.assert_allclose(eval_degrees(brdf, (45, 0), (46, 180)), [expected] * 3, rtol=1e-9)
 
 
 @pytest.mark.parametrize("n", [1.0, 1e4])

@@ -14,14 +14,10 @@ from tests.core.models._checks import (
     assert_albedo_estimate_matches,
     assert_pdf_integrates_to_one,
     assert_sample_matches_pdf,
+    eval_degrees,
 )
 
 MODEL = get_model("lafortune")
-
-
-def f(brdf, wo_deg, wi_deg):
-    """BRDF value for directions given as (theta, phi) in degrees."""
-    return brdf.eval(degrees_to_dir(*wo_deg), degrees_to_dir(*wi_deg))[0]
 
 
 def test_declaration_matches_the_seed():
@@ -33,7 +29,7 @@ def test_declaration_matches_the_seed():
 
 def test_reference_value_at_normal_incidence():
     # wo = wi = n = (0, 0, 1): the base is cz * 1 * 1 = 1, so f = kd/pi + kp = 0.96 at the seed's values.
-    np.testing.assert_allclose(f(MODEL.bind(), (0, 0), (0, 0)), [0.96] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(MODEL.bind(), (0, 0), (0, 0)), [0.96] * 3, rtol=1e-12)
 
 
 def test_reference_value_of_the_phong_like_lobe():
@@ -43,7 +39,7 @@ def test_reference_value_of_the_phong_like_lobe():
     kd = np.array([0.1, 0.2, 0.3])
     brdf = MODEL.bind(kp=tuple(kp), kd=tuple(kd))
     expected = kd / math.pi + kp * math.cos(math.radians(10)) ** 100
-    np.testing.assert_allclose(f(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
 
 
 def test_reference_value_of_an_anisotropic_off_specular_lobe():
@@ -60,19 +56,19 @@ def test_reference_value_of_an_anisotropic_off_specular_lobe():
     assert abs(base - 0.72077) < 1e-5
     brdf = MODEL.bind(cx=-0.8, cy=-1.05, cz=0.6, n=3.5, kp=(1.0, 0.5, 0.25), kd=0.0)
     np.testing.assert_allclose(
-        f(brdf, (45, 30), (60, 200)), np.array([1.0, 0.5, 0.25]) * base**3.5, rtol=1e-12
+        eval_degrees(brdf, (45, 30), (60, 200)), np.array([1.0, 0.5, 0.25]) * base**3.5, rtol=1e-12
     )
     # Anisotropic: rotating both directions about the normal changes the value.
-    assert not np.allclose(f(brdf, (45, 30), (60, 200)), f(brdf, (45, 75), (60, 245)))
+    assert not np.allclose(eval_degrees(brdf, (45, 30), (60, 200)), eval_degrees(brdf, (45, 75), (60, 245)))
 
 
 def test_retro_reflective_lobe_and_its_negative_base():
     # C = (1, 1, 1): the base is wo . wi. Retro-reflection wi = wo gives base 1: f = kd/pi + kp.
     brdf = MODEL.bind(cx=1.0, cy=1.0, cz=1.0, n=2.5, kp=0.8, kd=0.2)
-    np.testing.assert_allclose(f(brdf, (60, 0), (60, 0)), [0.2 / math.pi + 0.8] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (60, 0), (60, 0)), [0.2 / math.pi + 0.8] * 3, rtol=1e-12)
     # The mirror configuration at 60 deg: base = -sin^2(60) + cos^2(60) = -0.5 < 0; (-0.5)^2.5 is undefined,
     # the base is clamped at 0 and only the diffuse part is left.
-    np.testing.assert_allclose(f(brdf, (60, 0), (60, 180)), [0.2 / math.pi] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (60, 0), (60, 180)), [0.2 / math.pi] * 3, rtol=1e-12)
 
 
 @pytest.mark.parametrize("n", [0.1, 2.5, 100.0, 5000.0])
@@ -98,7 +94,7 @@ def test_zero_base_with_a_tiny_exponent_is_zero():
 def test_largest_lobe_is_finite():
     # |C| = 1.1 and n = 5000 at retro-reflection, wo = wi = n: 1.1^5000 = exp(5000 ln 1.1) ~ 1.3e207.
     brdf = MODEL.bind(cx=1.1, cy=1.1, cz=1.1, n=5000.0, kp=1.0, kd=0.0)
-    value = f(brdf, (0, 0), (0, 0))
+    value = eval_degrees(brdf, (0, 0), (0, 0))
     np.testing.assert_allclose(value, [math.exp(5000 * math.log(1.1))] * 3, rtol=1e-9)
 
 

@@ -14,14 +14,10 @@ from tests.core.models._checks import (
     albedo_by_quadrature,
     assert_sample_matches_pdf,
     direction,
+    eval_degrees,
 )
 
 MODEL = get_model("lewis")
-
-
-def f(brdf, wo_deg, wi_deg):
-    """BRDF value for directions given as (theta, phi) in degrees."""
-    return brdf.eval(degrees_to_dir(*wo_deg), degrees_to_dir(*wi_deg))[0]
 
 
 def test_declaration_matches_the_seed():
@@ -33,7 +29,9 @@ def test_declaration_matches_the_seed():
 
 def test_reference_value_at_normal_incidence():
     # wo = wi = n: alpha = 0, f = kd/pi + ks (n+2)/(2 pi) = 102 / (2 pi) = 16.2338... at the seed's values.
-    np.testing.assert_allclose(f(MODEL.bind(), (0, 0), (0, 0)), [102 / (2 * math.pi)] * 3, rtol=1e-12)
+    np.testing.assert_allclose(
+        eval_degrees(MODEL.bind(), (0, 0), (0, 0)), [102 / (2 * math.pi)] * 3, rtol=1e-12
+    )
 
 
 def test_reference_value_near_the_mirror_direction():
@@ -44,7 +42,7 @@ def test_reference_value_near_the_mirror_direction():
     kd = np.array([0.3, 0.1, 0.05])
     brdf = MODEL.bind(n=50, ks=tuple(ks), kd=tuple(kd))
     expected = kd / math.pi + ks * 52 / (2 * math.pi) * math.cos(math.radians(10)) ** 50
-    np.testing.assert_allclose(f(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
 
 
 def test_specular_albedo_is_ks_at_normal_incidence_and_below_elsewhere():
@@ -63,11 +61,11 @@ def test_sharp_lobe_peak_grazing_and_90_degrees():
     brdf = MODEL.bind(n=1e4)
     peak = (1e4 + 2) / (2 * math.pi)  # 1591.87
     for theta in (0.0, 45.0, 89.9):
-        np.testing.assert_allclose(f(brdf, (theta, 0), (theta, 180)), [peak] * 3, rtol=1e-9)
+        np.testing.assert_allclose(eval_degrees(brdf, (theta, 0), (theta, 180)), [peak] * 3, rtol=1e-9)
     # One degree off the mirror: (n+2)/(2 pi) cos(1 deg)^1e4 = 1591.87 * 0.2180.
     expected = peak * math.cos(math.radians(1)) ** 1e4
-    np.testing.assert_allclose(f(brdf, (45, 0), (46, 180)), [expected] * 3, rtol=1e-9)
-    assert np.all(f(brdf, (90, 0), (90, 180)) == 0.0)
+    np.testing.assert_allclose(eval_degrees(brdf, (45, 0), (46, 180)), [expected] * 3, rtol=1e-9)
+    assert np.all(eval_degrees(brdf, (90, 0), (90, 180)) == 0.0)
     thetas = [0.0, 30.0, 60.0, 85.0, 89.0, 89.9, 90.0]
     w = np.array([degrees_to_dir(t, p) for t in thetas for p in (0.0, 90.0, 180.0, 271.0)])
     values = brdf.eval(np.repeat(w, len(w), axis=0), np.tile(w, (len(w), 1)))

@@ -14,14 +14,10 @@ from tests.core.models._checks import (
     albedo_by_quadrature,
     assert_albedo_estimate_matches,
     assert_sample_matches_pdf,
+    eval_degrees,
 )
 
 MODEL = get_model("phong")
-
-
-def f(brdf, wo_deg, wi_deg):
-    """BRDF value for directions given as (theta, phi) in degrees."""
-    return brdf.eval(degrees_to_dir(*wo_deg), degrees_to_dir(*wi_deg))[0]
 
 
 def test_declaration_matches_the_seed():
@@ -33,7 +29,7 @@ def test_reference_value_at_normal_incidence():
     # wo = wi = n: the mirror of wi is n, so alpha = 0 and cos(theta_i) = 1:
     # f = kd/pi + ks * 1^n / 1 = 0.6/pi + 0.4 = 0.5909859...
     expected = 0.6 / math.pi + 0.4
-    np.testing.assert_allclose(f(MODEL.bind(), (0, 0), (0, 0)), [expected] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(MODEL.bind(), (0, 0), (0, 0)), [expected] * 3, rtol=1e-12)
 
 
 def test_reference_value_near_the_mirror_direction():
@@ -44,7 +40,7 @@ def test_reference_value_near_the_mirror_direction():
     kd = np.array([0.3, 0.1, 0.05])
     brdf = MODEL.bind(n=100, ks=tuple(ks), kd=tuple(kd))
     expected = kd / math.pi + ks * math.cos(math.radians(10)) ** 100 / math.cos(math.radians(40))
-    np.testing.assert_allclose(f(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (30, 0), (40, 180)), expected, rtol=1e-12)
 
 
 def test_reference_value_out_of_the_plane():
@@ -53,15 +49,15 @@ def test_reference_value_out_of_the_plane():
     # With n = 2: f = kd/pi + ks * 0.125 / cos45 = kd/pi + ks * 0.17678.
     brdf = MODEL.bind(n=2, ks=1.0, kd=0.0)
     expected = (0.5 * math.sqrt(0.5)) ** 2 / math.sqrt(0.5)
-    np.testing.assert_allclose(f(brdf, (60, 0), (45, 90)), [expected] * 3, rtol=1e-12)
+    np.testing.assert_allclose(eval_degrees(brdf, (60, 0), (45, 90)), [expected] * 3, rtol=1e-12)
 
 
 def test_not_reciprocal_exactly_by_the_cosine_ratio():
     # The specular part times cos(theta_i) is symmetric (cos(alpha) is), so swapping wi and wo scales the
     # specular part by cos(theta_i) / cos(theta_o).
     brdf = MODEL.bind(kd=0.0, n=20)
-    a = f(brdf, (20, 0), (50, 170))  # wo at 20 deg, wi at 50 deg
-    b = f(brdf, (50, 170), (20, 0))
+    a = eval_degrees(brdf, (20, 0), (50, 170))  # wo at 20 deg, wi at 50 deg
+    b = eval_degrees(brdf, (50, 170), (20, 0))
     np.testing.assert_allclose(a * math.cos(math.radians(50)), b * math.cos(math.radians(20)), rtol=1e-12)
     assert not np.allclose(a, b)
 
@@ -78,7 +74,7 @@ def test_albedo_at_normal_incidence():
 def test_sharp_lobe_peak_is_finite_and_exact(theta):
     # n = 1e4 at the exact mirror configuration: cos(alpha) = 1, f = kd/pi + ks / cos(theta).
     brdf = MODEL.bind(n=1e4)
-    value = f(brdf, (theta, 0), (theta, 180))
+    value = eval_degrees(brdf, (theta, 0), (theta, 180))
     expected = 0.6 / math.pi + 0.4 / math.cos(math.radians(theta))
     np.testing.assert_allclose(value, [expected] * 3, rtol=1e-9)
 
@@ -93,7 +89,7 @@ def test_sharp_lobe_grazing_and_exactly_90_degrees():
     at_90 = (wo[:, 2] == 0.0) | (wi[:, 2] == 0.0)
     assert np.all(values[at_90] == 0.0)
     # One degree off the mirror direction: cos(1 deg)^1e4 = exp(1e4 ln cos(1 deg)) = 0.2180.
-    off = f(brdf, (45, 0), (46, 180))
+    off = eval_degrees(brdf, (45, 0), (46, 180))
     expected = 0.6 / math.pi + 0.4 * math.cos(math.radians(1)) ** 1e4 / math.cos(math.radians(46))
     np.testing.assert_allclose(off, [expected] * 3, rtol=1e-9)
 

@@ -136,9 +136,7 @@ SAMPLER_SETTINGS = [
     sampler_sweep(SAMPLER_SETTINGS, [0.0, 50.0, 85.0], fast={(0, 50.0), (1, 85.0), (2, 0.0)}),
 )
 def test_sampler_is_exact(values, theta):
-    assert_sampler_exact(
-        WARD.bind(values), degrees_to_dir(theta, 20.0), domain="disk" if theta > 60.0 else "sphere"
-    )
+    assert_sampler_exact(WARD.bind(values), theta)
 
 
 def test_sampler_below_the_horizon_still_consistent():
