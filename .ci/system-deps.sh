@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Debian packages BRDF Studio needs beyond Python: a virtual X server and the xcb/GL libraries Qt and VTK load.
+# libllvm19 lets Mitsuba 3 (test and benchmark reference) run its llvm variants.
 # Installs what is missing when run as root; otherwise prints the exact command to run.
 set -euo pipefail
 
@@ -9,6 +10,7 @@ PKGS=(
   libxcb-shape0 libxcb-xinerama0 libxcb-xkb1 libxkbcommon-x11-0 libxkbcommon0
   libgl1 libegl1 libglx-mesa0 libgl1-mesa-dri libglib2.0-0 libfontconfig1 libdbus-1-3
   libxrender1 libxi6 libxext6 libsm6 libice6
+  libllvm19
 )
 
 missing=()
