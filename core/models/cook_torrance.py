@@ -31,13 +31,8 @@ from numba import njit
 
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
-from core.models._microfacet import (
-    beckmann_reflection_pdf,
-    beckmann_sample_h,
-    reflect_about,
-    upper_half_vector,
-)
-from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
+from core.models._microfacet import upper_half_vector
+from core.models.lobes import beckmann_mixture_pdf, beckmann_mixture_sample, lobe_probability, luminance_at
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
@@ -72,19 +67,12 @@ def _lobe_probability(p):
 
 @njit(nogil=True, cache=True)
 def pdf_cook_torrance(wo, wi, p):
-    ps = _lobe_probability(p)
-    lobe = beckmann_reflection_pdf(wo, wi, p[0], p[0]) if ps > 0.0 else 0.0
-    return mixture_pdf(ps, lobe, wi[2])
+    return beckmann_mixture_pdf(wo, wi, p[0], p[0], _lobe_probability(p))
 
 
 @njit(nogil=True, cache=True)
 def sample_cook_torrance(wo, p, u1, u2, u3):
-    if u3 < _lobe_probability(p):
-        hx, hy, hz = beckmann_sample_h(p[0], p[0], u1, u2)
-        wi = reflect_about(wo, hx, hy, hz)
-    else:
-        wi = cosine_hemisphere(u1, u2)
-    return wi[0], wi[1], wi[2], pdf_cook_torrance(wo, wi, p)
+    return beckmann_mixture_sample(wo, p[0], p[0], _lobe_probability(p), u1, u2, u3)
 
 
 COOK_TORRANCE = register(

@@ -1,5 +1,6 @@
 """Sampling building blocks shared by the analytic samplers: cosine hemisphere, cosine-power lobes, and the
-mixture of a lobe with the cosine hemisphere (the lobe's probability from luminance-weighted albedos).
+mixture of a lobe (cosine-power, half-vector cosine-power or Beckmann) with the cosine hemisphere, and the
+lobe's probability in it from luminance-weighted albedos.
 
 All densities are per unit solid angle. Lobes about an arbitrary axis may put mass below the horizon;
 the density returned is the lobe's own, so ``sample`` and ``pdf`` always agree. Microfacet (half-vector
@@ -13,7 +14,12 @@ import math
 from numba import njit
 
 from core.geometry import basis, dot, from_frame
-from core.models._microfacet import reflect_about, upper_half_vector
+from core.models._microfacet import (
+    beckmann_reflection_pdf,
+    beckmann_sample_h,
+    reflect_about,
+    upper_half_vector,
+)
 
 TWO_PI = 6.283185307179586
 INV_PI = 0.3183098861837907
@@ -158,3 +164,22 @@ def half_vector_mixture_sample(wo, n, q, u1, u2, u3):
 @njit(inline="always", nogil=True, cache=True)
 def half_vector_mixture_pdf(wo, n, q, wi):
     return mixture_pdf(q, half_vector_lobe_pdf(wo, wi, n), wi[2])
+
+
+@njit(inline="always", nogil=True, cache=True)
+def beckmann_mixture_sample(wo, ax, ay, q, u1, u2, u3):
+    """With probability ``q`` ``wo`` reflected about a Beckmann half vector
+    (:func:`core.models._microfacet.beckmann_sample_h`), otherwise a direction of the cosine hemisphere, and
+    the mixture's density there (see :func:`beckmann_mixture_pdf`)."""
+    if u3 < q:
+        hx, hy, hz = beckmann_sample_h(ax, ay, u1, u2)
+        wi = reflect_about(wo, hx, hy, hz)
+    else:
+        wi = cosine_hemisphere(u1, u2)
+    return wi[0], wi[1], wi[2], beckmann_mixture_pdf(wo, wi, ax, ay, q)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def beckmann_mixture_pdf(wo, wi, ax, ay, q):
+    lobe = beckmann_reflection_pdf(wo, wi, ax, ay) if q > 0.0 else 0.0
+    return mixture_pdf(q, lobe, wi[2])

@@ -34,8 +34,7 @@ import math
 from numba import njit
 
 from core.model import Model, Param, Traits, register
-from core.models._microfacet import beckmann_reflection_pdf, beckmann_sample_h, reflect_about
-from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
+from core.models.lobes import beckmann_mixture_pdf, beckmann_mixture_sample, lobe_probability, luminance_at
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
@@ -71,19 +70,12 @@ def _lobe_probability(p):
 
 @njit(nogil=True, cache=True)
 def pdf_ward(wo, wi, p):
-    ps = _lobe_probability(p)
-    lobe = beckmann_reflection_pdf(wo, wi, p[0], p[1]) if ps > 0.0 else 0.0
-    return mixture_pdf(ps, lobe, wi[2])
+    return beckmann_mixture_pdf(wo, wi, p[0], p[1], _lobe_probability(p))
 
 
 @njit(nogil=True, cache=True)
 def sample_ward(wo, p, u1, u2, u3):
-    if u3 < _lobe_probability(p):
-        hx, hy, hz = beckmann_sample_h(p[0], p[1], u1, u2)
-        wi = reflect_about(wo, hx, hy, hz)
-    else:
-        wi = cosine_hemisphere(u1, u2)
-    return wi[0], wi[1], wi[2], pdf_ward(wo, wi, p)
+    return beckmann_mixture_sample(wo, p[0], p[1], _lobe_probability(p), u1, u2, u3)
 
 
 WARD = register(
