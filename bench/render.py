@@ -200,6 +200,13 @@ def main(argv: list[str] | None = None) -> int:
         help="options for one strategy, e.g. adaptive:theta_step=5,phi_bins=8 (repeatable)",
     )
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument(
+        "--material-sampler",
+        action="append",
+        default=[],
+        metavar="S:MATERIAL=S2",
+        help="under strategy S, sample MATERIAL with S2 instead (repeatable), e.g. 'adaptive:brushed steel=analytic'",
+    )
     ap.add_argument("--out", default="results/bench", help="output folder")
     ap.add_argument("--cornell", action="store_true", help="only the Cornell box comparison with Mitsuba 3")
     ap.add_argument("--cornell-size", type=int, default=128)
@@ -221,9 +228,14 @@ def main(argv: list[str] | None = None) -> int:
                 opts[k] = int(v) if v.lstrip("-").isdigit() else float(v)
             except ValueError:
                 opts[k] = v
+    overrides: dict[str, dict[str, str]] = {}
+    for item in args.material_sampler:
+        strategy, _, rest = item.partition(":")
+        mname, _, s2 = rest.rpartition("=")
+        overrides.setdefault(strategy, {})[mname] = s2
     if not args.skip_throughput:
         report_throughput(scene, args, out)
-    run_strategies(scene, args, out, per_strategy)
+    run_strategies(scene, args, out, per_strategy, overrides)
     return 0
 
 
@@ -239,7 +251,13 @@ def report_throughput(scene, args: argparse.Namespace, out: Path) -> None:  # ty
     )
 
 
-def run_strategies(scene, args: argparse.Namespace, out: Path, per_strategy: dict[str, dict]) -> None:  # type: ignore[no-untyped-def]
+def run_strategies(  # type: ignore[no-untyped-def]
+    scene,
+    args: argparse.Namespace,
+    out: Path,
+    per_strategy: dict[str, dict],
+    overrides: dict[str, dict[str, str]],
+) -> None:
     ref = reference(scene, args.size, args.ref_spp, out, seed=987_654)
     strategies = args.strategies.split(",") if args.strategies else sampler_names()
     curves, images, labels, rows = {}, [], [], []
@@ -247,7 +265,15 @@ def run_strategies(scene, args: argparse.Namespace, out: Path, per_strategy: dic
     for s in strategies:
         t0 = time.perf_counter()
         options = {**scene.render.sampler_options, **per_strategy.get(s, {})}
-        job = prepare(scene, sampler=s, sampler_options=options, width=args.size, height=args.size, seed=1)
+        job = prepare(
+            scene,
+            sampler=s,
+            sampler_options=options,
+            width=args.size,
+            height=args.size,
+            seed=1,
+            material_samplers=overrides.get(s),
+        )
         prep = time.perf_counter() - t0
         recs = []
         for frame in job.passes(time_s=args.time):
@@ -280,6 +306,8 @@ def run_strategies(scene, args: argparse.Namespace, out: Path, per_strategy: dic
     write_png(out / "render_compare.png", composite(images, labels))
     for s, opts in per_strategy.items():
         print(f"options of {s}: {opts}")
+    for s, ov in overrides.items():
+        print(f"under {s}: " + ", ".join(f"'{m}' sampled with {s2}" for m, s2 in ov.items()))
     for s, mats in tables.items():
         for name, info in mats.items():
             if info.get("memory_bytes"):

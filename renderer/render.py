@@ -139,14 +139,22 @@ def prepare(
     on_step: StepCallback | None = None,
     warm_up: bool = True,
     ris_candidates: int = 0,
+    material_samplers: dict[str, str] | None = None,
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
     scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
     ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets.
-    ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates."""
+    ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates.
+    ``material_samplers`` maps material names to a strategy used for them instead of ``sampler``."""
     r = scene.render
     t0 = time.perf_counter()
-    world = World(scene, sampler=sampler, sampler_options=sampler_options, threads=threads)
+    world = World(
+        scene,
+        sampler=sampler,
+        sampler_options=sampler_options,
+        threads=threads,
+        material_samplers=material_samplers,
+    )
     geometry_seconds = time.perf_counter() - t0
     from renderer.integrator import PARALLEL_MIN
 
@@ -186,7 +194,7 @@ def prepare(
         settings["seed"],
         settings["ris_candidates"],
     )
-    if warm_up and world.sampler_name not in EAGER_SAMPLERS:
+    if warm_up and {world.sampler_name, *world.material_samplers.values()} - set(EAGER_SAMPLERS):
         _warm_up(world, tracer, report, on_step)
     return RenderJob(scene, world, tracer, settings, report)
 

@@ -75,6 +75,7 @@ class World:
         sampler: str | None = None,
         sampler_options: dict[str, Any] | None = None,
         threads: int = 2,
+        material_samplers: dict[str, str] | None = None,
     ):
         self.scene = scene
         self.sampler_name = sampler or scene.render.sampler
@@ -82,6 +83,13 @@ class World:
             scene.render.sampler_options if sampler_options is None else sampler_options
         )
         self.threads = threads
+        self.material_samplers = dict(material_samplers or {})
+        """Per-material strategy overrides by material name (others use ``sampler_name``)."""
+        unknown = set(self.material_samplers) - {m.name for m in scene.materials}
+        if unknown:
+            raise scene.error(
+                "materials", f"no material named {', '.join(sorted(unknown))} (sampler override)"
+            )
         self.materials: list[MaterialRuntime] = []
         self._build_geometry()
         self._build_lights()
@@ -199,7 +207,12 @@ class World:
                 on_step(f"material '{mat.name}'", k, steps)
             t0 = time.perf_counter()
             brdf = load_brdf(scene, mi, mat)
-            sampler, used_name, note = bind_sampler(brdf, self.sampler_name, self.sampler_options)
+            override = self.material_samplers.get(mat.name)
+            if override is not None:
+                sampler, used_name, note = bind_sampler(brdf, override, {})
+                note = (note + "; " if note else "") + f"sampler '{used_name}' set for this material"
+            else:
+                sampler, used_name, note = bind_sampler(brdf, self.sampler_name, self.sampler_options)
             # one call of each kernel on one direction compiles it (eval, sample, pdf)
             wo = np.array([[0.0, 0.6, 0.8]])
             brdf.eval(wo, wo)

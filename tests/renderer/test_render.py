@@ -179,3 +179,15 @@ def test_bad_measured_file_names_the_material(scene_file: Path, tmp_path: Path) 
     scene_file.write_text(json.dumps(data))
     with pytest.raises(SceneError, match=r"scene\.json: materials\[1\]\.measured: .*broken\.binary"):
         prepare(load_scene(scene_file))
+
+
+def test_per_material_sampler_override(scene_file: Path) -> None:
+    from core.scene import SceneError, load_scene
+
+    scene = load_scene(scene_file)
+    job = prepare(scene, sampler="uniform", material_samplers={"ball": "cosine"})
+    mats = job.prepare_report["materials"]
+    assert mats["ball"]["sampler"] == "cosine" and mats["floor"]["sampler"] == "uniform"
+    assert "set for this material" in mats["ball"]["note"]
+    with pytest.raises(SceneError, match="no material named nope"):
+        prepare(scene, material_samplers={"nope": "cosine"})
