@@ -444,7 +444,7 @@ class BuildOptions:
         excess_tol: float = 1e-4,
         m_theta: int = 6,
         m_phi: int = 5,
-        interp_tol: float = 1e-7,
+        interp_tol: float = 1e-6,
         z_min: float = 1e-6,
         search_iters: int = 12,
     ):
@@ -496,6 +496,9 @@ class Bin:
         self.interp_error = float(arrays["interp_error"])
         self.projection = int(arrays["projection"])
         """Index into ``PROJECTIONS``."""
+        self.scale = np.ascontiguousarray(arrays["scale"], dtype=np.float64)
+        self.scale_shape = np.asarray(arrays["scale_shape"], dtype=np.int64)
+        self.scale_floor = float(arrays["scale_floor"])
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {
@@ -507,12 +510,17 @@ class Bin:
             "build_seconds": np.asarray(self.build_seconds),
             "interp_error": np.asarray(self.interp_error),
             "projection": np.asarray(self.projection),
+            "scale": self.scale,
+            "scale_shape": self.scale_shape,
+            "scale_floor": np.asarray(self.scale_floor),
         }
 
     @property
     def nbytes(self) -> int:
         """Memory of the tree and its normalizer table."""
-        return int(self.child.nbytes + self.vmass.nbytes + self.leaf.nbytes + self.norm.nbytes)
+        return int(
+            self.child.nbytes + self.vmass.nbytes + self.leaf.nbytes + self.norm.nbytes + self.scale.nbytes
+        )
 
     @property
     def total_mass(self) -> float:
@@ -566,7 +574,8 @@ class _Builder:
         return target(self.model, self.params, angles_to_wo(theta, phi), X, Y, self.proj)
 
     def integrals(self, boxes: np.ndarray, wo_ang: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per box and per ``wo``: integral of ``g`` over box-and-disk, and the largest ``g`` on the rule."""
+        """Per box and per ``wo``: integral of ``g`` over box-and-disk, and the largest ``g / c`` on the rule
+        (the latter only once the scale ``c`` is set)."""
         X, Y, W, O = region_rule(np.ascontiguousarray(boxes), self.gx, self.gw)
         nb, nw = len(boxes), len(wo_ang)
         P = len(X)
@@ -575,9 +584,10 @@ class _Builder:
         vals = self.g(th, ph, np.tile(X, nw), np.tile(Y, nw)).reshape(nw, P)
         out = np.zeros((nb, nw))
         vmax = np.zeros(nb)
+        inv_c = 1.0 / self.scale(wo_ang[:, 0], wo_ang[:, 1]) if hasattr(self, "c_vals") else np.ones(nw)
         for w in range(nw):
             out[:, w] = np.bincount(O, weights=W * vals[w], minlength=nb)
-            np.maximum.at(vmax, O, vals[w])
+            np.maximum.at(vmax, O, vals[w] * inv_c[w])
         return out, vmax
 
     def search(self, start: np.ndarray, best: np.ndarray, box: np.ndarray) -> np.ndarray:
@@ -601,7 +611,7 @@ class _Builder:
             bx = np.repeat(box, 2 * len(dims), axis=0)
             X, Y = _clamp_to_box(flat[:, 0], flat[:, 1], bx)
             flat[:, 0], flat[:, 1] = X, Y
-            vals = self.g(flat[:, 2], flat[:, 3], X, Y).reshape(c, -1)
+            vals = self.h(flat[:, 2], flat[:, 3], X, Y).reshape(c, -1)
             j = np.argmax(vals, axis=1)
             v = vals[np.arange(c), j]
             better = v > best
@@ -641,7 +651,7 @@ class _Builder:
         K = G + 3
         TH = np.broadcast_to(np.repeat(th, K)[None, :], (nb, nw * K)).ravel()
         PH = np.broadcast_to(np.repeat(ph, K)[None, :], (nb, nw * K)).ravel()
-        vals = self.g(TH, PH, AXf, AYf).reshape(nb, nw * K)
+        vals = self.h(TH, PH, AXf, AYf).reshape(nb, nw * K)
         order = np.argsort(-vals, axis=1)
         rows = np.arange(nb)
         before = np.maximum(vals[rows, order[:, 0]], qmax)
@@ -655,24 +665,36 @@ class _Builder:
             best = np.maximum(best, self.search(start, vals[rows, idx], boxes))
         return before, best
 
-    def polar_estimate(self, wo_ang: np.ndarray) -> tuple[float, float]:
-        """Coarse integral (the smallest over the nodes) and maximum of ``g`` over the disk (thresholds)."""
+    def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:
+        """Estimates of ``I`` at each ``wo`` (polar Gauss-Legendre) and the largest ``g`` seen."""
         gx, gw = self.gx, self.gw
-        nr = 4
+        nr = 6
         r = ((np.arange(nr)[:, None] + gx[None, :]) / nr).ravel()
         wr = np.tile(gw, nr) / nr
-        nphi = 32
+        nphi = 48
         phis = TWO_PI * (np.arange(nphi) + 0.5) / nphi
         R, P = np.meshgrid(r, phis, indexing="ij")
         WR = np.repeat(wr, nphi) * R.ravel() * (TWO_PI / nphi)
         X = (R * np.cos(P)).ravel()
         Y = (R * np.sin(P)).ravel()
-        i_ref, g_max = math.inf, 0.0
-        for t, f in wo_ang:
+        est = np.zeros(len(wo_ang))
+        g_max = 0.0
+        for k, (t, f) in enumerate(wo_ang):
             vals = self.g(np.full(len(X), t), np.full(len(X), f), X, Y)
-            i_ref = min(i_ref, float(vals @ WR))
+            est[k] = float(vals @ WR)
             g_max = max(g_max, float(vals.max()))
-        return i_ref, g_max
+        return est, g_max
+
+    def scale(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """The per-``wo`` scale ``c(wo)`` (see :meth:`QuadtreeTable.scales`)."""
+        theta = np.asarray(theta, dtype=np.float64)
+        phi = np.asarray(phi, dtype=np.float64)
+        v = normalizer_values(self.c_meta, self.c_vals, np.zeros(theta.shape, dtype=np.int64), theta, phi)
+        return np.maximum(v, self.c_floor)
+
+    def h(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        """The scaled target ``g / c(wo)`` the leaf bounds hold for."""
+        return self.g(theta, phi, X, Y) / self.scale(theta, phi)
 
     def build(self) -> Bin:
         t0 = time.perf_counter()
@@ -689,8 +711,16 @@ class _Builder:
         wo_all = np.concatenate([wo_norm, wo_bound])
         if self.proj == "auto":
             self.proj = "equidistant" if self.grows_at_rim(wo_all) else "orthographic"
-        i_ref, g_max = self.polar_estimate(wo_norm)
-        floor = 1e-9 * g_max if g_max > 0.0 else 1e-300
+        est, g_max = self.polar_estimate(wo_norm)
+        # c(wo): the Chebyshev interpolant of the estimates, floored; bounds hold for g / c (exactness needs
+        # only that sampling uses the same c; the closer c is to I, the less the bound varies over the bin)
+        top = float(est.max())
+        self.c_vals = np.ascontiguousarray(np.maximum(est, 0.0) if top > 0.0 else np.ones(len(est)))
+        self.c_floor = 0.05 * float(self.c_vals.max())
+        self.c_meta = np.array([[0.0, mt, mp, t_lo, t_hi, f_lo, f_hi]])
+        c_norm = self.scale(wo_norm[:, 0], wo_norm[:, 1])
+        i_ref = float(np.min(est / c_norm)) if top > 0.0 else 1.0
+        floor = 1e-9 * g_max / float(c_norm.min()) if g_max > 0.0 else 1e-300
 
         # node table, grown level by level; children of a node are consecutive rows
         x0 = [np.array([-1.0])]
@@ -721,8 +751,10 @@ class _Builder:
                     Me = np.maximum((1.0 + o.safety) * after, floor)
                     area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
                     V = area * Me
-                    i_min = Ie.min(axis=1)
-                    wasteful = (V > o.n_max * i_min) & (V - i_min > o.excess_tol * i_ref)
+                    # refine where it helps: the envelope is loose even for the best wo of the bin (a lobe
+                    # that moves across the bin by more than its width cannot be fitted by smaller leaves)
+                    i_best = (Ie / c_norm[None, :]).max(axis=1)
+                    wasteful = (V > o.n_max * i_best) & (V - i_best > o.excess_tol * i_ref)
                     sp = (unsure | wasteful) & (depth < o.max_depth)
                     budget = (o.max_nodes - count - 4 * n) // 4
                     if sp.sum() > max(budget, 0):
@@ -776,6 +808,9 @@ class _Builder:
                 "build_seconds": np.asarray(time.perf_counter() - t0),
                 "interp_error": np.asarray(err),
                 "projection": np.asarray(PROJECTIONS.index(self.proj)),
+                "scale": self.c_vals,
+                "scale_shape": np.array([o.m_theta, 1 if self.iso else o.m_phi]),
+                "scale_floor": np.asarray(self.c_floor),
             }
         )
 
@@ -860,6 +895,9 @@ class QuadtreeTable:
         self.vmass = np.zeros(0)
         self.leaf = np.zeros((0, 5))
         self.vals = np.zeros(0)
+        self.c_meta = np.zeros((self.n_bins, 7))
+        self.c_vals = np.zeros(0)
+        self.c_floor = np.zeros(self.n_bins)
         self.violations = 0
         self.trials = 0
         self.samples = 0
@@ -909,8 +947,8 @@ class QuadtreeTable:
         self._pack()
 
     def _pack(self) -> None:
-        child, vmass, leaf, vals = [], [], [], []
-        n_nodes = n_leaves = n_vals = 0
+        child, vmass, leaf, vals, cvals = [], [], [], [], []
+        n_nodes = n_leaves = n_vals = n_c = 0
         for b, t in sorted(self.bins.items()):
             c = t.child.astype(np.int64)
             c = np.where(c >= 0, c + n_nodes, c - n_leaves)
@@ -922,6 +960,10 @@ class QuadtreeTable:
             self.bin_projection[b] = t.projection
             t_lo, t_hi, f_lo, f_hi = self.bin_range(b)
             self.meta[b] = (n_vals, t.shape[0], t.shape[1], t_lo, t_hi, f_lo, f_hi)
+            self.c_meta[b] = (n_c, t.scale_shape[0], t.scale_shape[1], t_lo, t_hi, f_lo, f_hi)
+            self.c_floor[b] = t.scale_floor
+            cvals.append(t.scale)
+            n_c += len(t.scale)
             n_nodes += len(t.child)
             n_leaves += t.n_leaves
             n_vals += len(t.norm)
@@ -929,6 +971,7 @@ class QuadtreeTable:
         self.vmass = np.ascontiguousarray(np.concatenate(vmass))
         self.leaf = np.ascontiguousarray(np.concatenate(leaf))
         self.vals = np.ascontiguousarray(np.concatenate(vals))
+        self.c_vals = np.ascontiguousarray(np.concatenate(cvals))
 
     # -- densities
     def normalizer(self, bins: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -936,11 +979,23 @@ class QuadtreeTable:
 
     def _prepare(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bins and normalizers of the rows, with the fallback (-1) where ``I(wo)`` is not positive."""
+        bins, norm, _ = self._prepare_scaled(wo)
+        return bins, norm
+
+    def _prepare_scaled(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         bins, theta, phi = self.locate(wo)
         self.ensure(bins)
         norm = self.normalizer(bins, theta, phi)
         bins = np.where(norm > 0.0, bins, -1)
-        return bins, norm
+        return bins, norm, self.scales(bins, theta, phi)
+
+    def scales(self, bins: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """The per-``wo`` scale ``c(wo) > 0`` of each row's bin: the leaf bounds hold for ``g(wo, X) / c(wo)``
+        over the whole bin, and sampling accepts with probability ``g / (c M_L)``. Any positive ``c`` keeps
+        the sampler exact (for one ``wo`` it is a constant); ``c`` is a smooth estimate of ``I(wo)``, so the
+        bounds need not follow the overall change of ``f`` across the bin."""
+        v = normalizer_values(self.c_meta, self.c_vals, bins, theta, phi)
+        return np.where(bins >= 0, np.maximum(v, self.c_floor[np.maximum(bins, 0)]), 1.0)
 
     def _pdf(self, wo: np.ndarray, wi: np.ndarray, bins: np.ndarray, norm: np.ndarray) -> np.ndarray:
         up = wi[:, 2] > 0.0
@@ -988,7 +1043,7 @@ class QuadtreeTable:
     def sample_each(self, wo: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One sample per row: ``(wi (n,3), pdf (n,), trials (n,))``; sample ``i`` uses stream ``(seed, i)``."""
         n = len(wo)
-        bins, norm = self._prepare(wo)
+        bins, norm, scale = self._prepare_scaled(wo)
         states = seed_states(np.uint64(seed), n)
         wi = np.empty((n, 3))
         trials = np.zeros(n, dtype=np.int64)
@@ -1004,6 +1059,7 @@ class QuadtreeTable:
         while len(pending):
             X, Y, bound, u3 = propose(states, pending, roots, self.child, self.vmass, self.leaf)
             g = self._g(wo_c[pending], X, Y, proj_rows[pending])
+            bound = bound * scale[pending]
             self.violations += int(np.count_nonzero(g > bound))
             trials[pending] += 1
             acc = u3 * bound < g
@@ -1021,7 +1077,7 @@ class QuadtreeTable:
     def sample_batch(self, wo: np.ndarray, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, int]:
         """``n`` samples for one direction ``wo (3,)`` by the batch variant; ``(wi, pdf, trials)``."""
         wo1 = wo.reshape(1, 3)
-        bins, norm = self._prepare(wo1)
+        bins, norm, scale = self._prepare_scaled(wo1)
         b = int(bins[0])
         if b < 0:
             wi, pdf, trials = self.sample_each(np.repeat(wo1, n, axis=0), seed)
@@ -1039,6 +1095,7 @@ class QuadtreeTable:
             )
             rnd += 1
             g = self._g(np.repeat(wo_c, len(X), axis=0), X, Y, np.full(len(X), proj))
+            bound = bound * scale[0]
             self.violations += int(np.count_nonzero(g > bound))
             total += len(X)
             acc = u3 * bound < g
@@ -1054,9 +1111,9 @@ class QuadtreeTable:
     # -- facts
     def acceptance(self, wo: np.ndarray) -> np.ndarray:
         """Exact per-trial acceptance ``I(wo) / V`` per row (1 for the cosine fallback)."""
-        bins, norm = self._prepare(wo)
+        bins, norm, scale = self._prepare_scaled(wo)
         mass = np.where(bins >= 0, self.vmass[self.roots[np.maximum(bins, 0)]], 1.0)
-        return np.where(bins >= 0, norm / mass, 1.0)
+        return np.where(bins >= 0, norm / (scale * mass), 1.0)
 
     def memory_bytes(self) -> int:
         return int(sum(t.nbytes for t in self.bins.values()))
