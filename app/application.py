@@ -38,4 +38,6 @@ def run_app(path: Path | None = None, empty: bool = False, quit_after: float | N
     if quit_after is not None:
         window.ask_unsaved = lambda: "discard"
         QTimer.singleShot(int(quit_after * 1000), window.close)
-    return int(app.exec())
+    from app.workers import exit_if_abandoned
+
+    return exit_if_abandoned(int(app.exec()))

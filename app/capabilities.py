@@ -151,20 +151,28 @@ def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: f
         integral = float(table.normalizer(bins, theta, phi)[0])
         rng = table.bin_range(b)
         projection = getattr(tree, "projection", 0)
+        acceptance = float(sampler.acceptance(wo[0])[0])
     except (TypeError, AttributeError, ValueError, IndexError, KeyError) as exc:
         raise Unavailable(
             f"the adaptive sampler's tree could not be read ({type(exc).__name__}: {exc})"
         ) from None
     if isinstance(projection, int | np.integer):
         projection = q.PROJECTIONS[int(projection)]
+    # The table may store a tree in scaled units (its normalizer carries the scale): express the bounds and
+    # the mass in the units of f, so that V = I / acceptance.
+    true_mass = integral / acceptance if acceptance > 0 else tree.total_mass
+    unit = true_mass / tree.total_mass if tree.total_mass > 0 else 1.0
+    leaves = np.array(tree.leaf, dtype=np.float64)[:, :5]
+    leaves[:, 0] *= unit
     return {
-        "leaves": np.asarray(tree.leaf)[:, :5],
+        "leaves": leaves,
         "projection": str(projection),
-        "total_mass": tree.total_mass,
+        "total_mass": true_mass,
         "integral": integral,
         "nbytes": tree.nbytes,
         "build_seconds": tree.build_seconds,
         "bin_deg": (float(np.degrees(rng[0])), float(np.degrees(rng[1]))),
+        "acceptance": acceptance,
     }
 
 

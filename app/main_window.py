@@ -121,7 +121,7 @@ class MainWindow(QMainWindow):
         self.material_dock = QDockWidget("Material", self)
         self.material_dock.setObjectName("material_dock")
         self.material_dock.setWidget(scroll)
-        self.material_dock.setMinimumWidth(380)
+        self.material_dock.setMinimumWidth(460)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.material_dock)
 
         self.scene_tree = SceneTree(self.document)
@@ -252,6 +252,9 @@ class MainWindow(QMainWindow):
             "New &material", self, shortcut="Ctrl+M", triggered=self.material_editor.new_material
         )
         self.edit_menu.addAction(self.new_material_action)
+        self.delete_action = self.edit_menu.addAction(
+            "&Delete selected object", QKeySequence.StandardKey.Delete, self.delete_selected
+        )
         self.quit_action = QAction(
             "&Quit", self, shortcut=QKeySequence.StandardKey.Quit, triggered=self.close
         )
@@ -545,6 +548,18 @@ class MainWindow(QMainWindow):
             self.show_error("Cannot load the measured BRDF", str(exc))
             return False
         return True
+
+    def delete_selected(self) -> None:
+        name = self.document.selected_object
+        if name is None:
+            self.statusBar().showMessage(
+                "Select an object (in the scene tree or the viewport) to delete it", 4000
+            )
+            return
+        try:
+            self.document.remove_object(name)
+        except (BrdfStudioError, KeyError) as exc:
+            self.show_error("Delete", str(exc))
 
     # ---- render and exports ----------------------------------------------------------------------------
     def start_render(self) -> None:

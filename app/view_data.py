@@ -198,7 +198,7 @@ def sampling_snapshot(
         tree = quadtree_bin(brdf, theta_deg, phi_deg, n_max)
         out["tree"], out["tree_error"] = tree, ""
         v = tree["total_mass"]
-        out["acceptance"] = tree["integral"] / v if v > 0 else float("nan")
+        out["acceptance"] = tree.get("acceptance", tree["integral"] / v if v > 0 else float("nan"))
     except BrdfStudioError as exc:
         out["tree"], out["tree_error"], out["acceptance"] = None, str(exc), float("nan")
     projection = out["tree"]["projection"] if out["tree"] else "orthographic"

@@ -87,12 +87,37 @@ class WorkerPool:
     def running(self) -> list[GeneratorWorker]:
         return [w for w in self._workers if w.isRunning()]
 
-    def shutdown(self) -> None:
-        """Cancel every worker and wait for each to reach its next ``yield`` (or its end). Waiting is what
-        keeps a thread from being destroyed while it runs (Qt aborts the process then); the wait is one
-        step of work: a render pass, one model's kernel compilation, one quadrature."""
+    def shutdown(self, timeout_ms: int = 3000) -> list[GeneratorWorker]:
+        """Cancel every worker and wait for each to reach its next ``yield`` (or its end).
+
+        A step that cannot be interrupted (a render's preparation building sampler tables can take minutes)
+        may outlast ``timeout_ms``: such workers are returned and kept referenced in :data:`ABANDONED`, so
+        the QThread is never destroyed while it runs (Qt aborts the process then);
+        :func:`exit_if_abandoned` ends the process without waiting for them.
+        """
         for w in list(self._workers):
             w.cancel()
+        left = []
         for w in list(self._workers):
-            w.wait()
+            if not w.wait(timeout_ms):
+                left.append(w)
+        ABANDONED.extend(left)
         self._workers.clear()
+        return left
+
+
+ABANDONED: list[GeneratorWorker] = []
+"""Workers still running at shutdown (their results are no longer wanted)."""
+
+
+def exit_if_abandoned(code: int) -> int:
+    """At the very end of the app: if workers are still running, end the process now (``os._exit``), since
+    the interpreter's teardown would destroy their running threads; otherwise return ``code``."""
+    import os
+    import sys
+
+    if any(w.isRunning() for w in ABANDONED):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code

@@ -183,7 +183,9 @@ def main() -> int:
         w.writerows(out_rows)
     print(f"load average at end: {os.getloadavg()[0]:.2f}; CSV in {args.out}")
     window.close()
-    return 0
+    from app.workers import exit_if_abandoned
+
+    return exit_if_abandoned(0)
 
 
 if __name__ == "__main__":

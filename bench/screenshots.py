@@ -26,6 +26,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "screenshots")
     parser.add_argument("--material", default="polished copper")
+    parser.add_argument("--render-b", default="analytic", help="the render panel's second strategy")
     args = parser.parse_args()
     ensure_display()
     os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-shots-"))
@@ -66,6 +67,8 @@ def main() -> int:
     if args.material in doc.material_names():
         doc.select_material(args.material)
     doc.set_direction(45.0, 0.0)
+    window.refresh_now()
+    window.flush_slow_jobs()
     settle(1.0, until=lambda: window.jobs_idle("albedo", "adaptive"))
     window.tabs.setCurrentWidget(window.explore)
     settle(0.5)
@@ -105,7 +108,9 @@ def main() -> int:
         settle(0.5, until=lambda: not panel.running, timeout=600)
         grab(window.render_panel, "render")
     window.close()
-    return 0
+    from app.workers import exit_if_abandoned
+
+    return exit_if_abandoned(0)
 
 
 if __name__ == "__main__":

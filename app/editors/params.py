@@ -132,7 +132,7 @@ class ColorRow(QWidget):
             s.setSingleStep(0.01)
             s.setKeyboardTracking(False)
             s.setToolTip(f"{param.label or param.name}: {'red green blue'.split()['RGB'.index(channel)]}")
-            s.setMinimumWidth(64)
+            s.setMinimumWidth(56)
             s.valueChanged.connect(self._spin_changed)
             self.spins.append(s)
             layout.addWidget(s, 1)

@@ -150,8 +150,16 @@ class SceneTree(QTreeWidget):
                 assign.addAction(m, lambda m=m: self._assign(name, m))
             menu.addAction("Delete object", lambda: self._guard(self.document.remove_object, name))
         else:
+            menu.addAction("Rename material ...", lambda: self._rename(name))
             menu.addAction("Delete material", lambda: self._guard(self.document.remove_material, name))
         menu.exec(self.viewport().mapToGlobal(pos))
+
+    def _rename(self, name: str) -> None:
+        from PySide6.QtWidgets import QInputDialog
+
+        new, ok = QInputDialog.getText(self, "Rename material", "New name:", text=name)
+        if ok:
+            self._guard(self.document.rename_material, name, new)
 
     def _guard(self, fn, *args) -> None:
         try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 from PySide6.QtWidgets import QWidget
 
 from app.view_data import incidence_plane
@@ -28,6 +29,7 @@ class PolarView(FigureView):
         ax.set_thetamin(-90)
         ax.set_thetamax(90)
         ax.tick_params(axis="y", labelsize=7)
+        ax.yaxis.set_major_locator(MaxNLocator(4))
         ax.tick_params(axis="x", labelsize=8)
         self._rgb = [
             ax.plot([], [], color=c, lw=0.8, alpha=0.6)[0] for c in ("tab:red", "tab:green", "tab:blue")

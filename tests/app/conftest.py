@@ -32,6 +32,10 @@ def window(qapp):
     w.refresh_now()
     yield w
     w.shutdown()
+    from app.workers import ABANDONED
+
+    for worker in ABANDONED:  # let threads past the shutdown grace period end before the interpreter does
+        worker.wait()
     w.close()
     w.deleteLater()
     qapp.processEvents()

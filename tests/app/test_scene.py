@@ -42,6 +42,12 @@ def test_import_multi_part_mesh_assign_and_undo(fresh, tmp_path):
     assert w.document.object("cubes/right").material == "red"
     colour = w.viewport.actors["cubes/right"].GetProperty().GetColor()
     assert colour[0] > 0.8 and colour[1] < 0.4
+    # delete the selected object with the Delete action, then undo it
+    w.document.select_object("cubes/left")
+    w.delete_action.trigger()
+    assert "cubes/left" not in w.viewport.actors and w.document.selected_object is None
+    w.document.undo()
+    assert "cubes/left" in w.viewport.actors
     w.document.undo()  # assignment
     assert w.document.object("cubes/right").material != "red"
     w.document.undo()  # new material
