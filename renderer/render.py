@@ -140,12 +140,15 @@ def prepare(
     warm_up: bool = True,
     ris_candidates: int = 0,
     material_samplers: dict[str, str] | None = None,
+    warm_up_sweep: bool = False,
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
     scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
     ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets.
     ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates.
-    ``material_samplers`` maps material names to a strategy used for them instead of ``sampler``."""
+    ``material_samplers`` maps material names to a strategy used for them instead of ``sampler``.
+    ``warm_up_sweep`` also asks for a dense sweep of outgoing directions (every incident-angle bin), so that no
+    table is built during rendering (for equal-time comparisons)."""
     r = scene.render
     t0 = time.perf_counter()
     world = World(
@@ -195,7 +198,7 @@ def prepare(
         settings["ris_candidates"],
     )
     if warm_up and {world.sampler_name, *world.material_samplers.values()} - set(EAGER_SAMPLERS):
-        _warm_up(world, tracer, report, on_step)
+        _warm_up(world, tracer, report, on_step, warm_up_sweep)
     return RenderJob(scene, world, tracer, settings, report)
 
 
@@ -203,7 +206,22 @@ EAGER_SAMPLERS = ("uniform", "cosine", "analytic")
 """Strategies with no tables: nothing to build before the first pass."""
 
 
-def _warm_up(world: World, tracer: PathTracer, report: dict[str, Any], on_step: StepCallback | None) -> None:
+def _sweep(isotropic: bool) -> np.ndarray:
+    """Outgoing directions every 0.25 degrees of theta (and, for anisotropic models, every 2.5 degrees of phi)."""
+    theta = np.radians(np.arange(0.0, 90.0, 0.25))
+    phi = np.radians(np.arange(0.0, 360.0, 2.5)) if not isotropic else np.zeros(1)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    t, p = t.ravel(), p.ravel()
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=1)
+
+
+def _warm_up(
+    world: World,
+    tracer: PathTracer,
+    report: dict[str, Any],
+    on_step: StepCallback | None,
+    sweep: bool = False,
+) -> None:
     """Build the sampler tables the scene needs before the first pass (a sampler that builds lazily, per
     incident-angle bin, builds those the pre-pass meets), and record their memory and build time."""
     t0 = time.perf_counter()
@@ -215,10 +233,13 @@ def _warm_up(world: World, tracer: PathTracer, report: dict[str, Any], on_step: 
         if on_step:
             on_step(f"tables for '{rt.name}'", k, len(used))
         t1 = time.perf_counter()
-        rt.sampler.sample_each(wo_by_material[m], seed=0)
+        wo = wo_by_material[m]
+        if sweep:
+            wo = np.concatenate([wo, _sweep(rt.brdf.model.isotropic)])
+        rt.sampler.sample_each(wo, seed=0)
         info = dict(rt.sampler.info())
         info["warm_up_seconds"] = round(time.perf_counter() - t1, 3)
-        info["warm_up_directions"] = len(wo_by_material[m])
+        info["warm_up_directions"] = len(wo)
         report["materials"][rt.name].update(info)
     if on_step:
         on_step("tables ready", len(used), len(used))
