@@ -1,0 +1,198 @@
+"""Benchmark of the adaptive quadtree sampler against the baselines (issue 3's targets).
+
+Per model (seed parameters) and n_max in {1.3, 2, 3}: build time and memory per tree (trees of the bins of
+theta_o in {0, 30, 60, 80, 89} degrees), sampling throughput (``sample_each``, one different ``wo`` per row)
+against the cosine sampler's in the same run, mean rejection trials, relative std of the weight
+``f cos / pdf``, and the variance per sample of the estimator of reflected radiance
+``L_r(wo) = int f L cos dw`` under a fixed, non-constant environment ``L``, against every other registered
+sampler, at theta_o = 30 and 60 degrees.
+
+    python bench/adaptive.py [--models a,b] [--n-max 2] [--samples 200000] [--out results/bench]
+
+Prints a table; writes ``adaptive.csv`` and ``adaptive.png`` to the output folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from core.geometry import degrees_to_dir  # noqa: E402
+from core.model import LUMINANCE, all_models  # noqa: E402
+from core.sampler import applicable_samplers, make_sampler  # noqa: E402
+from core.samplers.adaptive import clear_memory_cache  # noqa: E402
+
+THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
+VAR_THETAS = (30.0, 60.0)
+SUN = np.array([0.35, 0.2, 1.0]) / np.linalg.norm([0.35, 0.2, 1.0])
+
+
+def environment(wi: np.ndarray) -> np.ndarray:
+    """A sky gradient plus a soft sun: non-constant, smooth, positive on the upper hemisphere."""
+    return 0.3 + 0.7 * np.maximum(wi[:, 2], 0.0) + 4.0 * np.exp(-12.0 * (1.0 - wi @ SUN))
+
+
+def estimator_variance(sampler, wo: np.ndarray, n: int, seed: int) -> tuple[float, float]:
+    """Mean and variance per sample of ``f L cos / pdf`` (luminance)."""
+    wi, pdf = sampler.sample(wo, n, seed)
+    f = sampler.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = np.where(pdf > 0.0, f * environment(wi) * np.maximum(wi[:, 2], 0.0) / pdf, 0.0)
+    return float(y.mean()), float(y.var())
+
+
+def random_wo(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    t = np.radians(rng.choice(THETAS, n))
+    p = rng.uniform(0.0, 2.0 * math.pi, n)
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=1)
+
+
+def throughput(sampler, wo: np.ndarray, seed: int) -> float:
+    sampler.sample_each(wo[:1000], seed)  # warm-up: compile, build
+    t = time.perf_counter()
+    sampler.sample_each(wo, seed + 1)
+    return len(wo) / (time.perf_counter() - t)
+
+
+def run(models: list[str] | None, n_maxes: list[float], n: int, out: Path) -> list[dict]:
+    rows = []
+    cache = Path(tempfile.mkdtemp(prefix="bench-adaptive-"))  # builds are timed: no disk cache hits
+    for model in all_models():
+        if models and model.name not in models:
+            continue
+        brdf = model.bind()
+        cosine = make_sampler("cosine", brdf)
+        wo_many = random_wo(n, 7)
+        cos_rate = throughput(cosine, wo_many, 1)
+        baselines = {}
+        for name in applicable_samplers(brdf):
+            if name == "adaptive":
+                continue
+            try:
+                s = make_sampler(name, brdf)
+                baselines[name] = [
+                    estimator_variance(s, degrees_to_dir(t, 20.0), n, 3)[1] for t in VAR_THETAS
+                ]
+            except Exception as exc:  # noqa: BLE001 - a baseline that cannot run is reported, not fatal
+                print(f"  {model.name}/{name}: skipped ({exc})")
+        for n_max in n_maxes:
+            clear_memory_cache()
+            s = make_sampler("adaptive", brdf, n_max=n_max, cache=cache / f"{model.name}-{n_max}")
+            build = []
+            for t in THETAS:
+                t0 = time.perf_counter()
+                s.sample(degrees_to_dir(t, 20.0), 1, 0)
+                build.append(time.perf_counter() - t0)
+            info = s.info()
+            rate = throughput(s, wo_many, 1)
+            _, _, trials = s.sample_with_trials(wo_many[: min(n, 200_000)], 5)
+            rel = []
+            accs = []
+            for t in THETAS:
+                wo = degrees_to_dir(t, 20.0)
+                wi, pdf = s.sample(wo, 20_000, 2)
+                f = s.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+                w = f * wi[:, 2] / pdf
+                rel.append(float(w.std() / w.mean()))
+                accs.append(float(s.acceptance(wo)[0]))
+            var = [estimator_variance(s, degrees_to_dir(t, 20.0), n, 3)[1] for t in VAR_THETAS]
+            best_name, best = (
+                min(baselines.items(), key=lambda kv: sum(kv[1])) if baselines else ("-", [math.inf])
+            )
+            row = {
+                "model": model.name,
+                "n_max": n_max,
+                "build_s_per_tree": float(np.mean(build)),
+                "build_s_full_material": float(np.mean(build)) * info["bins_total"],
+                "bins_total": info["bins_total"],
+                "memory_kb_per_tree": info["memory_per_tree_bytes"] / 1024.0,
+                "samples_per_s": rate,
+                "cosine_samples_per_s": cos_rate,
+                "throughput_ratio": rate / cos_rate,
+                "mean_trials": float(trials.mean()),
+                "min_acceptance": float(min(accs)),
+                "weight_rel_std": float(max(rel)),
+                "variance_adaptive": float(sum(var)),
+                "best_baseline": best_name,
+                "variance_best_baseline": float(sum(best)),
+                "bound_violations": s.bound_violations,
+            }
+            for name, v in baselines.items():
+                row[f"variance_{name}"] = float(sum(v))
+            rows.append(row)
+            print(
+                f"{model.name:<16} n_max={n_max:<4g} build {row['build_s_per_tree'] * 1e3:7.1f} ms/tree "
+                f"mem {row['memory_kb_per_tree']:7.2f} KB/tree  {rate / 1e6:5.2f} M/s "
+                f"({row['throughput_ratio']:.2f} x cosine)  trials {row['mean_trials']:.3f}  "
+                f"min acc {row['min_acceptance']:.3f}  w std {row['weight_rel_std']:.1e}  "
+                f"var {row['variance_adaptive']:.4g} vs {best_name} {row['variance_best_baseline']:.4g}  "
+                f"viol {row['bound_violations']}",
+                flush=True,
+            )
+    out.mkdir(parents=True, exist_ok=True)
+    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in rows[0], k)) if rows else []
+    with open(out / "adaptive.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    try:
+        plot(rows, out / "adaptive.png")
+    except Exception as exc:  # noqa: BLE001
+        print(f"(no plot: {exc})")
+    return rows
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
+    for n_max in sorted({r["n_max"] for r in rows}):
+        sub = [r for r in rows if r["n_max"] == n_max]
+        names = [r["model"] for r in sub]
+        x = np.arange(len(sub))
+        axes[0].plot(x, [r["memory_kb_per_tree"] for r in sub], "o-", label=f"n_max={n_max:g}")
+        axes[1].plot(x, [r["build_s_per_tree"] * 1e3 for r in sub], "o-", label=f"n_max={n_max:g}")
+        axes[2].plot(
+            x, [r["variance_adaptive"] / max(r["variance_best_baseline"], 1e-300) for r in sub], "o-",
+            label=f"n_max={n_max:g}",
+        )  # fmt: skip
+        for ax in axes:
+            ax.set_xticks(x, names, rotation=70, fontsize=7)
+    axes[0].set_ylabel("memory per tree (KB)")
+    axes[0].axhline(14.5, color="k", lw=0.8, ls="--")
+    axes[1].set_ylabel("build time per tree (ms)")
+    axes[2].set_ylabel("variance / best baseline's")
+    axes[2].axhline(1.0, color="k", lw=0.8, ls="--")
+    for ax in axes:
+        ax.set_yscale("log")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--models", help="comma-separated model names (default: all)")
+    ap.add_argument("--n-max", type=float, action="append", help="default: 1.3, 2, 3")
+    ap.add_argument("--samples", type=int, default=200_000)
+    ap.add_argument("--out", default="results/bench")
+    a = ap.parse_args(argv)
+    run(a.models.split(",") if a.models else None, a.n_max or [1.3, 2.0, 3.0], a.samples, Path(a.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
