@@ -18,8 +18,15 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q -e '.[test]'
 	@touch $(STAMP)
 
+# With a display: the desktop app on the demo scene. Headless: the demo summary and a render of the demo scene.
 run: setup
-	$(BIN)/brdf-studio demo
+	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then \
+		$(BIN)/brdf-studio; \
+	else \
+		echo "no display: printing the demo summary and rendering the demo scene to results/demo.* instead"; \
+		$(BIN)/brdf-studio demo && mkdir -p results && \
+		$(BIN)/brdf-studio render --demo --spp 16 --width 320 --height 240 -o results/demo.exr; \
+	fi
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
@@ -34,6 +41,9 @@ test-slow: setup
 
 bench: setup
 	$(BIN)/python bench/models.py
+	$(BIN)/python bench/adaptive.py
+	$(BIN)/brdf-studio bench samplers
+	$(BIN)/python bench/render.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info
