@@ -69,3 +69,22 @@ def test_bad_input_is_a_clear_error(argv, message, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_quick_study_runs_end_to_end(tmp_path, capsys):
+    """`brdf-studio bench samplers --quick` (the CI smoke run) writes its table, CSV and plots."""
+    assert main(["bench", "samplers", "--quick", "--models", "lambert", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "| lambert | adaptive |" in out and "| lambert | factored |" in out
+    with open(tmp_path / "study.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {r["sampler"] for r in rows} >= {
+        "uniform",
+        "cosine",
+        "adaptive",
+        "uniform_cdf",
+        "compress_cdf",
+        "factored",
+        "ris",
+    }
+    assert all(math.isfinite(float(r["rel_rmse"])) for r in rows)
