@@ -207,6 +207,10 @@ def _fmt(v: Any) -> str:
     return f"{v:.6g}" if isinstance(v, float) else str(v)
 
 
+def _eff(e: float) -> str:
+    return "inf (zero variance)" if e > 1e20 else f"{e:.3g}"
+
+
 def _geomean(values: Iterable[float]) -> float:
     v = [max(x, 1e-16) for x in values if math.isfinite(x)]
     return float(np.exp(np.mean(np.log(v)))) if v else float("nan")
@@ -261,6 +265,54 @@ def summary_markdown(rows: list[Row]) -> str:
             + " | ".join(f"{e:.2e}" for e in errs)
             + " | "
             + " | ".join(f"{e:.3g}" for e in effs)
+            + " |"
+        )
+    out.append("\n" + wins_markdown(rows))
+    return "\n".join(out) + "\n"
+
+
+def wins_markdown(rows: list[Row]) -> str:
+    """How often each strategy has the lowest error at equal samples and at equal time, per light.
+
+    RIS is left out of the ranking: it spends several BRDF evaluations per sample and knows the light.
+    """
+    cases: dict[tuple[str, float, str], dict[str, Row]] = {}
+    n_max = max(r.samples for r in rows)
+    for r in rows:
+        if r.samples == n_max and r.sampler != "ris":
+            cases.setdefault((r.material, r.theta_o, r.light), {})[r.sampler] = r
+    lights = list(dict.fromkeys(r.light for r in rows))
+    samplers = [s for s in dict.fromkeys(r.sampler for r in rows) if s != "ris"]
+    out = [
+        "Cases (material x angle) in which a strategy has the lowest variance (ties within 1 % shared), RIS excluded:\n"
+    ]
+    out.append(
+        "| light | "
+        + " | ".join(f"{s} (equal N)" for s in samplers)
+        + " | "
+        + " | ".join(f"{s} (equal time)" for s in samplers)
+        + " |"
+    )
+    out.append("|" + "---|" * (1 + 2 * len(samplers)))
+    for li in lights:
+        by_n = dict.fromkeys(samplers, 0.0)
+        by_t = dict.fromkeys(samplers, 0.0)
+        for (_, _, light), entries in cases.items():
+            if light != li:
+                continue
+            for table, key in (
+                (by_n, lambda r: r.rel_rmse),
+                (by_t, lambda r: r.rel_rmse**2 * r.seconds_per_sample),
+            ):
+                best = min(key(r) for r in entries.values())
+                winners = [s for s, r in entries.items() if key(r) <= best * 1.01 + 1e-300]
+                for s in winners:
+                    table[s] += 1.0 / len(winners)
+        out.append(
+            f"| {li} | "
+            + " | ".join(f"{by_n[s]:.1f}" for s in samplers)
+            + " | "
+            + " | ".join(f"{by_t[s]:.1f}" for s in samplers)
             + " |"
         )
     return "\n".join(out) + "\n"
