@@ -655,7 +655,41 @@ class _Builder:
         order = np.argsort(-vals, axis=1)
         rows = np.arange(nb)
         before = np.maximum(vals[rows, order[:, 0]], qmax)
+        # mirror and retro-reflection probes over a dense grid of the bin: the peak of a sharp lobe sits at
+        # the mirror point of some wo of the bin, not necessarily of a sampled one
+        dense = _tensor(
+            np.linspace(self.t_lo, self.t_hi, 9),
+            np.zeros(1) if self.iso else np.linspace(self.f_lo, self.f_hi, 9),
+        )
+        pts = np.concatenate(
+            [direction_to_disk(angles_to_wo(dense[:, 0], dense[:, 1] + math.pi), self.proj),
+             direction_to_disk(angles_to_wo(dense[:, 0], dense[:, 1]), self.proj)]
+        )  # fmt: skip
+        pang = np.concatenate([dense, dense])
+        inside = (
+            (pts[None, :, 0] >= boxes[:, 0:1]) & (pts[None, :, 0] <= boxes[:, 2:3])
+            & (pts[None, :, 1] >= boxes[:, 1:2]) & (pts[None, :, 1] <= boxes[:, 3:4])
+        )  # fmt: skip
+        bi, pi = np.nonzero(inside)
+        dense_start = None
+        if len(bi):
+            qx, qy = _clamp_to_box(pts[pi, 0], pts[pi, 1], boxes[bi])
+            dv = self.h(pang[pi, 0], pang[pi, 1], qx, qy)
+            dmax = np.full(nb, -1.0)
+            np.maximum.at(dmax, bi, dv)
+            hit = dv >= dmax[bi]
+            dense_start = (
+                bi[hit],
+                np.column_stack([qx[hit], qy[hit], pang[pi[hit], 0], pang[pi[hit], 1]]),
+                dv[hit],
+            )
+            before = np.maximum(before, dmax)
         best = before.copy()
+        if dense_start is not None:
+            b_idx, start, v0 = dense_start
+            b_idx, first = np.unique(b_idx, return_index=True)
+            found = self.search(start[first], v0[first], boxes[b_idx])
+            best[b_idx] = np.maximum(best[b_idx], found)
         for rank in (0, 1):
             idx = order[:, rank]
             start = np.column_stack(

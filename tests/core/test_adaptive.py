@@ -1,0 +1,304 @@
+"""The adaptive quadtree sampler: its samples follow its pdf (chi-square), the pdf is a density, the trees keep
+their promises (acceptance >= 1/n_max, no leaf-bound violation), batch and single sampling agree, the weight
+``f cos / pdf`` is constant, tables are cached correctly, and hard cases stay finite.
+
+Statistics: every chi-square test draws 1e6 samples with a fixed seed and uses alpha = 0.01, Sidak-corrected
+over the tests of its group (the group size is written next to it). The full sweep (every model x theta_o in
+{0, 30, 60, 80, 89} x n_max in {1.3, 2, 3} x {sphere, disk}) is marked slow; the default suite runs a subset.
+"""
+
+from __future__ import annotations
+
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from core.chi2 import chi2_test, integrate_pdf, sampler_functions, two_sample_test
+from core.geometry import degrees_to_dir
+from core.model import LUMINANCE, all_models, make_brdf
+from core.sampler import make_sampler
+from core.samplers.adaptive import AdaptiveSampler, clear_memory_cache
+
+N = 1_000_000
+THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
+N_MAXES = (1.3, 2.0, 3.0)
+MODELS = all_models()
+
+# default suite: (model, theta_o, n_max, domain)
+FAST_CASES = [
+    ("lambert", 30.0, 2.0, "sphere"),
+    ("phong", 80.0, 1.3, "disk"),
+    ("ward", 60.0, 2.0, "sphere"),
+    ("minnaert", 89.0, 3.0, "disk"),
+    ("cook_torrance", 0.0, 2.0, "disk"),
+]
+FAST_CASES = [c for c in FAST_CASES if c[0] in {m.name for m in MODELS}]
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    """Every test gets its own table cache folder and an empty in-memory cache."""
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
+    clear_memory_cache()
+    yield
+    clear_memory_cache()
+
+
+def _adaptive(name, n_max=2.0, **kw) -> AdaptiveSampler:
+    return make_sampler("adaptive", make_brdf(name, kw.pop("params", None)), n_max=n_max, **kw)
+
+
+def _weights(sampler, wo, wi, pdf):
+    f = sampler.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+    return f * np.maximum(wi[:, 2], 0.0) / pdf
+
+
+def _check_sampler(sampler, theta, domain, n_tests, seed=11):
+    wo = degrees_to_dir(theta, 17.0)
+    sample, pdf = sampler_functions(sampler, wo)
+    res = chi2_test(sample, pdf, N, domain=domain, seed=seed, n_tests=n_tests)
+    assert res.passed, f"{sampler.brdf.name} theta={theta}: {res.summary()}"
+    assert sampler.bound_violations == 0
+    return res
+
+
+@pytest.mark.parametrize(("name", "theta", "n_max", "domain"), FAST_CASES, ids=lambda v: str(v))
+def test_chi2_fast_subset(name, theta, n_max, domain):
+    # Sidak over the 5 fast cases
+    _check_sampler(_adaptive(name, n_max), theta, domain, n_tests=len(FAST_CASES))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_max", N_MAXES)
+@pytest.mark.parametrize("model", MODELS, ids=[m.name for m in MODELS])
+def test_chi2_full_sweep(model, n_max):
+    n_tests = len(MODELS) * len(N_MAXES) * len(THETAS) * 2
+    sampler = make_sampler("adaptive", model.bind(), n_max=n_max)
+    for theta in THETAS:
+        for domain in ("sphere", "disk"):
+            _check_sampler(sampler, theta, domain, n_tests=n_tests)
+        acc = sampler.acceptance(degrees_to_dir(theta))[0]
+        assert acc >= 1.0 / n_max, f"acceptance {acc:.3f} < 1/{n_max} at theta={theta}"
+
+
+@pytest.mark.parametrize("name", ["lambert", "phong", "ward", "minnaert", "lewis"])
+def test_pdf_integrates_to_one(name):
+    if name not in {m.name for m in MODELS}:
+        pytest.skip(f"model {name} not in the library")
+    sampler = _adaptive(name)
+    for theta in (0.0, 60.0, 89.9):
+        wo = degrees_to_dir(theta, 40.0)
+        total = integrate_pdf(
+            lambda wi, wo=wo: sampler.pdf(np.broadcast_to(wo, wi.shape), wi), (32, 32), 1e-7
+        )
+        assert abs(total - 1.0) < 1e-3, f"{name} theta={theta}: integral {total}"
+
+
+FAST_MODELS = [m for m in MODELS if m.name in ("lambert", "phong", "minnaert", "cook_torrance")]
+
+
+def _acceptance_floor(model, n_max):
+    """1/n_max for isotropic models. Anisotropic ones share a tree over a (theta_o, phi_o) bin of 1 x 5
+    degrees: a lobe that moves across the bin by more than its width cannot be enveloped that tightly for
+    every wo (docs/adaptive.md, section 3); measured >= 0.85/n_max at the defaults, asserted >= 0.8/n_max."""
+    return 1.0 / n_max if model.isotropic else 0.8 / n_max
+
+
+@pytest.mark.parametrize("model", FAST_MODELS, ids=[m.name for m in FAST_MODELS])
+def test_acceptance_and_zero_variance(model):
+    _acceptance_and_zero_variance(model)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", MODELS, ids=[m.name for m in MODELS])
+def test_acceptance_and_zero_variance_every_model(model):
+    _acceptance_and_zero_variance(model)
+
+
+def _acceptance_and_zero_variance(model):
+    """Per-trial acceptance I/V >= 1/n_max at the default parameters; the mean number of trials measured
+    agrees with 1/acceptance; the luminance weight f cos / pdf equals I(wo) for every sample."""
+    sampler = make_sampler("adaptive", model.bind(), n_max=2.0)
+    for theta in (30.0, 80.0):
+        wo = degrees_to_dir(theta, 25.0)
+        acc = float(sampler.acceptance(wo)[0])
+        floor = _acceptance_floor(model, 2.0)
+        assert acc >= floor, f"{model.name} theta={theta}: acceptance {acc:.3f} < {floor:.3f}"
+        wi, pdf, trials = sampler.sample_with_trials(np.repeat(wo[None, :], 20_000, axis=0), seed=3)
+        # trials are geometric with mean 1/acc: 20000 draws give a standard error of sqrt(1-acc)/acc/141
+        assert (
+            abs(trials.mean() - 1.0 / acc) < 5.0 * math.sqrt(1.0 - acc) / acc / math.sqrt(len(trials)) + 1e-9
+        )
+        assert np.all(np.isfinite(wi)) and np.all(pdf > 0.0)
+        w = _weights(sampler, wo, wi, pdf)
+        norm = sampler.normalizer(wo)[0]
+        assert np.std(w) / np.mean(w) < 1e-9
+        np.testing.assert_allclose(w, norm, rtol=1e-9)
+    assert sampler.bound_violations == 0
+
+
+def test_pdf_equals_the_returned_pdf_and_seeds_reproduce():
+    sampler = _adaptive("phong", 1.3)
+    rng = np.random.default_rng(5)
+    theta = np.radians(rng.choice([0.0, 10.0, 45.0, 70.0, 85.0, 89.9], 2000) + rng.uniform(-0.4, 0.4, 2000))
+    theta = np.abs(theta)
+    phi = rng.uniform(0.0, 2 * math.pi, 2000)
+    wo = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
+    wi, pdf = sampler.sample_each(wo, seed=9)
+    np.testing.assert_array_equal(sampler.pdf(wo, wi), pdf)
+    wi2, pdf2 = sampler.sample_each(wo, seed=9)
+    np.testing.assert_array_equal(wi, wi2)
+    wi3, _ = sampler.sample_each(wo, seed=10)
+    assert not np.array_equal(wi, wi3)
+    # sample i depends only on (seed, i): a prefix gives the same first rows
+    wi4, _ = sampler.sample_each(wo[:100], seed=9)
+    np.testing.assert_array_equal(wi4, wi[:100])
+    one = degrees_to_dir(45.0, 10.0)
+    wi5, pdf5 = sampler.sample(one, 5000, seed=1)
+    np.testing.assert_array_equal(sampler.pdf(np.broadcast_to(one, wi5.shape), wi5), pdf5)
+    assert sampler.bound_violations == 0
+
+
+def test_batch_and_single_sampling_agree():
+    """Two-sample chi-square (alpha = 0.01) between the batch variant and independent single draws."""
+    sampler = _adaptive("phong", 2.0)
+    wo = degrees_to_dir(60.0, 33.0)
+    batch, _ = sampler.sample(wo, N, seed=1)
+    single, _ = sampler.sample_each(np.repeat(wo[None, :], N, axis=0), seed=2)
+    for domain in ("sphere", "disk"):
+        res = two_sample_test(batch, single, domain=domain, n_tests=2)
+        assert res.passed, res.summary()
+    assert sampler.bound_violations == 0
+
+
+def test_a_wrong_pdf_is_caught():
+    """The adaptive samples of Phong n=100 against the pdf of Phong n=70: the test must fail."""
+    right = _adaptive("phong", params={"n": 100})
+    wrong = _adaptive("phong", params={"n": 70})
+    wo = degrees_to_dir(30.0)
+    sample, _ = sampler_functions(right, wo)
+    _, pdf = sampler_functions(wrong, wo)
+    res = chi2_test(sample, pdf, N, domain="sphere", seed=4)
+    assert not res.passed and res.p_value < 1e-6, res.summary()
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "theta"),
+    [
+        ("phong", {"n": 10000}, 30.0),
+        ("phong", {"n": 10000}, 89.9),
+        ("ward", {"sx": 0.005, "sy": 0.005}, 60.0),
+        ("lambert", {}, 90.0),
+        ("minnaert", {"k": 0.2}, 89.9),
+    ],
+)
+def test_hard_cases_stay_finite(name, params, theta):
+    if name not in {m.name for m in MODELS}:
+        pytest.skip(f"model {name} not in the library")
+    sampler = _adaptive(name, params=params)
+    wo = degrees_to_dir(theta, 12.0)
+    wi, pdf = sampler.sample(wo, 20_000, seed=2)
+    assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+    np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-12)
+    w = _weights(sampler, wo, wi, pdf)
+    assert np.all(np.isfinite(w))
+    if theta == 90.0:  # f vanishes: the cosine fallback, with its own pdf
+        np.testing.assert_allclose(pdf, wi[:, 2] / math.pi)
+    else:
+        assert np.std(w) / np.mean(w) < 1e-9
+    if name != "ward":
+        assert sampler.bound_violations == 0
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known gap: Ward with alpha = 0.005 (a lobe ~0.3 degrees wide) moving across a 5-degree phi_o bin; "
+    "the bound search misses part of the peak (37 violations in 20000 samples at 60 degrees): see docs/adaptive.md",
+)
+def test_very_sharp_anisotropic_lobe_has_no_bound_violation():
+    sampler = _adaptive("ward", params={"sx": 0.005, "sy": 0.005})
+    sampler.sample(degrees_to_dir(60.0, 12.0), 20_000, seed=2)
+    assert sampler.bound_violations == 0
+
+
+def test_invalid_options_are_user_errors():
+    from core.errors import ParameterError
+
+    brdf = make_brdf("lambert")
+    for bad in (1.0, 0.5, -2.0, float("nan"), "x"):
+        with pytest.raises(ParameterError, match="n_max"):
+            make_sampler("adaptive", brdf, n_max=bad)
+    with pytest.raises(ParameterError, match="projection"):
+        make_sampler("adaptive", brdf, projection="mercator")
+    with pytest.raises(ParameterError, match="positive"):
+        make_sampler("adaptive", brdf).sample(degrees_to_dir(0.0), 0)
+
+
+def test_tables_are_cached_on_disk_and_corruption_is_detected(tmp_path):
+    folder = tmp_path / "tables"
+    wo = degrees_to_dir(40.0)
+    first = _adaptive("phong", cache=folder)
+    a, pa = first.sample(wo, 1000, seed=3)
+    assert first.info()["trees"] == 1 and first.info()["cache_hits"] == 0
+    files = list(folder.rglob("*.npz"))
+    assert len(files) == 1
+    clear_memory_cache()
+    second = _adaptive("phong", cache=folder)
+    b, pb = second.sample(wo, 1000, seed=3)
+    assert second.info()["cache_hits"] == 1
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(pa, pb)
+    # corrupt the file: it is detected, rebuilt, and the result is the same
+    data = files[0].read_bytes()
+    files[0].write_bytes(data[: len(data) // 2])
+    clear_memory_cache()
+    third = _adaptive("phong", cache=folder)
+    c, pc = third.sample(wo, 1000, seed=3)
+    assert third.info()["cache_hits"] == 0
+    np.testing.assert_array_equal(a, c)
+    assert third.table.cache.rejected == 1
+    # different parameters or n_max give a different key
+    assert _adaptive("phong", n_max=3.0, cache=folder).table.key != first.table.key
+    assert _adaptive("phong", params={"n": 50}, cache=folder).table.key != first.table.key
+
+
+def test_laziness_and_info():
+    sampler = _adaptive("lewis")
+    assert sampler.info()["trees"] == 0
+    sampler.sample(degrees_to_dir(20.0), 10)
+    info = sampler.info()
+    assert info["trees"] == 1 and info["memory_bytes"] > 0 and info["build_seconds"] > 0.0
+    sampler.sample_each(np.stack([degrees_to_dir(20.0), degrees_to_dir(50.0), degrees_to_dir(50.2)]))
+    assert sampler.info()["trees"] == 2
+
+
+def _merl_path():
+    try:
+        import core.merl  # noqa: F401
+    except ImportError:
+        return None
+    path = resources.files("resources.materials") / "red_plastic_ct.binary"
+    return path if path.is_file() else None
+
+
+@pytest.mark.skipif(_merl_path() is None, reason="core.merl or the bundled synthetic MERL file is missing")
+def test_measured_brdf_passes_the_same_tests():
+    from core.merl import measured_brdf
+
+    brdf = measured_brdf(str(_merl_path()))
+    sampler = make_sampler("adaptive", brdf, n_max=2.0)
+    for theta, domain in ((30.0, "sphere"), (75.0, None)):
+        if domain is not None:
+            _check_sampler(sampler, theta, domain, n_tests=1)
+        wo = degrees_to_dir(theta, 17.0)
+        assert sampler.acceptance(wo)[0] >= 0.5
+        total = integrate_pdf(
+            lambda wi, wo=wo: sampler.pdf(np.broadcast_to(wo, wi.shape), wi), (32, 32), 1e-7
+        )
+        assert abs(total - 1.0) < 1e-3
+        wi, pdf = sampler.sample(wo, 10_000, seed=1)
+        w = _weights(sampler, wo, wi, pdf)
+        assert np.std(w) / np.mean(w) < 1e-9
+    assert sampler.bound_violations == 0
