@@ -264,10 +264,11 @@ def summary_markdown(rows: list[Row]) -> str:
             f"| {s} | "
             + " | ".join(f"{e:.2e}" for e in errs)
             + " | "
-            + " | ".join(f"{e:.3g}" for e in effs)
+            + " | ".join(_eff(e) for e in effs)
             + " |"
         )
     out.append("\n" + wins_markdown(rows))
+    out.append("\n" + seed_comparison_markdown(rows))
     return "\n".join(out) + "\n"
 
 
@@ -315,6 +316,75 @@ def wins_markdown(rows: list[Row]) -> str:
             + " | ".join(f"{by_t[s]:.1f}" for s in samplers)
             + " |"
         )
+    return "\n".join(out) + "\n"
+
+
+# The seed's published figures (Montes 2008, slides "Memory" and "Computation Time"), per model: one quadtree
+# at n_max = 2 (KB), the factored PDF (KB), 60 quadtrees' precomputation (s), the factored PDF's (s).
+SEED_TABLES: dict[str, tuple[float, float, float, float]] = {
+    "ashikhmin_shirley": (0.103, 1031, 57.61, 3.12),
+    "beard_maxwell": (28.710, 6454, 49.08, 102.9),
+    "blinn": (6.914, 6481, 32.12, 565.7),
+    "coupled": (0.103, 1033, 51.25, 3.21),
+    "he": (28.711, 1034, 300.8, 8.00),
+    "lafortune": (30.891, 6445, 32.33, 312.5),
+    "lewis": (40.699, 6445, 32.49, 312.4),
+    "minnaert": (28.711, 1031, 35.33, 3.17),
+    "oren_nayar": (0.103, 1033, 28.99, 3.08),
+    "phong": (21.082, 6445, 29.99, 312.3),
+    "poulin_fournier": (6.914, 1038, 112.7, 8.09),
+    "schlick_d": (9.094, 1033, 55.17, 3.24),
+    "schlick_s": (9.094, 1043, 41.65, 8.30),
+    "strauss": (13.453, 1052, 38.82, 15.36),
+    "cook_torrance": (0.103, 1029, 38.84, 2.97),
+    "ward": (8.004, 1038, 33.57, 26.62),
+}
+
+
+def seed_comparison_markdown(rows: list[Row]) -> str:
+    """Memory and precomputation beside the seed's tables. Adaptive trees are built lazily, one per incident-angle
+    bin used, so its figures are per tree (mean over the study's angles); the others build everything up front."""
+    out = [
+        "Memory and precomputation beside the seed (seed: 2008 hardware, its own implementation; ours: this run).\n",
+        "| model | adaptive KB/tree (seed: 1 QT, n_max 2) | adaptive s/tree | factored KB (seed) | factored s (seed) "
+        "| uniform_cdf KB / s | compress_cdf KB / s |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    mats = list(dict.fromkeys(r.material for r in rows))
+    for mat in mats:
+        sel = [r for r in rows if r.material == mat]
+
+        def first(s: str, sel: list[Row] = sel) -> Row | None:
+            return next((r for r in sel if r.sampler == s), None)
+
+        ada = [
+            r
+            for r in sel
+            if r.sampler == "adaptive" and r.light == sel[0].light and r.samples == sel[0].samples
+        ]
+        n_thetas = max(1, len({r.theta_o for r in ada}))
+        seed = SEED_TABLES.get(mat)
+        cells = []
+        if ada:
+            kb = max(r.memory_bytes for r in ada) / 1024 / n_thetas
+            sec = float(np.mean([r.precompute_seconds for r in ada]))
+            cells += [f"{kb:.1f} ({seed[0]:g})" if seed else f"{kb:.1f}", f"{sec:.2f}"]
+        else:
+            cells += ["-", "-"]
+        fac = first("factored")
+        if fac:
+            cells.append(
+                f"{fac.memory_bytes / 1024:.1f} ({seed[1]:g})" if seed else f"{fac.memory_bytes / 1024:.1f}"
+            )
+            cells.append(
+                f"{fac.precompute_seconds:.2f} ({seed[3]:g})" if seed else f"{fac.precompute_seconds:.2f}"
+            )
+        else:
+            cells += ["-", "-"]
+        for s in ("uniform_cdf", "compress_cdf"):
+            r = first(s)
+            cells.append(f"{r.memory_bytes / 1024:.0f} / {r.precompute_seconds:.2f}" if r else "-")
+        out.append(f"| {mat} | " + " | ".join(cells) + " |")
     return "\n".join(out) + "\n"
 
 
