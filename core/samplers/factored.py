@@ -30,6 +30,7 @@ from core.errors import ParameterError
 from core.kernels import eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampler import Sampler, register_sampler
+from core.samplers.tabulated import bin_directions, bin_of, search_cdf
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -82,32 +83,6 @@ def nmf(Y: np.ndarray, rank: int, iterations: int = 300, seed: int = 0) -> tuple
     return W, H
 
 
-@njit(inline="always", nogil=True, cache=True)
-def _search(cdf, lo, hi, u):
-    a = lo
-    b = hi - 1
-    while b - a > 1:
-        m = (a + b) // 2
-        if cdf[m] <= u:
-            a = m
-        else:
-            b = m
-    return a
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _view_bin(wo, n_theta_o, n_phi_o):
-    theta = math.acos(min(1.0, max(-1.0, wo[2])))
-    phi = math.atan2(wo[1], wo[0])
-    if phi < 0.0:
-        phi += TWO_PI
-    it = min(int(theta / HALF_PI * n_theta_o), n_theta_o - 1)
-    if n_phi_o == 1:
-        return it, phi
-    ip = min(int(phi / TWO_PI * n_phi_o), n_phi_o - 1)
-    return it * n_phi_o + ip, 0.0
-
-
 @njit(nogil=True, cache=True)
 def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
@@ -136,11 +111,11 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_c
             wi_out[i, 2] = 1.0
             pdf_out[i] = 0.0
             continue
-        b, phi_ref = _view_bin(w, n_theta_o, n_phi_o)
-        t = _search(term_cdf[b], 0, n_terms + 1, u[i, 0])
+        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+        t = search_cdf(term_cdf[b], 0, n_terms + 1, u[i, 0])
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
         v1 = u[i, 1]
-        it = _search(u_cdf[t], 0, n_tp + 1, v1)
+        it = search_cdf(u_cdf[t], 0, n_tp + 1, v1)
         c0 = u_cdf[t, it]
         c1 = u_cdf[t, it + 1]
         frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
@@ -149,7 +124,7 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_c
         cb = math.cos((it + 1) * d_theta)
         cos_p = ca + frac * (cb - ca)
         v2 = u[i, 2]
-        ip = _search(v_cdf[t], 0, n_pp + 1, v2)
+        ip = search_cdf(v_cdf[t], 0, n_pp + 1, v2)
         g0 = v_cdf[t, ip]
         g1 = v_cdf[t, ip + 1]
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
@@ -180,7 +155,7 @@ def _pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp,
         if w[2] <= 0.0:
             out[i] = 0.0
             continue
-        b, phi_ref = _view_bin(w, n_theta_o, n_phi_o)
+        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
         if reparam:
             hx = wi[i, 0] + w[0]
             hy = wi[i, 1] + w[1]
@@ -236,11 +211,7 @@ class FactoredSampler(Sampler):
         self.build_seconds = time.perf_counter() - t0
 
     def _views(self) -> np.ndarray:
-        s = self.settings
-        th = (np.arange(s.n_theta_o) + 0.5) * HALF_PI / s.n_theta_o
-        ph = (np.arange(s.n_phi_o) + 0.5) * TWO_PI / s.n_phi_o if s.n_phi_o > 1 else np.zeros(1)
-        t, p = np.meshgrid(th, ph, indexing="ij")
-        return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+        return bin_directions(self.settings.n_theta_o, self.settings.n_phi_o)
 
     def _param_grid(self) -> tuple[np.ndarray, np.ndarray]:
         """Cell-centre parameter directions ``(n_tp * n_pp, 3)`` and cell solid angles ``(n_tp, 1)``."""

@@ -60,7 +60,7 @@ def douglas_peucker(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
-def _bin_directions(n_theta_o: int, n_phi_o: int) -> np.ndarray:
+def bin_directions(n_theta_o: int, n_phi_o: int) -> np.ndarray:
     """Centre ``wo`` of every incident-angle bin, ``(n_theta_o * n_phi_o, 3)``."""
     th = (np.arange(n_theta_o) + 0.5) * HALF_PI / n_theta_o
     ph = (np.arange(n_phi_o) + 0.5) * TWO_PI / n_phi_o if n_phi_o > 1 else np.zeros(1)
@@ -69,7 +69,7 @@ def _bin_directions(n_theta_o: int, n_phi_o: int) -> np.ndarray:
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _bin_of(wo, n_theta_o, n_phi_o):
+def bin_of(wo, n_theta_o, n_phi_o):
     """Bin index of ``wo`` and the azimuth the table is relative to (``phi_o`` for isotropic tables)."""
     cz = min(1.0, max(-1.0, wo[2]))
     theta = math.acos(cz)
@@ -84,7 +84,7 @@ def _bin_of(wo, n_theta_o, n_phi_o):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _search(cdf, lo, hi, u):
+def search_cdf(cdf, lo, hi, u):
     """Largest ``k`` in ``[lo, hi - 1)`` with ``cdf[k] <= u`` (``cdf[lo] = 0``, ``cdf[hi - 1] = 1``)."""
     a = lo
     b = hi - 1
@@ -108,10 +108,10 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, 
             wi_out[i, 2] = 1.0
             pdf_out[i] = 0.0
             continue
-        b, phi_ref = _bin_of(w, n_theta_o, n_phi_o)
+        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
         lo = moff[b]
         hi = moff[b + 1]
-        k = _search(mf, lo, hi, u[i, 0])
+        k = search_cdf(mf, lo, hi, u[i, 0])
         dF = mf[k + 1] - mf[k]
         dx = mx[k + 1] - mx[k]
         x = mx[k] + (u[i, 0] - mf[k]) / dF * dx if dF > 0.0 else mx[k]
@@ -122,7 +122,7 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, 
         c = b * n_rows + row
         clo = coff[c]
         chi = coff[c + 1]
-        j = _search(cf, clo, chi, u[i, 1])
+        j = search_cdf(cf, clo, chi, u[i, 1])
         dG = cf[j + 1] - cf[j]
         dphi = cx[j + 1] - cx[j]
         phi = cx[j] + (u[i, 1] - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
@@ -141,12 +141,12 @@ def _pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, ou
         if w[2] <= 0.0 or wi[i, 2] <= 0.0:
             out[i] = 0.0
             continue
-        b, phi_ref = _bin_of(w, n_theta_o, n_phi_o)
+        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
         cos_t = min(1.0, wi[i, 2])
         x = -cos_t
         lo = moff[b]
         hi = moff[b + 1]
-        k = _search(mx, lo, hi, x)
+        k = search_cdf(mx, lo, hi, x)
         dx = mx[k + 1] - mx[k]
         dF = mf[k + 1] - mf[k]
         theta = math.acos(cos_t)
@@ -156,7 +156,7 @@ def _pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, ou
         c = b * n_rows + row
         clo = coff[c]
         chi = coff[c + 1]
-        j = _search(cx, clo, chi, phi)
+        j = search_cdf(cx, clo, chi, phi)
         dphi = cx[j + 1] - cx[j]
         dG = cf[j + 1] - cf[j]
         out[i] = (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0
@@ -237,7 +237,7 @@ class CDFSampler(Sampler):
         solid = np.diff(x_edges)[:, None] * np.diff(phi_edges)[None, :]  # cell solid angles
         mx, mf, moff = [], [], [0]
         cx, cf, coff = [], [], [0]
-        for wo in _bin_directions(self.n_theta_o, self.n_phi_o):
+        for wo in bin_directions(self.n_theta_o, self.n_phi_o):
             if self.n_phi_o == 1:
                 wo = np.array([math.sqrt(1.0 - wo[2] ** 2), 0.0, wo[2]])  # isotropic: table relative to phi_o
             g = self._cell_values(wo)
