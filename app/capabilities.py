@@ -61,11 +61,14 @@ def directional_albedo(brdf: BRDF, thetas_deg: Sequence[float], phi_deg: float =
 # ---- the adaptive sampler -------------------------------------------------------------------------
 def quadtree_available() -> bool:
     mod = _module("core.quadtree")
-    needed = ("build_bin", "theta_edges", "BuildOptions", "normalizer_values", "direction_to_disk")
-    return mod is not None and all(hasattr(mod, n) for n in needed)
+    needed = ("theta_edges", "BuildOptions", "normalizer_values", "direction_to_disk", "PROJECTIONS")
+    return mod is not None and all(hasattr(mod, n) for n in needed) and "adaptive" in _sampler_names()
 
 
-_TREE_CACHE: dict[tuple, Any] = {}
+def _sampler_names() -> list[str]:
+    from core.sampler import sampler_names
+
+    return sampler_names()
 
 
 def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> dict[str, Any]:
@@ -74,63 +77,13 @@ def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> 
     Returns a dict: ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1`` (the bound and the disk-clipped box, in the
     tree's disk coordinates), ``projection`` (how disk points map to directions, see
     ``core.quadtree.disk_to_direction``), ``total_mass`` V, ``integral`` I(wo) (the tree's normalizer at this
-    direction), ``nbytes``, ``build_seconds``, ``bin_deg`` (theta range). Isotropic trees are built for
-    phi = 0 (rotated at sampling time); anisotropic ones per phi bin.
+    direction), ``nbytes``, ``build_seconds``, ``bin_deg`` (theta range), ``acceptance``. Isotropic trees are
+    built for phi = 0 (rotated at sampling time); anisotropic ones per phi bin.
     """
     q = _module("core.quadtree")
     if q is None or not quadtree_available():
         raise Unavailable("the adaptive quadtree (core/quadtree.py) is not available yet in this build")
-    from core.sampler import sampler_names
-
-    if "adaptive" in sampler_names():
-        return _sampler_tree(q, brdf, theta_deg, phi_deg, n_max)
-    opts = q.BuildOptions(n_max=n_max)
-    iso = brdf.model.isotropic
-    edges = q.theta_edges(opts.theta_step, opts.z_min)
-    theta = np.radians(theta_deg)
-    k = int(np.clip(np.searchsorted(edges, theta, side="right") - 1, 0, len(edges) - 2))
-    if iso:
-        f_lo = f_hi = phi = 0.0
-    else:
-        width = 2.0 * np.pi / opts.phi_bins
-        phi = float(np.radians(phi_deg) % (2.0 * np.pi))
-        j = min(int(phi / width), opts.phi_bins - 1)
-        f_lo, f_hi = j * width, (j + 1) * width
-    rng = (float(edges[k]), float(edges[k + 1]), float(f_lo), float(f_hi))
-    key = (brdf.key(), rng, float(n_max))
-    try:
-        tree = _TREE_CACHE.get(key)
-        if tree is None:
-            tree = q.build_bin(brdf.model, brdf.params, iso, rng, opts)
-            if len(_TREE_CACHE) > 64:
-                _TREE_CACHE.clear()
-            _TREE_CACHE[key] = tree
-        mt, mp = (int(v) for v in tree.shape)
-        meta = np.array([[0.0, mt, mp, *rng]])
-        integral = float(
-            q.normalizer_values(
-                meta, tree.norm, np.zeros(1, dtype=np.int64), np.array([theta]), np.array([phi])
-            )[0]
-        )
-    except (TypeError, AttributeError, ValueError, IndexError) as exc:
-        # core/quadtree.py is still changing; say what went wrong instead of failing the whole view
-        raise Unavailable(
-            f"the adaptive quadtree could not be built here ({type(exc).__name__}: {exc})"
-        ) from None
-    projection = getattr(tree, "projection", getattr(opts, "projection", "orthographic"))
-    if isinstance(projection, int | np.integer) and hasattr(q, "PROJECTIONS"):
-        projection = q.PROJECTIONS[int(projection)]  # stored as an index in the table
-    if projection not in ("orthographic", "equidistant"):
-        raise Unavailable(f"the tree's disk projection '{projection}' is not one this view can draw")
-    return {
-        "leaves": np.asarray(tree.leaf)[:, :5],
-        "projection": str(projection),
-        "total_mass": tree.total_mass,
-        "integral": integral,
-        "nbytes": tree.nbytes,
-        "build_seconds": tree.build_seconds,
-        "bin_deg": (float(np.degrees(rng[0])), float(np.degrees(rng[1]))),
-    }
+    return _sampler_tree(q, brdf, theta_deg, phi_deg, n_max)
 
 
 def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> dict[str, Any]:

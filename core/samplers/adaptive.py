@@ -18,7 +18,8 @@ import numpy as np
 from core.cache import TableCache
 from core.errors import ParameterError
 from core.model import BRDF
-from core.quadtree import BuildOptions, QuadtreeTable
+from core.quadtree import BuildOptions
+from core.quadtree_table import QuadtreeTable
 from core.sampler import Sampler, check_direction, register_sampler
 
 _TABLES: dict[str, QuadtreeTable] = {}
