@@ -31,6 +31,7 @@ from PySide6.QtWidgets import (
 from app import settings
 from app.capabilities import albedo_available, directional_albedo, renderer_available
 from app.editors.material import MaterialEditor
+from app.editors.scene_items import PropertiesStack, SceneItemEditor
 from app.editors.scene_tree import SceneTree
 from app.project import document_to_scene, load_project, objects_from_mesh, save_project
 from app.state import Document, default_document
@@ -120,7 +121,11 @@ class MainWindow(QMainWindow):
         scroll.setWidget(self.material_editor)
         self.material_dock = QDockWidget("Material", self)
         self.material_dock.setObjectName("material_dock")
-        self.material_dock.setWidget(scroll)
+        self.item_editor = SceneItemEditor(self.document)  # lights, camera, environment: shown when selected
+        self.item_editor.error.connect(lambda msg: self.show_error("Scene", msg))
+        self.material_dock.setWidget(
+            PropertiesStack(self.document, scroll, self.item_editor, self.material_dock)
+        )
         self.material_dock.setMinimumWidth(460)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.material_dock)
 
@@ -550,6 +555,9 @@ class MainWindow(QMainWindow):
         return True
 
     def delete_selected(self) -> None:
+        if self.document.selected_item is not None and self.document.selected_item[0] == "light":
+            self.item_editor.delete_selected_light()
+            return
         name = self.document.selected_object
         if name is None:
             self.statusBar().showMessage(

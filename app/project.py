@@ -1,8 +1,9 @@
 """Between the app's document and the project file (the renderer's scene format, :mod:`core.scene`).
 
 A mesh file becomes one object, or one object per group when it holds several (``group_materials`` in the
-scene); paths are written relative to the project file. Camera, lights, environment and render settings are
-carried through unchanged (the document keeps them in ``extras``).
+scene; deleted groups are its ``exclude_groups``); paths are written relative to the project file. Camera,
+lights and environment are kept in the scene's form in the document's ``extras`` (edited there through the
+document), render settings are carried through unchanged.
 """
 
 from __future__ import annotations
@@ -15,7 +16,16 @@ from pathlib import Path
 from app.capabilities import MEASURED_MODEL
 from app.state import DocumentData, Material, SceneObject, unique_name
 from core.errors import BrdfStudioError
-from core.scene import Mesh, Scene, SceneError, load_scene, save_scene, scene_from_dict
+from core.scene import (
+    SCENE_VERSION,
+    Mesh,
+    Scene,
+    SceneError,
+    kept_groups,
+    load_scene,
+    save_scene,
+    scene_from_dict,
+)
 
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 EXTRA_KEYS = ("name", "camera", "lights", "environment", "render")
@@ -87,7 +97,13 @@ def document_to_scene(data: DocumentData, project: Path) -> Scene:
             by_entry[key] = entry
             meshes.append(entry)
         entry["group_materials"][o.part] = o.material
-    raw = {"version": 1, "materials": materials, "meshes": meshes}
+    for o in data.excluded_parts:  # deleted parts of files that still have parts in the scene
+        entry = by_entry.get((o.mesh, o.entry or Path(o.mesh).stem))
+        if entry is not None and o.part not in entry["group_materials"]:
+            excluded = entry.setdefault("exclude_groups", [])
+            if o.part not in excluded:
+                excluded.append(o.part)
+    raw = {"version": SCENE_VERSION, "materials": materials, "meshes": meshes}
     for k in EXTRA_KEYS:
         if k in data.extras and data.extras[k] is not None:
             raw[k] = copy.deepcopy(data.extras[k])
@@ -132,24 +148,24 @@ def scene_to_document(scene: Scene, parts: PartLister = mesh_parts) -> DocumentD
             names = parts(full)
         except BrdfStudioError as exc:
             raise SceneError(f"{scene.source}: meshes[{i}].path: {exc}") from None
-        if len(names) <= 1 and not mesh.group_materials:
+        keep = kept_groups(scene, i, names)  # an excluded name the file does not hold is an error
+        if len(names) <= 1 and not mesh.group_materials and not mesh.exclude_groups:
             data.objects.append(
                 SceneObject(name, str(full), None, mesh.material, True, transform, mesh.smooth)
             )
         else:
-            for n in names:
-                data.objects.append(
-                    SceneObject(
-                        f"{name}/{n}",
-                        str(full),
-                        n,
-                        mesh.group_materials.get(n, mesh.material),
-                        True,
-                        transform,
-                        mesh.smooth,
-                        name,
-                    )  # fmt: skip
-                )
+            for n, kept in zip(names, keep, strict=True):
+                obj = SceneObject(
+                    f"{name}/{n}",
+                    str(full),
+                    n,
+                    mesh.group_materials.get(n, mesh.material),
+                    True,
+                    transform,
+                    mesh.smooth,
+                    name,
+                )  # fmt: skip
+                (data.objects if kept else data.excluded_parts).append(obj)
     taken: list[str] = []
     for o in data.objects:  # names identify objects in the app: keep them unique
         o.name = unique_name(o.name, taken)

@@ -1,9 +1,12 @@
-"""The document the desktop app edits: materials, scene objects, selection and the undo history.
+"""The document the desktop app edits: materials, scene objects, lights, camera, environment, selection and
+the undo history.
 
 Plain Python with no Qt import (napari's split): widgets receive a :class:`Document`, connect to its
 events and write back through its methods; they keep no copy of the state. Every edit goes through
 :meth:`Document.edit`, which snapshots the (small) document data first, so every edit can be undone.
-Meshes are referenced by path; their triangles live in the views, not here.
+Meshes are referenced by path; their triangles live in the views, not here. Lights, the camera and the
+environment are kept in the scene file's own form (``core.scene`` dicts in ``extras``) and every edit of
+them is validated by that schema before it is applied.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from typing import Any
 
 from core.errors import ParameterError
 from core.model import BRDF, ParamValue, get_model
+from core.scene import Camera, SceneError, parse_camera, parse_environment, parse_light
 
 
 class Event:
@@ -77,8 +81,10 @@ class DocumentData:
     materials: list[Material] = field(default_factory=list)
     objects: list[SceneObject] = field(default_factory=list)
     extras: dict[str, Any] = field(default_factory=dict)
-    """Project parts the app does not edit yet (lights, camera, environment, render settings): kept as
-    loaded and written back unchanged."""
+    """Project parts in the scene file's form: ``lights`` (list), ``camera``, ``environment`` (edited through
+    the document's methods), ``render`` settings and ``name`` (kept as loaded and written back)."""
+    excluded_parts: list[SceneObject] = field(default_factory=list)
+    """Parts of multi-part mesh files that were deleted: saved as the mesh entry's ``exclude_groups``."""
 
 
 @dataclass
@@ -101,6 +107,8 @@ class Events:
         self.direction_changed = Event()  # (): the exploration's incident direction
         self.light_changed = Event()  # (): the lit-sphere preview's light direction
         self.history_changed = Event()  # (): undo/redo availability or the dirty flag
+        self.lights_changed = Event()  # (): a light added, removed or edited, or the environment edited
+        self.camera_changed = Event()  # (): the scene camera edited
         self.path_changed = Event()  # (): the project file
 
 
@@ -121,6 +129,9 @@ class Document:
         self._brdf_cache: dict[str, tuple[Any, BRDF]] = {}
         self.current_material: str | None = self.data.materials[0].name if self.data.materials else None
         self.selected_object: str | None = None
+        self.selected_item: tuple[str, int] | None = None
+        """A selected light ``("light", index)``, ``("camera", 0)`` or ``("environment", 0)`` (exclusive with
+        ``selected_object``)."""
         self.theta_deg = 30.0
         self.phi_deg = 0.0
         self.light_dir = (0.5, 0.5, math.sqrt(0.5))
@@ -240,12 +251,20 @@ class Document:
             o.name for o in self.data.objects
         ]:
             self.selected_object = None
+        self._check_selected_item()
         self.events.materials_changed.emit()
         self.events.objects_changed.emit()
         for name in names:
             self.events.material_changed.emit(name)
+        self.events.lights_changed.emit()
+        self.events.camera_changed.emit()
         self.events.selection_changed.emit()
         self.events.history_changed.emit()
+
+    def _check_selected_item(self) -> None:
+        if self.selected_item is not None and self.selected_item[0] == "light":
+            if self.selected_item[1] >= len(self.lights()):
+                self.selected_item = None
 
     def mark_unsaved(self) -> None:
         """Mark the document as differing from any saved file (restored edits)."""
@@ -394,7 +413,16 @@ class Document:
         return [o.name for o in new]
 
     def remove_object(self, name: str) -> None:
-        self.edit(f"Delete {name}", lambda d: d.objects.remove(_find(d.objects, name)))
+        """Remove an object; a part of a multi-part file is remembered as excluded (the project file's
+        ``exclude_groups``) so that it stays deleted when the project is saved and opened again."""
+
+        def change(d: DocumentData) -> None:
+            obj = _find(d.objects, name)
+            d.objects.remove(obj)
+            if obj.part is not None:
+                d.excluded_parts.append(obj)
+
+        self.edit(f"Delete {name}", change)
         if self.selected_object == name:
             self.selected_object = None
             self.events.selection_changed.emit()
@@ -410,6 +438,131 @@ class Document:
         )
         self.events.objects_changed.emit()
 
+    # ---- lights, camera, environment (validated by the scene schema) -----------------------------
+    def lights(self) -> list[dict[str, Any]]:
+        """The lights in the scene file's form (do not modify: edit through the methods below)."""
+        return list(self.data.extras.get("lights") or [])
+
+    def camera(self) -> dict[str, Any]:
+        """The scene camera in the scene file's form (the schema's defaults when the project has none)."""
+        cam = self.data.extras.get("camera")
+        return copy.deepcopy(cam) if cam else Camera().model_dump(mode="json")
+
+    def environment(self) -> dict[str, Any] | None:
+        env = self.data.extras.get("environment")
+        return copy.deepcopy(env) if env else None
+
+    def add_light(self, kind: str = "point", values: Mapping[str, Any] | None = None) -> int:
+        """Add a light of ``kind`` (``"point"`` or ``"quad"``) with default values (overridden by
+        ``values``); selects it and returns its index."""
+        if kind not in NEW_LIGHTS:
+            raise ParameterError(f"unknown light type '{kind}'; known types: {', '.join(NEW_LIGHTS)}")
+        index = len(self.lights())
+        light = _checked(parse_light, {**NEW_LIGHTS[kind], **(values or {})}, f"lights[{index}]")
+
+        def change(d: DocumentData) -> None:
+            d.extras["lights"] = [*(d.extras.get("lights") or []), light]
+
+        self.edit(f"Add {kind} light", change)
+        self.events.lights_changed.emit()
+        self.select_item("light", index)
+        return index
+
+    def remove_light(self, index: int) -> None:
+        lights = self.lights()
+        if not 0 <= index < len(lights):
+            raise KeyError(f"no light number {index + 1}")
+
+        def change(d: DocumentData) -> None:
+            d.extras["lights"] = [x for i, x in enumerate(d.extras.get("lights") or []) if i != index]
+
+        self.edit(f"Delete {lights[index].get('type', '')} light {index + 1}", change)
+        selected = self.selected_item
+        if selected is not None and selected[0] == "light" and selected[1] >= index:
+            self.selected_item = None if selected[1] == index else ("light", selected[1] - 1)
+        self.events.lights_changed.emit()
+        self.events.selection_changed.emit()
+
+    def set_light_field(self, index: int, name: str, value: Any) -> None:
+        """Set one field of a light (validated: :class:`ParameterError` with the reason, nothing changed)."""
+        lights = self.lights()
+        if not 0 <= index < len(lights):
+            raise KeyError(f"no light number {index + 1}")
+        if name == "type":
+            raise ParameterError("a light's type cannot change: add a light of the other type")
+        new = _checked(parse_light, {**lights[index], name: _plain(value)}, f"lights[{index}]")
+        if new == lights[index]:
+            return
+
+        def change(d: DocumentData) -> None:
+            d.extras["lights"][index] = new
+
+        self.edit(f"Set light {index + 1} {name}", change, merge_key=("light", index, name))
+        self.events.lights_changed.emit()
+
+    def set_camera_field(self, name: str, value: Any) -> None:
+        """Set one field of the camera (``position``, ``target``, ``up``, ``fov_deg``), validated."""
+        self.set_camera({**self.camera(), name: _plain(value)}, f"Set camera {name}", ("camera", name))
+
+    def set_camera(
+        self, camera: Mapping[str, Any], label: str = "Move camera", merge_key: Any = None
+    ) -> None:
+        """Replace the camera (validated; an unchanged camera is no edit)."""
+        new = _checked(parse_camera, dict(camera), "camera")
+        if new == self.data.extras.get("camera"):
+            return
+        self.edit(label, lambda d: d.extras.__setitem__("camera", new), merge_key)
+        self.events.camera_changed.emit()
+
+    def set_environment(self, environment: Mapping[str, Any] | None, label: str = "Set environment") -> None:
+        """Replace the environment (``None`` removes it); a map's path must name an existing EXR file."""
+        new = None if environment is None else _checked(parse_environment, dict(environment), "environment")
+        if new == self.data.extras.get("environment"):
+            return
+
+        def change(d: DocumentData) -> None:
+            if new is None:
+                d.extras.pop("environment", None)
+            else:
+                d.extras["environment"] = new
+
+        self.edit(label, change)
+        self.events.lights_changed.emit()
+
+    def set_environment_kind(self, kind: str | None, path: str | None = None) -> None:
+        """Switch to no environment, a ``"constant"`` one (grey sky) or a ``"map"`` (needs ``path``)."""
+        env = self.environment()
+        if kind is None:
+            self.set_environment(None, "Remove environment")
+        elif kind == "constant":
+            if env is None or env.get("type") != "constant":
+                self.set_environment(
+                    {"type": "constant", "radiance": [0.5, 0.5, 0.5]}, "Constant environment"
+                )
+        elif kind == "map":
+            if not path:
+                raise ParameterError("an environment map needs an EXR file")
+            keep = {k: env[k] for k in ("scale", "rotate_deg") if env and k in env}
+            self.set_environment({"type": "map", "path": str(path), **keep}, "Environment map")
+        else:
+            raise ParameterError(f"unknown environment type '{kind}'; known types: constant, map")
+
+    def set_environment_field(self, name: str, value: Any) -> None:
+        env = self.environment()
+        if env is None:
+            raise ParameterError("the scene has no environment: choose a constant one or a map first")
+        if name == "type":
+            raise ParameterError("use set_environment_kind to change the environment's type")
+        new = _checked(parse_environment, {**env, name: _plain(value)}, "environment")
+        if new == env:
+            return
+        self.edit(
+            f"Set environment {name}",
+            lambda d: d.extras.__setitem__("environment", new),
+            merge_key=("environment", name),
+        )
+        self.events.lights_changed.emit()
+
     # ---- view state (not undoable) -------------------------------------------------------------
     def select_material(self, name: str | None) -> None:
         if name is not None and name not in self.material_names():
@@ -419,11 +572,32 @@ class Document:
             self.events.selection_changed.emit()
 
     def select_object(self, name: str | None) -> None:
-        if name == self.selected_object:
+        if name == self.selected_object and self.selected_item is None:
             return
         self.selected_object = name
+        self.selected_item = None  # one selection at a time: an object, or a light/camera/environment
         if name is not None:
             self.current_material = self.object(name).material or self.current_material
+        self.events.selection_changed.emit()
+
+    def select_item(self, kind: str | None, index: int = 0) -> None:
+        """Select a light (``"light"``, its index), the ``"camera"`` or the ``"environment"``; ``None``
+        clears it. Deselects any object (the material editor keeps its current material)."""
+        if kind is None:
+            item = None
+        elif kind == "light":
+            if not 0 <= index < len(self.lights()):
+                raise KeyError(f"no light number {index + 1}")
+            item = ("light", index)
+        elif kind in ("camera", "environment"):
+            item = (kind, 0)
+        else:
+            raise KeyError(f"no scene item of kind '{kind}'")
+        if item == self.selected_item and (item is None or self.selected_object is None):
+            return
+        self.selected_item = item
+        if item is not None:
+            self.selected_object = None
         self.events.selection_changed.emit()
 
     def set_direction(self, theta_deg: float, phi_deg: float) -> None:
@@ -450,6 +624,7 @@ class Document:
             "materials": [vars(copy.deepcopy(m)) for m in self.data.materials],
             "objects": [vars(copy.deepcopy(o)) for o in self.data.objects],
             "extras": copy.deepcopy(self.data.extras),
+            "excluded_parts": [vars(copy.deepcopy(o)) for o in self.data.excluded_parts],
         }
 
     @staticmethod
@@ -467,20 +642,23 @@ class Document:
                     list(m.get("tags", [])),
                 )
             )
-        objs = [
-            SceneObject(
-                o["name"],
-                o["mesh"],
-                o.get("part"),
-                o.get("material", ""),
-                o.get("visible", True),
-                o.get("transform"),
-                bool(o.get("smooth", False)),
-                o.get("entry", ""),
-            )  # fmt: skip
-            for o in raw.get("objects", [])
-        ]
-        return DocumentData(mats, objs, dict(raw.get("extras", {})))
+
+        def objects(key: str) -> list[SceneObject]:
+            return [
+                SceneObject(
+                    o["name"],
+                    o["mesh"],
+                    o.get("part"),
+                    o.get("material", ""),
+                    o.get("visible", True),
+                    o.get("transform"),
+                    bool(o.get("smooth", False)),
+                    o.get("entry", ""),
+                )  # fmt: skip
+                for o in raw.get(key, [])
+            ]
+
+        return DocumentData(mats, objects("objects"), dict(raw.get("extras", {})), objects("excluded_parts"))
 
     def replace(self, data: DocumentData, path: Path | None) -> None:
         """Load new data: history cleared, document clean."""
@@ -493,13 +671,44 @@ class Document:
         self.revision += 1
         self.current_material = data.materials[0].name if data.materials else None
         self.selected_object = None
+        self.selected_item = None
         self.events.materials_changed.emit()
         self.events.objects_changed.emit()
         for m in data.materials:
             self.events.material_changed.emit(m.name)
+        self.events.lights_changed.emit()
+        self.events.camera_changed.emit()
         self.events.selection_changed.emit()
         self.events.history_changed.emit()
         self.events.path_changed.emit()
+
+
+NEW_LIGHTS: dict[str, dict[str, Any]] = {
+    "point": {"type": "point", "position": [0.0, 3.0, 0.0], "intensity": [10.0, 10.0, 10.0]},
+    "quad": {
+        "type": "quad",
+        "corner": [-0.5, 3.0, -0.5],
+        "edge1": [1.0, 0.0, 0.0],
+        "edge2": [0.0, 0.0, 1.0],  # edge1 x edge2 = -y: a ceiling light shining down
+        "radiance": [5.0, 5.0, 5.0],
+        "two_sided": False,
+    },
+}
+"""What *Add light* starts from, per light type (scene-file form)."""
+
+
+def _plain(value: Any) -> Any:
+    """Tuples (from the editors) as the lists the scene file's JSON form holds."""
+    return [float(v) for v in value] if isinstance(value, tuple | list) else value
+
+
+def _checked(parse: Callable[..., Any], data: dict[str, Any], where: str) -> dict[str, Any]:
+    """``data`` validated by the scene schema and returned in its normalized JSON form; the schema's message
+    (field and reason) becomes a :class:`ParameterError`."""
+    try:
+        return parse(data, where).model_dump(mode="json")  # type: ignore[no-any-return]
+    except SceneError as exc:
+        raise ParameterError(str(exc)) from None
 
 
 def _find(items: list, name: str) -> Any:

@@ -6,7 +6,7 @@ it; the renderer loads meshes and images from the paths it names. Paths are rela
 A minimal scene::
 
     {
-      "version": 1,
+      "version": 2,
       "camera": {"position": [0, 1, 4], "target": [0, 0.5, 0], "up": [0, 1, 0], "fov_deg": 40},
       "materials": [{"name": "white", "model": "lambert", "params": {"kd": 0.8}}],
       "meshes": [{"path": "floor.obj", "material": "white"}],
@@ -19,6 +19,9 @@ Conventions: right-handed world, y is up for the environment map (lat-long: ``th
 ``phi = atan2(z, x)``); lengths in scene units; radiance and intensity in linear RGB.
 
 Errors name the file and the field: ``scene.json: materials[2].params.n: ...``.
+
+Versions: 2 added ``meshes[].exclude_groups``. Version 1 files are read as they are (a version-1 file is a
+version-2 file without that field) and saved as version 2.
 """
 
 from __future__ import annotations
@@ -29,12 +32,22 @@ import os
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    TypeAdapter,
+    ValidationError,
+    field_validator,
+)
 
 from core.errors import BrdfStudioError, FileFormatError
 from core.io import atomic_write_text
 
-SCENE_VERSION = 1
+SCENE_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+"""Schema versions this program reads; it writes :data:`SCENE_VERSION`."""
 MESH_FORMATS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 MEASURED_FORMATS = (".binary",)
 ENVMAP_FORMATS = (".exr",)
@@ -100,13 +113,16 @@ class Mesh(_Strict):
     """A mesh file (OBJ, PLY, STL, OFF, GLB/GLTF), relative to the scene file.
 
     ``material`` applies to the whole file; ``group_materials`` overrides it per group (an OBJ ``g``/``o``
-    group or a GLTF node/geometry name). ``smooth`` interpolates vertex normals for shading.
+    group or a GLTF node/geometry name). ``exclude_groups`` names groups left out of the scene (version 2;
+    a name the file does not hold is an error when the file is read, see :func:`kept_groups`).
+    ``smooth`` interpolates vertex normals for shading.
     """
 
     name: str = ""
     path: str
     material: str
     group_materials: dict[str, str] = Field(default_factory=dict)
+    exclude_groups: list[str] = Field(default_factory=list)
     transform: Transform = Field(default_factory=Transform)
     smooth: bool = False
 
@@ -209,7 +225,7 @@ class RenderSettings(_Strict):
 
 
 class Scene(_Strict):
-    """A whole scene. ``version`` is the schema version (currently 1)."""
+    """A whole scene. ``version`` is the schema version (currently 2; files of version 1 are read too)."""
 
     version: int = SCENE_VERSION
     name: str = ""
@@ -262,7 +278,9 @@ def _loc_text(loc: tuple[Any, ...]) -> str:
     for part in loc:
         if isinstance(part, int):
             out += f"[{part}]"
-        elif part in ("point", "quad", "constant", "map") and out.startswith(("lights", "environment")):
+        elif part in ("point", "quad", "constant", "map") and (
+            out == "" or out.startswith(("lights", "environment"))
+        ):
             continue  # pydantic adds the discriminator value as a path step; it is not a field
         else:
             out += ("." if out else "") + str(part)
@@ -292,16 +310,26 @@ def scene_from_dict(
         raise SceneError(f"{source}: a scene file holds a JSON object {{...}}, got {type(data).__name__}")
     version = data.get("version", None)
     if version is None:
-        raise SceneError(f"{source}: version: required field is missing (this program writes version 1)")
-    if version != SCENE_VERSION:
         raise SceneError(
-            f"{source}: version: schema version {version!r} is not supported (this program reads version "
-            f"{SCENE_VERSION})"
+            f"{source}: version: required field is missing (this program writes version {SCENE_VERSION})"
         )
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
+        raise SceneError(
+            f"{source}: version: schema version {version!r} is not supported (this program reads versions "
+            f"{', '.join(map(str, READABLE_VERSIONS))})"
+        )
+    if version < 2:
+        for i, mesh in enumerate(data.get("meshes") or []):
+            if isinstance(mesh, dict) and mesh.get("exclude_groups"):
+                raise SceneError(
+                    f"{source}: meshes[{i}].exclude_groups: needs scene version 2 (the file says version "
+                    f'{version}); set "version": 2'
+                )
     try:
         scene = Scene.model_validate(data)
     except ValidationError as exc:
         raise SceneError(_format_validation(source, exc)) from None
+    scene.version = SCENE_VERSION  # read as the current version; saved as such
     scene.set_origin(base_dir if base_dir is not None else Path.cwd(), source)
     validate_scene(scene, check_files=check_files)
     return scene
@@ -347,39 +375,133 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
         for group, mname in mesh.group_materials.items():
             if mname not in names:
                 raise scene.error(f"{where}.group_materials.{group}", _unknown_material(mname, names))
+        seen: set[str] = set()
+        for group in mesh.exclude_groups:
+            if group in seen:
+                raise scene.error(f"{where}.exclude_groups", f"group '{group}' is listed twice")
+            seen.add(group)
         _check_file(scene, f"{where}.path", mesh.path, MESH_FORMATS, check_files)
 
     for i, light in enumerate(scene.lights):
-        if isinstance(light, QuadLight):
-            e1, e2 = light.edge1, light.edge2
-            cross = (
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            )
-            if math.sqrt(sum(c * c for c in cross)) <= 1e-12:
-                raise scene.error(f"lights[{i}]", "edge1 and edge2 span no area (zero or parallel edges)")
+        problem = _light_problem(light)
+        if problem:
+            raise scene.error(f"lights[{i}]", problem)
 
     if isinstance(scene.environment, MapEnvironment):
         _check_file(scene, "environment.path", scene.environment.path, ENVMAP_FORMATS, check_files)
 
-    cam = scene.camera
-    view = tuple(t - p for t, p in zip(cam.target, cam.position, strict=True))
-    if math.sqrt(sum(v * v for v in view)) <= 1e-12:
-        raise scene.error("camera.target", "the target coincides with the camera position")
-    cross = (
-        view[1] * cam.up[2] - view[2] * cam.up[1],
-        view[2] * cam.up[0] - view[0] * cam.up[2],
-        view[0] * cam.up[1] - view[1] * cam.up[0],
-    )
-    if math.sqrt(sum(c * c for c in cross)) <= 1e-12 * max(1e-300, math.sqrt(sum(v * v for v in view))):
-        raise scene.error("camera.up", "the up vector is zero or parallel to the viewing direction")
+    camera_problem = _camera_problem(scene.camera)
+    if camera_problem:
+        raise scene.error(f"camera.{camera_problem[0]}", camera_problem[1])
 
     if scene.render.sampler not in sampler_names():
         raise scene.error(
             "render.sampler",
             f"unknown sampler '{scene.render.sampler}'; known samplers: {', '.join(sampler_names())}",
         )
+
+
+def _cross(a: Vec3, b: Vec3) -> Vec3:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _norm(a: Vec3) -> float:
+    return math.sqrt(sum(c * c for c in a))
+
+
+def _light_problem(light: PointLight | QuadLight) -> str | None:
+    """What makes a light unusable beyond its field types (``None``: nothing)."""
+    if isinstance(light, QuadLight) and _norm(_cross(light.edge1, light.edge2)) <= 1e-12:
+        return "edge1 and edge2 span no area (zero or parallel edges)"
+    return None
+
+
+def _camera_problem(cam: Camera) -> tuple[str, str] | None:
+    """The field and the reason when a camera cannot form an image (``None``: nothing)."""
+    view: Vec3 = (
+        cam.target[0] - cam.position[0],
+        cam.target[1] - cam.position[1],
+        cam.target[2] - cam.position[2],
+    )
+    if _norm(view) <= 1e-12:
+        return "target", "the target coincides with the camera position"
+    if _norm(_cross(view, cam.up)) <= 1e-12 * max(1e-300, _norm(view)):
+        return "up", "the up vector is zero or parallel to the viewing direction"
+    return None
+
+
+def kept_groups(scene: Scene, index: int, group_names: list[str]) -> list[bool]:
+    """Which of the groups read from the file of ``scene.meshes[index]`` stay in the scene: ``False`` for
+    those its ``exclude_groups`` names. Groups are only known once the file is read, so this is where an
+    excluded name the file does not hold becomes a :class:`SceneError` naming the group and the file."""
+    mesh = scene.meshes[index]
+    for group in mesh.exclude_groups:
+        if group not in group_names:
+            listed = ", ".join(f"'{n}'" for n in sorted(set(group_names))) or "(none)"
+            raise scene.error(
+                f"meshes[{index}].exclude_groups",
+                f"'{mesh.path}' has no group named '{group}' (its groups: {listed})",
+            )
+    excluded = set(mesh.exclude_groups)
+    return [name not in excluded for name in group_names]
+
+
+# ----------------------------------------------------------------------- one item at a time (the app)
+
+_LIGHT_ADAPTER: TypeAdapter[PointLight | QuadLight] = TypeAdapter(Light)
+_ENVIRONMENT_ADAPTER: TypeAdapter[ConstantEnvironment | MapEnvironment] = TypeAdapter(Environment)
+
+
+def _parse_item(adapter: TypeAdapter[Any], data: Any, where: str) -> Any:
+    """Validate one item; errors read ``<where>.<field>: reason`` as they would inside a whole scene."""
+    try:
+        return adapter.validate_python(data)
+    except ValidationError as exc:
+        lines = []
+        for line in _format_validation("", exc).splitlines():
+            text = line.removeprefix(": ")
+            if text.startswith("(top level)"):
+                text = where + text.removeprefix("(top level)")
+            elif not text.startswith("..."):
+                text = where + ("" if text.startswith("[") else ".") + text
+            lines.append(text)
+        raise SceneError("\n".join(lines)) from None
+
+
+def parse_light(data: Any, where: str = "light") -> PointLight | QuadLight:
+    """Validate one light as a scene file holds it (a dict with ``type``); :class:`SceneError` names
+    ``where`` and the field, e.g. ``lights[0]: radiance[1]: Input should be greater than or equal to 0``."""
+    light = _parse_item(_LIGHT_ADAPTER, data, where)
+    problem = _light_problem(light)
+    if problem:
+        raise SceneError(f"{where}: {problem}")
+    return light  # type: ignore[no-any-return]
+
+
+def parse_camera(data: Any, where: str = "camera") -> Camera:
+    """Validate a camera (the same checks as a whole scene's); :class:`SceneError` names the field."""
+    cam = _parse_item(TypeAdapter(Camera), data, where)
+    problem = _camera_problem(cam)
+    if problem:
+        raise SceneError(f"{where}.{problem[0]}: {problem[1]}")
+    return cam  # type: ignore[no-any-return]
+
+
+def parse_environment(
+    data: Any, where: str = "environment", check_file: bool = True
+) -> ConstantEnvironment | MapEnvironment:
+    """Validate an environment; a map's ``path`` (absolute here) must name an existing EXR file when
+    ``check_file``."""
+    env = _parse_item(_ENVIRONMENT_ADAPTER, data, where)
+    if isinstance(env, MapEnvironment):
+        if Path(env.path).suffix.lower() not in ENVMAP_FORMATS:
+            raise SceneError(
+                f"{where}.path: '{env.path}' has an unsupported extension; expected one of "
+                f"{', '.join(ENVMAP_FORMATS)}"
+            )
+        if check_file and not Path(env.path).expanduser().is_file():
+            raise SceneError(f"{where}.path: file '{env.path}' not found")
+    return env  # type: ignore[no-any-return]
 
 
 def _unknown_material(name: str, names: dict[str, int]) -> str:
@@ -422,7 +544,12 @@ def load_scene(path: str | os.PathLike[str], check_files: bool = True) -> Scene:
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:
-    return scene.model_dump(mode="json")
+    """The JSON form of ``scene``; an empty ``exclude_groups`` is left out (as in files written by hand)."""
+    data = scene.model_dump(mode="json")
+    for mesh in data["meshes"]:
+        if not mesh["exclude_groups"]:
+            del mesh["exclude_groups"]
+    return data
 
 
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:

@@ -17,7 +17,7 @@ import numpy as np
 from core.errors import BrdfStudioError, UnknownNameError
 from core.model import BRDF, LUMINANCE, make_brdf
 from core.sampler import Sampler, make_sampler
-from core.scene import Material, QuadLight, Scene
+from core.scene import Material, QuadLight, Scene, kept_groups
 from renderer.accel import Accel
 from renderer.envmap import ConstantEnvironment, EnvironmentMap, load_environment
 from renderer.mesh import MeshPart, load_mesh_file
@@ -122,6 +122,8 @@ class World:
             parts = load_mesh_file(
                 scene.resolve(mesh.path), mesh.transform, f"{scene.source}: meshes[{i}].path"
             )
+            keep = kept_groups(scene, i, [part.name for part in parts])
+            parts = [part for part, kept in zip(parts, keep, strict=True) if kept]
             for part in parts:
                 mname = mesh.group_materials.get(part.name, mesh.material)
                 mi = scene.material_index(mname)

@@ -1,5 +1,5 @@
-"""The scene tree: objects (each with a material chooser), materials, lights and the camera; selection is
-the document's, both ways."""
+"""The scene tree: objects (each with a material chooser), materials, lights (and the environment) and the
+camera; selection is the document's, both ways. Lights are added and deleted from the context menu."""
 
 from __future__ import annotations
 
@@ -35,6 +35,7 @@ class SceneTree(QTreeWidget):
         ):
             item = QTreeWidgetItem([label])
             item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+            item.setData(0, ROLE_KIND, f"root:{key}")
             self.addTopLevelItem(item)
             self.roots[key] = item
         self.combos: dict[str, QComboBox] = {}
@@ -44,6 +45,8 @@ class SceneTree(QTreeWidget):
         ev.materials_changed.connect(self.rebuild)
         ev.material_changed.connect(lambda _n: self._relabel_materials())
         ev.selection_changed.connect(self._selection_from_document)
+        ev.lights_changed.connect(self.rebuild)
+        ev.camera_changed.connect(self.rebuild)
         self.rebuild()
 
     def rebuild(self) -> None:
@@ -68,19 +71,20 @@ class SceneTree(QTreeWidget):
             item.setData(0, ROLE_KIND, "material")
             item.setData(0, ROLE_NAME, m.name)
             self.roots["materials"].addChild(item)
-        for i, light in enumerate(doc.data.extras.get("lights", []) or []):
-            item = QTreeWidgetItem([f"{light.get('type', 'light')} light {i + 1}", ""])
-            item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+        for i, light in enumerate(doc.lights()):
+            item = QTreeWidgetItem([light_label(light, i), ""])
+            item.setData(0, ROLE_KIND, "light")
+            item.setData(0, ROLE_NAME, i)
             self.roots["lights"].addChild(item)
-        env = doc.data.extras.get("environment")
-        if env:
-            item = QTreeWidgetItem([f"environment ({env.get('type')})", ""])
-            item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
-            self.roots["lights"].addChild(item)
-        cam = doc.data.extras.get("camera")
-        text = "pinhole" if not cam else f"pinhole, fov {cam.get('fov_deg', 40):g} deg"
-        cam_item = QTreeWidgetItem([text, ""])
-        cam_item.setFlags(cam_item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
+        env = doc.environment()
+        item = QTreeWidgetItem([f"environment ({env.get('type') if env else 'none'})", ""])
+        item.setData(0, ROLE_KIND, "environment")
+        item.setData(0, ROLE_NAME, 0)
+        self.roots["lights"].addChild(item)
+        cam = doc.camera()
+        cam_item = QTreeWidgetItem([f"pinhole, fov {cam.get('fov_deg', 40):g} deg", ""])
+        cam_item.setData(0, ROLE_KIND, "camera")
+        cam_item.setData(0, ROLE_NAME, 0)
         self.roots["camera"].addChild(cam_item)
         for root in self.roots.values():
             root.setExpanded(True)
@@ -100,11 +104,16 @@ class SceneTree(QTreeWidget):
                 label = "?"
             item.setText(1, label)
 
-    def item_for(self, kind: str, name: str) -> QTreeWidgetItem | None:
-        root = self.roots["objects" if kind == "object" else "materials"]
+    def item_for(self, kind: str, name: str | int = 0) -> QTreeWidgetItem | None:
+        """The item of an ``object`` or ``material`` (by name), a ``light`` (by index), the ``camera`` or
+        the ``environment``."""
+        root = self.roots[
+            {"object": "objects", "material": "materials", "camera": "camera"}.get(kind, "lights")
+        ]
         for i in range(root.childCount()):
-            if root.child(i).data(0, ROLE_NAME) == name:
-                return root.child(i)
+            child = root.child(i)
+            if child.data(0, ROLE_KIND) == kind and child.data(0, ROLE_NAME) == name:
+                return child
         return None
 
     def _assign(self, obj: str, material: str) -> None:
@@ -123,11 +132,15 @@ class SceneTree(QTreeWidget):
         elif kind == "material":
             self.document.select_object(None)
             self.document.select_material(name)
+        elif kind in ("light", "camera", "environment"):
+            self.document.select_item(kind, int(name))
 
     def _selection_from_document(self) -> None:
         doc = self.document
         item = None
-        if doc.selected_object:
+        if doc.selected_item is not None:
+            item = self.item_for(*doc.selected_item)
+        elif doc.selected_object:
             item = self.item_for("object", doc.selected_object)
         elif doc.current_material:
             item = self.item_for("material", doc.current_material)
@@ -144,7 +157,14 @@ class SceneTree(QTreeWidget):
             return
         kind, name = item.data(0, ROLE_KIND), item.data(0, ROLE_NAME)
         menu = QMenu(self)
-        if kind == "object":
+        if kind in ("root:lights", "light", "environment"):
+            menu.addAction("Add point light", lambda: self._guard(self.document.add_light, "point"))
+            menu.addAction("Add quad light", lambda: self._guard(self.document.add_light, "quad"))
+            if kind == "light":
+                menu.addAction("Delete light", lambda: self._guard(self.document.remove_light, int(name)))
+        elif kind.startswith("root:") or kind == "camera":
+            return
+        elif kind == "object":
             assign = menu.addMenu("Assign material")
             for m in self.document.material_names():
                 assign.addAction(m, lambda m=m: self._assign(name, m))
@@ -166,3 +186,8 @@ class SceneTree(QTreeWidget):
             fn(*args)
         except (BrdfStudioError, KeyError) as exc:
             self.error.emit(str(exc))
+
+
+def light_label(light: dict, index: int) -> str:
+    """How the tree names a light: its type and number (lights have no names in the scene format)."""
+    return f"{light.get('type', '')} light {index + 1}"

@@ -1,5 +1,8 @@
 """The scene viewport: every object's mesh shaded in its material's colour, the selection highlighted,
-lights drawn as outlines, click to select. Its camera is the one renders use."""
+lights drawn as outlines (quads with their emitting direction), click to select an object or a light.
+
+Its camera is the scene's camera, the one renders use: edits of the document's camera move the view, and
+moving the view (a drag or the wheel) is recorded as a *Move camera* edit of the document."""
 
 from __future__ import annotations
 
@@ -8,7 +11,7 @@ import math
 import numpy as np
 import pyvista as pv
 import vtk
-from PySide6.QtCore import Signal
+from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 from pyvistaqt import QtInteractor
 
@@ -19,6 +22,8 @@ from core.model import BRDF
 from core.scene import Transform
 
 SELECTED_EDGE = "#ffb300"
+LIGHT_COLOUR = "#f5e663"
+SELECTED_LIGHT_COLOUR = "#ff6d00"
 
 
 _STRATA = 48
@@ -78,17 +83,28 @@ class SceneViewport(QWidget):
         self.actors: dict[str, vtk.vtkActor] = {}
         self.meshes: dict[str, pv.PolyData] = {}
         self._light_actors: list = []
+        self.light_actors: dict[int, list] = {}
+        """The actors drawing each light (by index): outline or marker, and a quad's direction."""
         self._keys: dict[str, tuple] = {}
         self.plotter.add_axes()
         self._picker = vtk.vtkPropPicker()
         self._press: tuple[int, int] | None = None
         self.plotter.iren.add_observer("LeftButtonPressEvent", self._on_press)
         self.plotter.iren.add_observer("LeftButtonReleaseEvent", self._on_release)
+        for event in ("MiddleButtonReleaseEvent", "RightButtonReleaseEvent"):
+            self.plotter.iren.add_observer(event, self._on_drag_end)
+        for event in ("MouseWheelForwardEvent", "MouseWheelBackwardEvent"):
+            self.plotter.iren.add_observer(event, lambda _iren, _event: self._view_moved_later())
+        self._press_any: tuple[int, int] | None = None
+        for event in ("MiddleButtonPressEvent", "RightButtonPressEvent"):
+            self.plotter.iren.add_observer(event, self._on_press_any)
         ev = document.events
         ev.objects_changed.connect(self.sync)
         ev.material_changed.connect(lambda _name: self.recolour())
         ev.materials_changed.connect(self.recolour)
         ev.selection_changed.connect(self.highlight)
+        ev.lights_changed.connect(self._lights_changed)
+        ev.camera_changed.connect(lambda: self.apply_camera(document.data.extras.get("camera")))
         self._camera_set = False
         self.sync()
 
@@ -130,22 +146,44 @@ class SceneViewport(QWidget):
         )
         self.plotter.render()
 
+    def _lights_changed(self) -> None:
+        self._draw_lights()
+        self.plotter.render()
+
     def _draw_lights(self) -> None:
         for a in self._light_actors:
             self.plotter.remove_actor(a, render=False)
         self._light_actors = []
-        for light in self.document.data.extras.get("lights", []) or []:
+        self.light_actors = {}
+        selected = self.document.selected_item
+        for i, light in enumerate(self.document.lights()):
+            on = selected == ("light", i)
+            colour = SELECTED_LIGHT_COLOUR if on else LIGHT_COLOUR
+            actors = []
             if light.get("type") == "quad":
                 c, e1, e2 = (np.asarray(light[k], dtype=float) for k in ("corner", "edge1", "edge2"))
                 pts = np.array([c, c + e1, c + e1 + e2, c + e2, c])
-                actor = self.plotter.add_lines(pts, color="yellow", width=3, connected=True)
+                actors.append(self.plotter.add_lines(pts, color=colour, width=5 if on else 3, connected=True))
+                # a short stroke from the centre along the emitting side (edge1 x edge2)
+                n = np.cross(e1, e2)
+                size = math.sqrt(np.linalg.norm(n))
+                n = n / np.linalg.norm(n)
+                centre = c + 0.5 * (e1 + e2)
+                stroke = np.array([centre, centre + 0.5 * size * n])
+                actors.append(self.plotter.add_lines(stroke, color=colour, width=2, connected=True))
+                if light.get("two_sided"):
+                    stroke = np.array([centre, centre - 0.5 * size * n])
+                    actors.append(self.plotter.add_lines(stroke, color=colour, width=2, connected=True))
             elif light.get("type") == "point":
-                actor = self.plotter.add_mesh(
-                    pv.Sphere(radius=0.05, center=light["position"]), color="yellow", render=False
+                actors.append(
+                    self.plotter.add_mesh(
+                        pv.Sphere(radius=0.08 if on else 0.05, center=light["position"]),
+                        color=colour,
+                        render=False,
+                    )
                 )
-            else:
-                continue
-            self._light_actors.append(actor)
+            self.light_actors[i] = actors
+            self._light_actors += actors
 
     def recolour(self, render: bool = True) -> None:
         doc = self.document
@@ -162,6 +200,7 @@ class SceneViewport(QWidget):
             self.plotter.render()
 
     def highlight(self, render: bool = True) -> None:
+        self._draw_lights()  # the selected light is drawn in another colour
         selected = self.document.selected_object
         for name, actor in self.actors.items():
             prop = actor.GetProperty()
@@ -184,6 +223,29 @@ class SceneViewport(QWidget):
             self.plotter.reset_camera()
         self._camera_set = True
 
+    def _on_press_any(self, iren, _event) -> None:
+        self._press_any = iren.GetEventPosition()
+
+    def _on_drag_end(self, iren, _event) -> None:
+        pos = iren.GetEventPosition()
+        if (
+            self._press_any is not None
+            and abs(pos[0] - self._press_any[0]) + abs(pos[1] - self._press_any[1]) > 3
+        ):
+            self._view_moved_later()
+        self._press_any = None
+
+    def _view_moved_later(self) -> None:
+        # observers run before the interactor style has moved the camera: look once it has
+        QTimer.singleShot(0, self.view_moved)
+
+    def view_moved(self) -> None:
+        """Record the view as the scene camera (one undo step per burst of moves)."""
+        try:
+            self.document.set_camera(self.camera(), "Move camera", merge_key=("camera", "view"))
+        except BrdfStudioError:
+            pass  # a degenerate view (never from the interactor's own moves) is simply not recorded
+
     def camera(self) -> dict:
         """The viewport's camera in the project's terms (what a render from the viewport uses)."""
         cam = self.plotter.camera
@@ -204,6 +266,15 @@ class SceneViewport(QWidget):
                 return name
         return ""
 
+    def light_at(self, x: int, y: int) -> int | None:
+        """The index of the light drawn under display coordinates ``(x, y)``, or ``None``."""
+        self._picker.Pick(x, y, 0, self.plotter.renderer)
+        actor = self._picker.GetActor()
+        for index, actors in self.light_actors.items():
+            if any(a is actor for a in actors):
+                return index
+        return None
+
     def display_point(self, world: np.ndarray) -> tuple[int, int]:
         """Display coordinates (VTK's) of a world point."""
         r = self.plotter.renderer
@@ -218,7 +289,13 @@ class SceneViewport(QWidget):
     def _on_release(self, iren, _event) -> None:
         pos = iren.GetEventPosition()
         if self._press is not None and abs(pos[0] - self._press[0]) + abs(pos[1] - self._press[1]) <= 3:
-            self.object_picked.emit(self.pick_at(*pos))  # a click, not a drag of the camera
+            light = self.light_at(*pos)  # a click, not a drag of the camera
+            if light is not None:
+                self.document.select_item("light", light)
+            else:
+                self.object_picked.emit(self.pick_at(*pos))
+        elif self._press is not None:
+            self._view_moved_later()
         self._press = None
 
     def close_view(self) -> None:

@@ -166,3 +166,40 @@ def test_autosave_restores_edits_after_a_crash(fresh):
     assert w.document.material("unsaved-work").params["kd"] == (0.123, 0.123, 0.123)
     assert w.document.dirty
     assert not dead.exists()
+
+
+# ---- lights, camera, environment: the property pages -------------------------------------------------
+
+
+def _floor_with_light(w, tmp_path):
+    """A floor (one part of a two-part file) lit by one quad light, selected."""
+    w.import_mesh(write_obj(tmp_path / "floor.obj", {"slab": (0, -1, 0)}))
+    w.document.add_light("quad", {"corner": [0.0, 2.0, 0.0], "radiance": [2.0, 2.0, 2.0]})
+    w.scene_tree.setCurrentItem(w.scene_tree.item_for("light", 0))  # what a click does
+    return w.item_editor.quad_page
+
+
+def test_light_page_edits_radiance_through_the_document(fresh, tmp_path):
+    w = fresh
+    page = _floor_with_light(w, tmp_path)
+    assert w.document.selected_item == ("light", 0)
+    assert w.item_editor.current_page() is page and w.material_dock.windowTitle() == "Light"
+    assert w.item_editor.isVisible()
+    page.rows["radiance"].spins[1].setValue(7.0)  # a user edit of the green channel
+    assert w.document.lights()[0]["radiance"] == [2.0, 7.0, 2.0]
+    # an edge parallel to the other is refused with the schema's reason; nothing changes
+    page.rows["edge2"].spins[0].setValue(1.0)  # (1, 0, 1): still spans an area
+    assert w.document.lights()[0]["edge2"] == [1.0, 0.0, 1.0]
+    before = w.document.to_dict()
+    page.rows["edge2"].spins[2].setValue(0.0)  # (1, 0, 0) = edge1
+    assert w.document.to_dict() == before
+    assert "lights[0]: edge1 and edge2 span no area" in w.errors[-1]
+    assert "span no area" in w.item_editor.message.text()
+    assert page.rows["edge2"].value() == (1.0, 0.0, 1.0)  # the fields show the document again
+    w.last_error_box.close()
+    w.document.undo()  # edge2
+    w.document.undo()
+    assert w.document.lights()[0]["radiance"] == [2.0, 2.0, 2.0]
+    assert page.rows["radiance"].value() == (2.0, 2.0, 2.0)  # the page follows undo
+    w.document.redo()
+    assert page.rows["radiance"].value() == (2.0, 7.0, 2.0)

@@ -135,3 +135,102 @@ def test_default_scene_is_valid_data() -> None:
     scene = Scene()
     again = scene_from_dict(scene.model_dump(mode="json"), check_files=False)
     assert again == scene
+
+
+# ---- version 2: exclude_groups, and version-1 files still load ---------------------------------------
+
+
+def test_version_1_file_loads_and_is_saved_as_the_current_version(tmp_path: Path) -> None:
+    from core.scene import SCENE_VERSION
+
+    data = _base(tmp_path)
+    assert data["version"] == 1
+    scene = load_scene(_write(tmp_path, data))
+    assert scene.meshes[0].exclude_groups == []
+    out = tmp_path / "copy.json"
+    save_scene(scene, out)
+    assert json.loads(out.read_text())["version"] == SCENE_VERSION == 2
+
+
+def test_exclude_groups_round_trip(tmp_path: Path) -> None:
+    data = _base(tmp_path)
+    data["version"] = 2
+    data["meshes"][0]["exclude_groups"] = ["wheel", "door"]
+    scene = load_scene(_write(tmp_path, data))
+    assert scene.meshes[0].exclude_groups == ["wheel", "door"]
+    save_scene(scene, tmp_path / "copy.json")
+    assert load_scene(tmp_path / "copy.json").meshes[0].exclude_groups == ["wheel", "door"]
+
+
+@pytest.mark.parametrize(
+    ("version", "groups", "expected"),
+    [
+        (1, ["wheel"], r"meshes\[0\]\.exclude_groups: needs scene version 2"),
+        (2, ["wheel", "wheel"], r"meshes\[0\]\.exclude_groups: group 'wheel' is listed twice"),
+        (2, "wheel", r"meshes\[0\]\.exclude_groups: Input should be a valid list"),
+        (2, [3], r"meshes\[0\]\.exclude_groups\[0\]: Input should be a valid string"),
+    ],
+)
+def test_bad_exclude_groups_are_named(tmp_path: Path, version: int, groups, expected: str) -> None:
+    data = _base(tmp_path)
+    data["version"] = version
+    data["meshes"][0]["exclude_groups"] = groups
+    with pytest.raises(SceneError, match=expected):
+        load_scene(_write(tmp_path, data))
+
+
+def test_kept_groups_checks_names_against_the_file(tmp_path: Path) -> None:
+    from core.scene import kept_groups
+
+    data = _base(tmp_path)
+    data["version"] = 2
+    data["meshes"][0]["exclude_groups"] = ["b"]
+    scene = load_scene(_write(tmp_path, data))
+    assert kept_groups(scene, 0, ["a", "b", "c", "b"]) == [True, False, True, False]
+    with pytest.raises(SceneError, match=r"scene\.json: meshes\[0\]\.exclude_groups: 'tri\.obj' has no group "
+                       r"named 'b' \(its groups: 'x', 'y'\)"):  # fmt: skip
+        kept_groups(scene, 0, ["y", "x"])
+
+
+# ---- one item at a time (what the app validates an edit with) ----------------------------------------
+
+
+def test_parse_items_accept_valid_data(tmp_path: Path) -> None:
+    from core.scene import parse_camera, parse_environment, parse_light
+
+    quad = parse_light({"type": "quad", "corner": [0, 1, 0], "edge1": [1, 0, 0], "edge2": [0, 0, 1],
+                        "radiance": 2})  # fmt: skip
+    assert quad.radiance == (2.0, 2.0, 2.0)
+    assert parse_camera({"position": [0, 0, 5], "fov_deg": 30}).fov_deg == 30.0
+    (tmp_path / "sky.exr").write_bytes(b"")
+    env = parse_environment({"type": "map", "path": str(tmp_path / "sky.exr"), "rotate_deg": 90})
+    assert env.rotate_deg == 90.0
+
+
+@pytest.mark.parametrize(
+    ("kind", "data", "expected"),
+    [
+        ("light", {"type": "point", "position": [0, 1, 0], "intensity": [1, -1, 1]},
+         "lights[0].intensity[1]: Input should be greater than or equal to 0"),
+        ("light", {"type": "point", "position": [0, float("nan"), 0], "intensity": 1},
+         "lights[0].position[1]: Input should be a finite number"),
+        ("light", {"type": "quad", "corner": [0, 1, 0], "edge1": [1, 0, 0], "edge2": [2, 0, 0], "radiance": 1},
+         "lights[0]: edge1 and edge2 span no area"),
+        ("light", {"type": "spot", "position": [0, 0, 0]}, "lights[0]: "),
+        ("camera", {"position": [0, 0, 0], "target": [0, 0, 0]}, "camera.target: the target coincides"),
+        ("camera", {"up": [0, 0, 1], "position": [0, 0, 4]}, "camera.up: the up vector is zero or parallel"),
+        ("camera", {"fov_deg": 0}, "camera.fov_deg: Input should be greater than 0"),
+        ("environment", {"type": "constant", "radiance": -1}, "environment.radiance[0]: Input should be"),
+        ("environment", {"type": "map", "path": "/nowhere/sky.exr"}, "environment.path: file '/nowhere/sky.exr' not"),
+        ("environment", {"type": "map", "path": "sky.png"}, "environment.path: 'sky.png' has an unsupported"),
+        ("environment", {"type": "map", "path": "x.exr", "scale": -1}, "environment.scale: Input should be"),
+    ],
+)  # fmt: skip
+def test_parse_items_name_the_field(kind: str, data: dict, expected: str) -> None:
+    from core.scene import parse_camera, parse_environment, parse_light
+
+    parse = {"light": lambda d: parse_light(d, "lights[0]"), "camera": parse_camera,
+             "environment": parse_environment}[kind]  # fmt: skip
+    with pytest.raises(SceneError) as info:
+        parse(data)
+    assert str(info.value).startswith(expected)
