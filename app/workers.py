@@ -67,10 +67,16 @@ class GeneratorWorker(QThread):
 
 
 class WorkerPool:
-    """Keeps running workers alive until they finish; cancels and waits for all of them on shutdown."""
+    """Keeps running workers alive until they finish; cancels and waits for all of them on shutdown, and
+    runs the shutdown hooks of other background resources (the render process)."""
 
     def __init__(self) -> None:
         self._workers: set[GeneratorWorker] = set()
+        self._shutdown_hooks: list[Callable[[], None]] = []
+
+    def on_shutdown(self, hook: Callable[[], None]) -> None:
+        """Call ``hook()`` on :meth:`shutdown` (e.g. to end a child process; it may run more than once)."""
+        self._shutdown_hooks.append(hook)
 
     def start(self, worker: GeneratorWorker) -> GeneratorWorker:
         self._workers.add(worker)
@@ -97,6 +103,8 @@ class WorkerPool:
         """
         for w in list(self._workers):
             w.cancel()
+        for hook in self._shutdown_hooks:
+            hook()
         left = []
         for w in list(self._workers):
             if not w.wait(timeout_ms):

@@ -1,5 +1,5 @@
 """The render panel: two strategies side by side on the same scene and budget (equal spp or equal time),
-rendered progressively in a worker thread; synchronized pan and zoom, live counters, error against a
+rendered progressively in a separate process (:mod:`app.render_process`, so the GUI never stalls); synchronized pan and zoom, live counters, error against a
 reference over time, cancel and restart, and exports (EXR, PNG, the labelled composite, error curves)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import Signal
+from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import (
     QComboBox,
     QDoubleSpinBox,
@@ -17,19 +17,23 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QPushButton,
+    QSizePolicy,
     QSpinBox,
     QSplitter,
     QVBoxLayout,
     QWidget,
 )
 
-from app.render_session import render_events
+from app.render_process import RenderServer
+from app.render_session import check_request
 from app.views.figure import FigureView
 from app.views.images import ImageView
-from app.workers import GeneratorWorker, WorkerPool
+from app.workers import WorkerPool
 from core.errors import BrdfStudioError, OutputError
 from core.sampler import sampler_names
 from core.scene import Scene
+
+PLOT_INTERVAL_MS = 500
 
 
 class RenderPanel(QWidget):
@@ -40,8 +44,15 @@ class RenderPanel(QWidget):
     def __init__(self, scene_provider: Callable[[], Scene], workers: WorkerPool, parent=None):
         super().__init__(parent)
         self.scene_provider = scene_provider
-        self.workers = workers
-        self.worker: GeneratorWorker | None = None
+        self.server = RenderServer(parent=self)
+        self.server.events_received.connect(self._on_events)
+        workers.on_shutdown(self.server.stop)
+        self.job: int | None = None  # the id of the render in progress
+        self._plot_timer = QTimer(self)
+        self._plot_timer.setSingleShot(True)
+        self._plot_timer.setInterval(PLOT_INTERVAL_MS)
+        self._plot_timer.timeout.connect(self._plot_errors)
+        self._plot_lines: dict | None = None  # strategy -> its RMSE line; None while the placeholder shows
         self.frames: dict[str, dict] = {}
         self.curves: dict[str, list[dict]] = {}
         self.reference: np.ndarray | None = None
@@ -96,6 +107,10 @@ class RenderPanel(QWidget):
         self.view_a.link(self.view_b)
         self.counter_a = QLabel("")
         self.counter_b = QLabel("")
+        for counter in (self.counter_a, self.counter_b):
+            # The text changes with every frame: a size that does not depend on it spares a relayout (and a
+            # repaint) of the whole window each time, which cost the GUI thread tens of ms per frame.
+            counter.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
         images = QWidget()
         grid = QGridLayout(images)
         grid.setContentsMargins(0, 0, 0, 0)
@@ -133,39 +148,49 @@ class RenderPanel(QWidget):
 
     @property
     def running(self) -> bool:
-        return self.worker is not None
+        return self.job is not None
+
+    def request(self, scene: Scene) -> dict:
+        """The job sent to the render process for ``scene`` with the panel's settings."""
+        from core.scene import scene_to_dict
+
+        mode = self.mode.currentData()
+        return {
+            "scene": scene_to_dict(scene),
+            "base_dir": str(scene.base_dir),
+            "source": scene.source,
+            "strategies": self.strategies(),
+            "mode": mode,
+            "budget": self.spp.value() if mode == "spp" else self.seconds.value(),
+            "width": self.width_box.value(),
+            "height": self.height_box.value(),
+            "seed": 0,
+            "reference": self.reference,
+        }
 
     def start(self) -> None:
         """Start a render (cancelling a running one first: Render while rendering restarts)."""
         self.cancel()
         try:
-            scene = self.scene_provider()
+            job = self.request(self.scene_provider())
+            check_request(job["mode"], job["budget"], job["width"], job["height"], job["reference"])
         except BrdfStudioError as exc:
             self.error.emit(str(exc))
             return
-        mode = self.mode.currentData()
-        budget = self.spp.value() if mode == "spp" else self.seconds.value()
         self.frames.clear()
-        self.curves = {name: [] for name in self.strategies()}
-        worker = GeneratorWorker(
-            render_events, scene, self.strategies(), mode, budget,
-            self.width_box.value(), self.height_box.value(), 0, self.reference,
-        )  # fmt: skip
-        worker.yielded.connect(lambda event, w=worker: self._on_event(w, event))
-        worker.failed.connect(lambda msg, w=worker: self._on_failed(w, msg))
-        worker.finished.connect(lambda w=worker: self._on_finished(w))
-        self.worker = worker
+        self.curves = {name: [] for name in job["strategies"]}
+        self._plot_errors()
         self.start_button.setText("Restart")
         self.cancel_button.setEnabled(True)
-        self.set_status("Starting ...")
-        self.workers.start(worker)
+        self.set_status("Starting the render process ..." if self.server.pid is None else "Starting ...")
+        self.job = self.server.submit(job)
 
     def cancel(self) -> None:
-        """Stop the running render after its current pass (returns at once; the UI never waits)."""
-        if self.worker is not None:
-            self.worker.cancel()
+        """Stop the running render (returns at once; the UI never waits, and draws nothing more of it)."""
+        if self.job is not None:
+            self.server.cancel(self.job)
             self.set_status("Cancelled.")
-            self.worker = None
+            self.job = None
         self.cancel_button.setEnabled(False)
         self.start_button.setText("Render")
 
@@ -173,34 +198,72 @@ class RenderPanel(QWidget):
         self.status_text = text
         self.status.setText(text)
 
-    def _on_event(self, worker: GeneratorWorker, event: dict) -> None:
-        if worker is not self.worker:
-            return  # a cancelled render's last frames
-        if event["kind"] == "status":
-            self.set_status(event["text"])
-        elif event["kind"] == "frame":
+    def showEvent(self, event) -> None:  # noqa: N802
+        super().showEvent(event)
+        self.server.ensure_started()  # warm up the render process while the user sets up the render
+
+    def _on_events(self, events: list[dict]) -> None:
+        """A batch from the render process: every frame counts in the curves, only the last one of each
+        strategy is drawn (frames of small images can come faster than they are worth drawing)."""
+        latest: dict[str, dict] = {}
+        ended = False
+        for event in events:
+            kind = event["kind"]
+            if kind == "crashed":
+                if self.job is not None:
+                    ended = True
+                    self._failed(event["text"])
+                else:
+                    self.set_status(event["text"].replace("Render again", "the next render starts"))
+                continue
+            if event["job"] != self.job or self.job is None:
+                continue  # a cancelled render's last events
+            if kind == "status":
+                self.set_status(event["text"])
+            elif kind == "frame":
+                name = event["strategy"]
+                self.frames[name] = event
+                self.curves.setdefault(name, []).append(
+                    {k: event[k] for k in ("spp", "seconds", "rmse", "relmse")}
+                )
+                latest[name] = event
+            elif kind in ("done", "error", "cancelled"):
+                ended = True
+                if kind == "done":
+                    self._finished()
+                    self.set_status("Done. " + self._summary())
+                elif kind == "error":
+                    self._failed(event["text"])
+                else:
+                    self._finished()
+        for event in latest.values():
             self._show_frame(event)
-        elif event["kind"] == "done":
-            self.set_status("Done. " + self._summary())
+        if latest or ended:
+            self._plot_soon(immediately=ended)
 
-    def _on_failed(self, worker: GeneratorWorker, message: str) -> None:
-        if worker is self.worker:
-            self.set_status(f"Render failed: {message}")
-            self.error.emit(message)
+    def _failed(self, message: str) -> None:
+        self._finished()
+        self.set_status(f"Render failed: {message}")
+        self.error.emit(message)
 
-    def _on_finished(self, worker: GeneratorWorker) -> None:
-        if worker is self.worker:
-            self.worker = None
-            self.cancel_button.setEnabled(False)
-            self.start_button.setText("Render")
+    def _finished(self) -> None:
+        self.job = None
+        self.cancel_button.setEnabled(False)
+        self.start_button.setText("Render")
+
+    def _plot_soon(self, immediately: bool = False) -> None:
+        """Redraw the error plot at most every ``PLOT_INTERVAL_MS`` while rendering (a plot costs tens of ms)."""
+        if immediately:
+            self._plot_timer.stop()
+            self._plot_errors()
+        elif not self._plot_timer.isActive():
+            self._plot_timer.start()
 
     def _show_frame(self, event: dict) -> None:
         from renderer.image_io import tonemap
 
         name = event["strategy"]
-        self.frames[name] = event
-        self.curves.setdefault(name, []).append({k: event[k] for k in ("spp", "seconds", "rmse", "relmse")})
-        names = self.strategies()
+        names = list(self.curves)  # the strategies of the render in progress, in order
         view, counter = (self.view_a, self.counter_a) if name == names[0] else (self.view_b, self.counter_b)
         view.set_image(tonemap(event["image"]))
         rate = event["rays"] / event["seconds"] / 1e6 if event["seconds"] > 0 else 0.0
@@ -208,30 +271,51 @@ class RenderPanel(QWidget):
         counter.setText(
             f"<b>{name}</b>: {event['spp']} spp, {event['seconds']:.2f} s, {rate:.2f} Mrays/s, {err}"
         )
-        self._plot_errors()
 
     def _summary(self) -> str:
         return "; ".join(f"{n}: {f['spp']} spp in {f['seconds']:.2f} s" for n, f in self.frames.items())
 
     def _plot_errors(self) -> None:
+        """Draw RMSE against time. The axes and lines are kept and only their data change: clearing and
+        rebuilding the axes on every frame cost the GUI thread up to hundreds of milliseconds under load."""
         ax = self.error_plot.axes
-        ax.clear()
-        drawn = False
+        points = {}
         for name, recs in self.curves.items():
             pts = [(r["seconds"], r["rmse"]) for r in recs if math.isfinite(r["rmse"]) and r["rmse"] > 0]
             if pts:
-                t, e = zip(*pts, strict=True)
-                ax.loglog(t, e, marker="o", ms=3, label=name)
-                drawn = True
-        if drawn:
+                points[name] = pts
+        if not points:
+            if self._plot_lines is not None or not ax.texts:  # the placeholder is not shown yet
+                self._plot_lines = None
+                ax.clear()
+                ax.set_axis_off()
+                ax.text(0.5, 0.5, "Error vs time: load a reference EXR to measure RMSE", ha="center",
+                        va="center", transform=ax.transAxes, fontsize=9)  # fmt: skip
+                self.error_plot.redraw()
+            return
+        if self._plot_lines is None or set(self._plot_lines) - set(points):
+            self._plot_lines = {}
+            ax.clear()
+            ax.set_axis_on()
+            ax.set_xscale("log")
+            ax.set_yscale("log")
             ax.set_xlabel("render time (s)")
             ax.set_ylabel("RMSE")
-            ax.legend(fontsize=8)
             ax.grid(alpha=0.3, which="both")
-        else:
-            ax.set_axis_off()
-            ax.text(0.5, 0.5, "Error vs time: load a reference EXR to measure RMSE", ha="center", va="center",
-                    transform=ax.transAxes, fontsize=9)  # fmt: skip
+        added = False
+        for name, pts in points.items():
+            t, e = zip(*pts, strict=True)
+            line = self._plot_lines.get(name)
+            if line is None:
+                (line,) = ax.plot(t, e, marker="o", ms=3, label=name)
+                self._plot_lines[name] = line
+                added = True
+            else:
+                line.set_data(t, e)
+        if added:
+            ax.legend(fontsize=8)
+        ax.relim()
+        ax.autoscale_view()
         self.error_plot.redraw()
 
     # ---- reference and exports --------------------------------------------------------------------------
