@@ -45,15 +45,15 @@ class SceneTree(QTreeWidget):
         ev.materials_changed.connect(self.rebuild)
         ev.material_changed.connect(lambda _n: self._relabel_materials())
         ev.selection_changed.connect(self._selection_from_document)
-        ev.lights_changed.connect(self.rebuild)
-        ev.camera_changed.connect(self.rebuild)
+        ev.lights_changed.connect(self._rebuild_scene_items)
+        ev.camera_changed.connect(self._rebuild_scene_items)
         self.rebuild()
 
     def rebuild(self) -> None:
         doc = self.document
         self.blockSignals(True)
-        for root in self.roots.values():
-            root.takeChildren()
+        for key in ("objects", "materials"):
+            self.roots[key].takeChildren()
         self.combos.clear()
         for o in doc.data.objects:
             item = QTreeWidgetItem([o.name, ""])
@@ -71,6 +71,25 @@ class SceneTree(QTreeWidget):
             item.setData(0, ROLE_KIND, "material")
             item.setData(0, ROLE_NAME, m.name)
             self.roots["materials"].addChild(item)
+        self._add_scene_items()
+        for root in self.roots.values():
+            root.setExpanded(True)
+        self._relabel_materials()
+        self.blockSignals(False)
+        self._selection_from_document()
+        self.resizeColumnToContents(0)
+
+    def _rebuild_scene_items(self) -> None:
+        """Only the lights, environment and camera (their edits leave objects and materials alone)."""
+        self.blockSignals(True)
+        self._add_scene_items()
+        self.blockSignals(False)
+        self._selection_from_document()
+
+    def _add_scene_items(self) -> None:
+        doc = self.document
+        for key in ("lights", "camera"):
+            self.roots[key].takeChildren()
         for i, light in enumerate(doc.lights()):
             item = QTreeWidgetItem([light_label(light, i), ""])
             item.setData(0, ROLE_KIND, "light")
@@ -86,12 +105,6 @@ class SceneTree(QTreeWidget):
         cam_item.setData(0, ROLE_KIND, "camera")
         cam_item.setData(0, ROLE_NAME, 0)
         self.roots["camera"].addChild(cam_item)
-        for root in self.roots.values():
-            root.setExpanded(True)
-        self._relabel_materials()
-        self.blockSignals(False)
-        self._selection_from_document()
-        self.resizeColumnToContents(0)
 
     def _relabel_materials(self) -> None:
         doc = self.document

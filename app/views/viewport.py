@@ -19,7 +19,7 @@ from app.meshes import part
 from app.state import Document
 from core.errors import BrdfStudioError
 from core.model import BRDF
-from core.scene import Transform
+from core.scene import Camera, Transform
 
 SELECTED_EDGE = "#ffb300"
 LIGHT_COLOUR = "#f5e663"
@@ -104,7 +104,7 @@ class SceneViewport(QWidget):
         ev.materials_changed.connect(self.recolour)
         ev.selection_changed.connect(self.highlight)
         ev.lights_changed.connect(self._lights_changed)
-        ev.camera_changed.connect(lambda: self.apply_camera(document.data.extras.get("camera")))
+        ev.camera_changed.connect(self._camera_changed)
         self._camera_set = False
         self.sync()
 
@@ -212,6 +212,10 @@ class SceneViewport(QWidget):
             self.plotter.render()
 
     # ---- camera ----------------------------------------------------------------------------------------
+    def _camera_changed(self) -> None:
+        self.apply_camera(self.document.data.extras.get("camera"))
+        self.plotter.render()
+
     def apply_camera(self, camera: dict | None) -> None:
         if camera:
             cam = self.plotter.camera
@@ -219,8 +223,9 @@ class SceneViewport(QWidget):
             cam.focal_point = tuple(camera.get("target", (0, 0, 0)))
             cam.up = tuple(camera.get("up", (0, 1, 0)))
             cam.view_angle = float(camera.get("fov_deg", 40.0))
-        else:
-            self.plotter.reset_camera()
+        else:  # no camera in the project: frame the scene with the format's default field of view
+            self.plotter.reset_camera()  # (this also resets the angle to VTK's 30 degrees)
+            self.plotter.camera.view_angle = Camera().fov_deg
         self._camera_set = True
 
     def _on_press_any(self, iren, _event) -> None:

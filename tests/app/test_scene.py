@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
 import pytest
 from PySide6.QtCore import QMimeData, QPointF, Qt, QUrl
-from PySide6.QtGui import QDropEvent
+from PySide6.QtGui import QColor, QDropEvent
 
 from app import settings
 from tests.app.meshes import write_obj
@@ -203,3 +204,151 @@ def test_light_page_edits_radiance_through_the_document(fresh, tmp_path):
     assert page.rows["radiance"].value() == (2.0, 2.0, 2.0)  # the page follows undo
     w.document.redo()
     assert page.rows["radiance"].value() == (2.0, 7.0, 2.0)
+    page.rows["radiance"].set_colour(QColor.fromRgbF(1.0, 0.0, 0.0))  # the picker: strength 7 kept
+    assert w.document.lights()[0]["radiance"] == [7.0, 0.0, 0.0]
+    assert w.scene_tree.selectedItems()[0] is w.scene_tree.item_for("light", 0)  # still selected
+
+
+def test_light_edit_reaches_the_saved_file_and_the_render(fresh, tmp_path):
+    from renderer.render import render
+
+    w = fresh
+    page = _floor_with_light(w, tmp_path)
+    w.document.assign_material("floor", "lambert")
+    w.viewport.apply_camera({"position": [0.5, 3.0, 3.0], "target": [0.5, 0.0, 0.5], "fov_deg": 50.0})
+
+    def small_render():
+        scene = w.render_scene()  # what the render panel renders
+        return render(
+            scene, spp=1, width=32, height=24, sampler="cosine", max_depth=1, threads=1
+        ).film.image()
+
+    first = small_render()
+    assert first.mean() > 0.0
+    page.rows["radiance"].strength.spin.setValue(4.0)  # the strength slider's spin box: colour kept
+    assert w.document.lights()[0]["radiance"] == [4.0, 4.0, 4.0]
+    assert w.render_scene().lights[0].radiance == (4.0, 4.0, 4.0)
+    # the same seed and paths: direct light scales exactly with the emitted radiance
+    np.testing.assert_allclose(small_render(), 2.0 * first, rtol=1e-5, atol=1e-7)
+    project = tmp_path / "lit.json"
+    assert w.save_project_as(project)
+    saved = json.loads(project.read_text())
+    assert saved["lights"][0]["radiance"] == [4.0, 4.0, 4.0]
+    assert saved["camera"]["fov_deg"] == pytest.approx(50.0)
+
+
+def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, tmp_path):
+    w = fresh
+    w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
+    w.scene_tree.setCurrentItem(w.scene_tree.item_for("camera"))
+    page = w.item_editor.camera_page
+    assert w.item_editor.current_page() is page and w.material_dock.windowTitle() == "Camera"
+    page.rows["fov_deg"].spin.setValue(30.0)
+    page.rows["position"].spins[2].setValue(9.0)
+    cam = w.viewport.plotter.camera
+    assert cam.view_angle == pytest.approx(30.0) and cam.position[2] == pytest.approx(9.0)
+    assert w.render_scene().camera.fov_deg == pytest.approx(30.0)
+    assert w.render_scene().camera.position[2] == pytest.approx(9.0)
+    before = w.document.camera()
+    page.rows["target"].set_value((before["position"][0] + 1.0, *before["position"][1:]))
+    page.rows["target"].spins[0].setValue(before["position"][0])  # target = position
+    assert w.document.camera() == before and "camera.target: the target coincides" in w.errors[-1]
+    w.last_error_box.close()
+    # moving the view records the camera (one undo step), and undo moves the view back
+    cam.azimuth = 0.0
+    w.viewport.plotter.camera.Azimuth(40.0)
+    w.viewport.view_moved()
+    assert w.document.undo_text() == "Move camera"
+    assert w.document.camera()["position"] == pytest.approx(list(cam.position))
+    assert page.rows["position"].value() == pytest.approx(tuple(cam.position), abs=1e-3)
+    w.document.undo()
+    assert w.viewport.plotter.camera.position == pytest.approx(
+        (before["position"][0], before["position"][1], 9.0)
+    )
+    w.document.undo()
+    w.document.undo()
+    assert "camera" not in w.document.data.extras  # none in the project: the view frames the scene
+    assert w.viewport.plotter.camera.view_angle == pytest.approx(40.0)  # with the format's default angle
+
+
+def test_add_and_delete_lights_with_the_delete_key(fresh, tmp_path):
+    w = fresh
+    w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
+    w.item_editor.add_point_button.click()
+    w.item_editor.add_quad_button.click()
+    assert [x["type"] for x in w.document.lights()] == ["point", "quad"]
+    assert w.scene_tree.selectedItems()[0] is w.scene_tree.item_for("light", 1)  # the new light is selected
+    assert len(w.viewport.light_actors) == 2
+    w.document.set_light_field(0, "position", (0.5, 0.5, 3.0))
+    w.viewport.plotter.reset_camera()
+    w.viewport.plotter.render()
+    x, y = w.viewport.display_point(np.array([0.5, 0.5, 3.0]))
+    assert w.viewport.light_at(x, y) == 0  # the point light's marker is under its position
+    w.viewport._press = (x, y)  # a click there selects the light
+    w.viewport.plotter.iren.interactor.SetEventPosition(x, y)
+    w.viewport._on_release(w.viewport.plotter.iren.interactor, "LeftButtonReleaseEvent")
+    assert w.document.selected_item == ("light", 0)
+    marker = w.viewport.light_actors[0][0].GetProperty().GetColor()
+    assert marker[0] > 0.9 and marker[2] < 0.1  # drawn in the selection colour
+    w.delete_action.trigger()
+    assert [x["type"] for x in w.document.lights()] == ["quad"] and len(w.viewport.light_actors) == 1
+    assert w.document.selected_item is None and w.document.data.objects  # the object was not touched
+    w.document.undo()
+    assert [x["type"] for x in w.document.lights()] == ["point", "quad"]
+    assert w.document.lights()[0]["position"] == [0.5, 0.5, 3.0]
+
+
+def test_environment_page(fresh, tmp_path):
+    from app.main_window import demo_scene_path
+
+    w = fresh
+    w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
+    w.scene_tree.setCurrentItem(w.scene_tree.item_for("environment"))
+    editor = w.item_editor
+    assert editor.current_page() is editor.environment_page
+    box = editor.environment_kind
+    box.setCurrentIndex(box.findData("constant"))
+    box.activated.emit(box.currentIndex())
+    editor.environment_page.rows["radiance"].spins[0].setValue(0.9)
+    assert w.document.environment() == {"type": "constant", "radiance": [0.9, 0.5, 0.5]}
+    assert w.render_scene().environment.radiance == (0.9, 0.5, 0.5)
+    demo = demo_scene_path()
+    if demo is None:
+        return
+    editor.ask_environment_map = lambda: str(tmp_path / "missing.exr")
+    box.setCurrentIndex(box.findData("map"))
+    box.activated.emit(box.currentIndex())
+    assert "not found" in w.errors[-1] and w.document.environment()["type"] == "constant"
+    assert box.currentData() == "constant"  # the chooser shows the document again
+    w.last_error_box.close()
+    editor.ask_environment_map = lambda: str(demo.parent / "sky.exr")
+    box.setCurrentIndex(box.findData("map"))
+    box.activated.emit(box.currentIndex())
+    editor.environment_page.rows["rotate_deg"].spin.setValue(45.0)
+    env = w.render_scene().environment
+    assert env.type == "map" and env.rotate_deg == 45.0
+    w.document.undo()
+    w.document.undo()
+    assert w.document.environment()["type"] == "constant"
+
+
+def test_deleted_part_stays_deleted_after_save_and_open(fresh, tmp_path):
+    from renderer.world import World
+
+    w = fresh
+    w.import_mesh(write_obj(tmp_path / "pair.obj", {"left": (0, 0, 0), "right": (2, 0, 0)}))
+    w.document.select_object("pair/right")
+    w.delete_action.trigger()
+    w.document.undo()  # undo restores the part ...
+    assert sorted(o.name for o in w.document.data.objects) == ["pair/left", "pair/right"]
+    assert World(w.render_scene()).n_triangles == 24
+    w.document.redo()  # ... and redo deletes it again
+    assert World(w.render_scene()).n_triangles == 12  # the render has one cube
+    project = tmp_path / "pair.json"
+    assert w.save_project_as(project)
+    assert json.loads(project.read_text())["meshes"][0]["exclude_groups"] == ["right"]
+    w.new_project()
+    assert w.open_project(project)
+    assert [o.name for o in w.document.data.objects] == ["pair/left"]
+    assert set(w.viewport.actors) == {"pair/left"}
+    assert World(w.render_scene()).n_triangles == 12
