@@ -397,7 +397,8 @@ class SceneItemEditor(QWidget):
 
     @staticmethod
     def _show_row(page: _Page, row: QWidget, visible: bool) -> None:
-        row.setEnabled(visible)
+        """Rows that do not apply to the environment's type are hidden."""
+        page.form.setRowVisible(row, visible)
 
     # ---- widgets -> document ---------------------------------------------------------------------------
     def _guard(self, fn: Callable[..., Any], *args: Any) -> bool:
