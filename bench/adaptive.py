@@ -8,8 +8,11 @@ against the cosine sampler's in the same run, mean rejection trials, relative st
 sampler, at theta_o = 30 and 60 degrees.
 
     python bench/adaptive.py [--models a,b] [--n-max 2] [--samples 200000] [--out results/bench]
+    python bench/adaptive.py --build-only [--full] [--models a,b] [--n-max 2]
 
-Prints a table; writes ``adaptive.csv`` and ``adaptive.png`` to the output folder.
+Prints a table; writes ``adaptive.csv`` and ``adaptive.png`` to the output folder. ``--build-only`` times the
+construction alone (per tree at theta_o in {0, 30, 60, 80, 89, 88}; ``--full``: every bin of isotropic
+materials) and writes ``adaptive_build.csv``.
 """
 
 from __future__ import annotations
@@ -62,6 +65,68 @@ def throughput(sampler, wo: np.ndarray, seed: int) -> float:
     t = time.perf_counter()
     sampler.sample_each(wo, seed + 1)
     return len(wo) / (time.perf_counter() - t)
+
+
+def build_times(models: list[str] | None, n_max: float, full: bool, out: Path) -> list[dict]:
+    """Construction only (no disk cache): per-tree time, leaves and acceptance at the bins of THETAS (plus
+    88 degrees), and for isotropic models the time to build every bin of the material (``full``).
+    One warm-up build per model first, so that compilation is not counted."""
+    from core.quadtree import BuildOptions, build_tree
+    from core.quadtree_table import QuadtreeTable
+
+    rows = []
+    for model in all_models():
+        if models and model.name not in models:
+            continue
+        brdf = model.bind()
+        opts = BuildOptions(n_max=n_max)
+        table = QuadtreeTable(brdf.model, brdf.params, opts)
+        iso = brdf.model.isotropic
+
+        def one(b: int, brdf=brdf, iso=iso, table=table, opts=opts) -> tuple[float, dict]:
+            t0 = time.perf_counter()
+            a = build_tree(brdf.model, brdf.params, iso, table.bin_range(b), opts)
+            return time.perf_counter() - t0, a
+
+        one(0)  # warm-up: numba compilation of the model's kernels
+        per = {}
+        for t in (*THETAS, 88.0):
+            b = int(table.locate(degrees_to_dir(t, 20.0)[None])[0][0])
+            dt, a = one(b)
+            per[t] = (dt, int((a["child"] < 0).sum()))
+        row = {
+            "model": model.name,
+            "n_max": n_max,
+            "bins_total": table.n_bins,
+            "build_ms_mean_tree": 1e3 * float(np.mean([v[0] for v in per.values()])),
+            "build_ms_max_tree": 1e3 * float(np.max([v[0] for v in per.values()])),
+            "leaves_mean": float(np.mean([v[1] for v in per.values()])),
+        }
+        for t, (dt, nl) in per.items():
+            row[f"build_ms_{t:g}"] = 1e3 * dt
+            row[f"leaves_{t:g}"] = nl
+        if full and iso:
+            t0 = time.perf_counter()
+            for b in range(table.n_bins):
+                one(b)
+            row["build_s_material"] = time.perf_counter() - t0
+        else:
+            row["build_s_material_estimate"] = row["build_ms_mean_tree"] * 1e-3 * table.n_bins
+        rows.append(row)
+        detail = " ".join(f"{t:g}:{1e3 * dt:.0f}ms/{nl}L" for t, (dt, nl) in per.items())
+        mat = (
+            f"material {row['build_s_material']:.2f} s ({table.n_bins} bins)"
+            if "build_s_material" in row
+            else f"material ~{row['build_s_material_estimate']:.0f} s est. ({table.n_bins} bins)"
+        )
+        print(f"{model.name:<16} {detail}  {mat}", flush=True)
+    out.mkdir(parents=True, exist_ok=True)
+    keys = sorted({k for r in rows for k in r})
+    with open(out / "adaptive_build.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    return rows
 
 
 def run(models: list[str] | None, n_maxes: list[float], n: int, out: Path) -> list[dict]:
@@ -189,7 +254,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n-max", type=float, action="append", help="default: 1.3, 2, 3")
     ap.add_argument("--samples", type=int, default=200_000)
     ap.add_argument("--out", default="results/bench")
+    ap.add_argument("--build-only", action="store_true", help="construction times only (adaptive_build.csv)")
+    ap.add_argument(
+        "--full", action="store_true", help="with --build-only: build every bin of isotropic models"
+    )
     a = ap.parse_args(argv)
+    if a.build_only:
+        models = a.models.split(",") if a.models else None
+        for n_max in a.n_max or [2.0]:
+            build_times(models, n_max, a.full, Path(a.out))
+        return 0
     run(a.models.split(",") if a.models else None, a.n_max or [1.3, 2.0, 3.0], a.samples, Path(a.out))
     return 0
 

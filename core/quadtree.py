@@ -25,14 +25,20 @@ so an accepted ``X`` has density ``g / I(wo)`` whatever the leaves are, i.e. ``w
 Only the normalizer ``I(wo)`` enters the pdf, and the luminance weight ``f cos / pdf = I(wo)`` is the same for
 every sample (zero variance).
 
-**Construction** (vectorized over all nodes of a level; ``f`` is evaluated through the model's batch kernel,
-so nothing is compiled per model beyond :func:`core.kernels.eval_batch`). A node at depth >= ``min_depth``
-gets the integral of ``g`` over its part of the disk at the normalizer nodes (Gauss-Legendre on the exact
-region, :func:`region_rule`), and a bound: the largest ``g`` on the quadrature points, a 4 x 4 grid over
-``B_L`` at every ``wo`` sample of the bin, probes at the mirror, retro-reflection and normal directions, then
-a compass search in ``(X, Y, theta_o, phi_o)`` from the best points; ``M = (1 + safety) max``. The node is
-split while the bound is unsure (the search raised it by more than 2 %) or ``V > n_max I_L`` at the bin's
-worst normalizer node with an excess ``V - I_L`` above ``excess_tol I``, until the depth guard.
+**Construction** (vectorized over the nodes being refined; ``f`` is evaluated through the model's batch
+kernel, so nothing is compiled per model beyond :func:`core.kernels.eval_batch`). Per bin, first the *ridge*:
+the peak of ``g`` over the disk at a 3 x 3 grid of ``wo`` of the bin (compass search from the mirror,
+retro-reflection and normal points), its offset from the mirror point, and the lobe's half-width. A node at
+depth >= ``min_depth`` gets the integral of ``g`` over its part of the disk at the normalizer nodes
+(Gauss-Legendre on the exact region, :func:`region_rule`) and a bound on ``g / c``: the largest value on the
+quadrature points, on a 4 x 4 grid over ``B_L`` at every ``wo`` sample of the bin, and at the box's nearest
+points to the ridge points (mirror, peak, retro) of a set of ``wo`` dense enough that the ridge moves by less
+than a third of the lobe's half-width between neighbours; then a compass search in ``(X, Y, theta_o,
+phi_o)`` whose ``wo`` moves drag ``X`` along with the mirror point. ``M = (1 + safety) max``.
+Phase 1, level by level: split while the bound is unsure (the search raised it by more than 2 %) or
+``V > n_max I_L`` at the bin's best normalizer node (with an excess above ``excess_tol I``). Phase 2: while the
+acceptance ``I / (c V)`` at the worst normalizer node is below ``1/n_max`` (plus a margin), split the leaves
+with the largest excess ``V_L - I_L`` there, as long as a round gains at least 3 %.
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from numba import njit
 from core.kernels import eval_batch
 from core.model import LUMINANCE
 
-TABLE_VERSION = 2
+TABLE_VERSION = 3
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
 
 HALF_PI = 0.5 * math.pi
@@ -305,9 +311,10 @@ class BuildOptions:
         excess_tol: float = 1e-4,
         m_theta: int = 6,
         m_phi: int = 5,
-        interp_tol: float = 1e-6,
+        interp_tol: float = 1e-5,
         z_min: float = 1e-6,
         search_iters: int = 12,
+        acc_margin: float = 0.03,
     ):
         if projection not in (*PROJECTIONS, "auto"):
             raise ValueError(f"projection must be 'auto' or one of {PROJECTIONS}")
@@ -325,6 +332,7 @@ class BuildOptions:
         self.interp_tol = float(interp_tol)
         self.z_min = float(z_min)
         self.search_iters = int(search_iters)
+        self.acc_margin = float(acc_margin)
 
     def key_parts(self) -> tuple:
         return tuple(sorted(vars(self).items()))
@@ -344,9 +352,53 @@ def theta_edges(step_deg: float = 1.0, z_min: float = 1e-6) -> np.ndarray:
     return np.asarray(edges)
 
 
+@njit(nogil=True, cache=True)
+def _directions(theta, phi, X, Y, projection):
+    """``wo`` from ``(theta_o, phi_o)``, ``wi`` from the disk point and the factor ``cos(theta_i) J`` of
+    :func:`disk_to_direction` (``projection`` = index into ``PROJECTIONS``), per row, in one pass."""
+    n = theta.shape[0]
+    wo = np.empty((n, 3))
+    wi = np.empty((n, 3))
+    factor = np.zeros(n)
+    for i in range(n):
+        st = math.sin(theta[i])
+        wo[i, 0] = st * math.cos(phi[i])
+        wo[i, 1] = st * math.sin(phi[i])
+        wo[i, 2] = math.cos(theta[i])
+        x = X[i]
+        y = Y[i]
+        r2 = x * x + y * y
+        if not r2 < 1.0:
+            wi[i, 0] = 0.0
+            wi[i, 1] = 0.0
+            wi[i, 2] = 1.0
+            continue
+        if projection == 1:  # orthographic
+            wi[i, 0] = x
+            wi[i, 1] = y
+            wi[i, 2] = math.sqrt(max(0.0, 1.0 - r2))
+            factor[i] = 1.0
+        else:  # equidistant
+            rho = math.sqrt(r2)
+            th = HALF_PI * rho
+            s = math.sin(th)
+            sc = s / rho if rho > 0.0 else HALF_PI
+            ct = math.cos(th)
+            wi[i, 0] = x * sc
+            wi[i, 1] = y * sc
+            wi[i, 2] = ct
+            factor[i] = ct * HALF_PI * sc
+    return wo, wi, factor
+
+
 def _tensor(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ta, tb = np.meshgrid(a, b, indexing="ij")
     return np.ascontiguousarray(np.stack([ta.ravel(), tb.ravel()], axis=1))
+
+
+def _clamp_disk(P: np.ndarray) -> np.ndarray:
+    r = np.sqrt((P * P).sum(axis=1))
+    return P * np.where(r > R_MAX, R_MAX / np.where(r > 0, r, 1.0), 1.0)[:, None]
 
 
 def _clamp_to_box(X, Y, box):
@@ -355,6 +407,103 @@ def _clamp_to_box(X, Y, box):
     r = np.sqrt(X * X + Y * Y)
     s = np.where(r > R_MAX, R_MAX / np.where(r > 0, r, 1.0), 1.0)
     return X * s, Y * s
+
+
+class _NodeStore:
+    """Nodes of one tree under construction, in creation order (children of a node are 4 consecutive
+    rows); :meth:`linearize` writes them in level order."""
+
+    def __init__(self, nw: int):
+        self.n = 0
+        self.cap = 0
+        self.nw = nw
+        self._grow(256)
+
+    def _grow(self, cap: int) -> None:
+        def ext(a, shape, fill, dtype=np.float64):
+            out = np.full(shape, fill, dtype=dtype)
+            if a is not None:
+                out[: self.n] = a[: self.n]
+            return out
+
+        g = getattr
+        self.x0 = ext(g(self, "x0", None), cap, 0.0)
+        self.y0 = ext(g(self, "y0", None), cap, 0.0)
+        self.size = ext(g(self, "size", None), cap, 0.0)
+        self.depth = ext(g(self, "depth", None), cap, 0, np.int64)
+        self.child = ext(g(self, "child", None), cap, -1, np.int64)
+        self.box = ext(g(self, "box", None), (cap, 4), 0.0)
+        self.ok = ext(g(self, "ok", None), cap, False, bool)
+        self.M = ext(g(self, "M", None), cap, 0.0)
+        self.V = ext(g(self, "V", None), cap, 0.0)
+        self.I = ext(g(self, "I", None), (cap, self.nw), 0.0)
+        self.raw_unsure = ext(g(self, "raw_unsure", None), cap, False, bool)
+        self.cap = cap
+
+    def add(self, x0: np.ndarray, y0: np.ndarray, size: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        k = len(x0)
+        if self.n + k > self.cap:
+            self._grow(max(2 * self.cap, self.n + k))
+        rows = np.arange(self.n, self.n + k)
+        self.x0[rows], self.y0[rows], self.size[rows], self.depth[rows] = x0, y0, size, depth
+        boxes, ok = clip_boxes(x0, x0 + size, y0, y0 + size)
+        self.box[rows] = np.where(ok[:, None], boxes, 0.0)
+        self.ok[rows] = ok
+        self.n += k
+        return rows
+
+    def split(self, rows: np.ndarray) -> np.ndarray:
+        """Give each listed node its four children (order (x0,y0), (x0+h,y0), (x0,y0+h), (x0+h,y0+h));
+        the parents' own bound and integrals are dropped. Returns the new rows."""
+        if len(rows) == 0:
+            return rows
+        h = 0.5 * self.size[rows]
+        sx, sy = self.x0[rows], self.y0[rows]
+        nx0 = np.stack([sx, sx + h, sx, sx + h], axis=1).ravel()
+        ny0 = np.stack([sy, sy, sy + h, sy + h], axis=1).ravel()
+        kids = self.add(nx0, ny0, np.repeat(h, 4), np.repeat(self.depth[rows] + 1, 4))
+        self.child[rows] = kids[::4]
+        self.M[rows] = 0.0
+        self.V[rows] = 0.0
+        self.I[rows] = 0.0
+        self.raw_unsure[rows] = False
+        return kids
+
+    def leaves(self) -> np.ndarray:
+        return np.flatnonzero(self.child[: self.n] < 0)
+
+    def linearize(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``child`` (int32; leaves as ``-(index + 1)``), ``vmass``, ``leaf (L, 5)`` rows ``M, x0, y0, x1,
+        y1`` and the leaves' integrals, in level order (children of the r-th internal node at 1 + 4r)."""
+        order = [0]
+        i = 0
+        while i < len(order):  # breadth first
+            c = self.child[order[i]]
+            if c >= 0:
+                order.extend((c, c + 1, c + 2, c + 3))
+            i += 1
+        order = np.asarray(order)
+        pos = np.empty(self.n, dtype=np.int64)
+        pos[order] = np.arange(len(order))
+        child = self.child[order]
+        internal = child >= 0
+        child = np.where(internal, pos[np.maximum(child, 0)], -1)
+        is_leaf = ~internal
+        n_leaves = int(is_leaf.sum())
+        child32 = child.astype(np.int32)
+        child32[is_leaf] = -(np.arange(n_leaves) + 1)
+        rows = order[is_leaf]
+        M = np.where(self.ok[rows], self.M[rows], 0.0)
+        box = self.box[rows]
+        area = (box[:, 2] - box[:, 0]) * (box[:, 3] - box[:, 1])
+        vmass = np.zeros(len(order))
+        vmass[is_leaf] = np.where(self.ok[rows], area * M, 0.0)
+        for k in np.flatnonzero(internal)[::-1]:
+            c = child[k]
+            vmass[k] = vmass[c] + vmass[c + 1] + vmass[c + 2] + vmass[c + 3]
+        leaf = np.column_stack([M, box])
+        leaf[vmass[is_leaf] <= 0.0] = 0.0
+        return child32, vmass, leaf, self.I[rows]
 
 
 class _Builder:
@@ -375,16 +524,20 @@ class _Builder:
         T, P = np.meshgrid(th_i, ph_i, indexing="ij")
         wi = angles_to_wo(T.ravel(), P.ravel())
         rim = T.ravel() > np.radians(89.5)
-        inner = rim_max = 0.0
-        for t, f in wo_ang:
-            wo = np.repeat(angles_to_wo(np.array([t]), np.array([f])), len(wi), axis=0)
-            vals = f_luminance(self.model, self.params, wo, wi)
-            inner = max(inner, float(vals[~rim].max()))
-            rim_max = max(rim_max, float(vals[rim].max()))
-        return rim_max > 2.0 * inner
+        wo = np.repeat(angles_to_wo(wo_ang[:, 0], wo_ang[:, 1]), len(wi), axis=0)
+        vals = f_luminance(self.model, self.params, wo, np.tile(wi, (len(wo_ang), 1))).reshape(
+            len(wo_ang), -1
+        )
+        return float(vals[:, rim].max()) > 2.0 * float(vals[:, ~rim].max())
 
     def g(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        return target(self.model, self.params, angles_to_wo(theta, phi), X, Y, self.proj)
+        """``g(wo(theta, phi), X)`` per row (the directions are made in one compiled pass)."""
+        wo, wi, factor = _directions(
+            np.ascontiguousarray(theta, dtype=np.float64), np.ascontiguousarray(phi, dtype=np.float64),
+            np.ascontiguousarray(X, dtype=np.float64), np.ascontiguousarray(Y, dtype=np.float64),
+            PROJECTIONS.index(self.proj),
+        )  # fmt: skip
+        return f_luminance(self.model, self.params, wo, wi) * factor
 
     def integrals(self, boxes: np.ndarray, wo_ang: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per box and per ``wo``: integral of ``g`` over box-and-disk, and the largest ``g / c`` on the rule
@@ -392,9 +545,12 @@ class _Builder:
         X, Y, W, O = region_rule(np.ascontiguousarray(boxes), self.gx, self.gw)
         nb, nw = len(boxes), len(wo_ang)
         P = len(X)
-        th = np.repeat(wo_ang[:, 0], P)
-        ph = np.repeat(wo_ang[:, 1], P)
-        vals = self.g(th, ph, np.tile(X, nw), np.tile(Y, nw)).reshape(nw, P)
+        # the same disk points for every wo: directions once, then whole rows repeated
+        wi, factor = disk_to_direction(X, Y, self.proj)
+        wo = np.repeat(angles_to_wo(wo_ang[:, 0], wo_ang[:, 1]), P, axis=0)
+        vals = (f_luminance(self.model, self.params, wo, np.tile(wi, (nw, 1))) * np.tile(factor, nw)).reshape(
+            nw, P
+        )
         out = np.zeros((nb, nw))
         vmax = np.zeros(nb)
         inv_c = 1.0 / self.scale(wo_ang[:, 0], wo_ang[:, 1]) if hasattr(self, "c_vals") else np.ones(nw)
@@ -403,113 +559,201 @@ class _Builder:
             np.maximum.at(vmax, O, vals[w] * inv_c[w])
         return out, vmax
 
+    # -- the lobe's ridge: where the peak of g sits for each wo of the bin
+    def ridge_setup(self, wo_all: np.ndarray) -> None:
+        """Find the peak of ``g`` over the disk at a 3 x 3 (3 x 1) grid of ``wo`` of the bin, the lobe's
+        half-width there, and from them the density of the ``wo`` samples along which :meth:`bound` probes
+        each leaf: the ridge (the peak's position as a function of ``wo``) must move by less than a third of
+        the half-width between neighbouring samples, so no leaf can sit between two probes unseen."""
+        tb = np.linspace(self.t_lo, self.t_hi, 3)
+        fb = np.zeros(1) if self.iso else np.linspace(self.f_lo, self.f_hi, 3)
+        grid = _tensor(tb, fb)
+        k = len(grid)
+        mirror = self.mirror(grid[:, 0], grid[:, 1])
+        retro = self.retro(grid[:, 0], grid[:, 1])
+        starts = np.concatenate([mirror, retro, np.zeros_like(mirror)])
+        ang = np.concatenate([grid, grid, grid])
+        pts, vals = self.peak_search(ang, starts)
+        pts, vals = pts.reshape(3, k, 2), vals.reshape(3, k)
+        best = np.argmax(vals, axis=0)
+        peak = pts[best, np.arange(k)]
+        self.peak_offset = (peak - mirror).reshape(len(tb), len(fb), 2)
+        self.tb, self.fb = tb, fb
+        # half-width of the lobe around each peak: the smallest radius where g falls to half its peak
+        radii = np.geomspace(1e-5, 1.0, 48)
+        dirs = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
+        P = peak[:, None, None, :] + radii[None, :, None, None] * dirs[None, None, :, :]  # (k, 48, 8, 2)
+        m = P.shape[1] * P.shape[2]
+        v = self.g(
+            np.repeat(grid[:, 0], m), np.repeat(grid[:, 1], m), P[..., 0].ravel(), P[..., 1].ravel()
+        ).reshape(k, len(radii), len(dirs))
+        top = vals[best, np.arange(k)]
+        below = v < 0.5 * top[:, None, None]
+        first = np.where(below.any(axis=1), np.argmax(below, axis=1), len(radii) - 1)  # (k, 8)
+        width = radii[first].min(axis=1)
+        self.lobe_width = float(width[top > 0.0].min()) if np.any(top > 0.0) else 1.0
+        width = self.lobe_width
+        # ridge speed in disk units per radian of theta_o and phi_o (finite differences of the mirror map)
+        eps = 1e-4
+        tc, fc = 0.5 * (self.t_lo + self.t_hi), (0.0 if self.iso else 0.5 * (self.f_lo + self.f_hi))
+        c0 = self.mirror(np.array([tc]), np.array([fc]))[0]
+        self.j_theta = (self.mirror(np.array([tc + eps]), np.array([fc]))[0] - c0) / eps
+        self.j_phi = (self.mirror(np.array([tc]), np.array([fc + eps]))[0] - c0) / eps
+        spacing = width / 3.0
+        nt = int(np.clip(math.ceil(np.hypot(*self.j_theta) * (self.t_hi - self.t_lo) / spacing) + 1, 3, 96))
+        npf = 1
+        if not self.iso:
+            npf = int(
+                np.clip(math.ceil(np.hypot(*self.j_phi) * (self.f_hi - self.f_lo) / spacing) + 1, 3, 96)
+            )
+            while nt * npf > 1536:  # a cap on the cost; the search below covers the rest
+                nt, npf = max(3, nt - 1), max(3, npf - 1)
+        self.dense = _tensor(
+            np.linspace(self.t_lo, self.t_hi, nt),
+            np.zeros(1) if self.iso else np.linspace(self.f_lo, self.f_hi, npf),
+        )
+        self.step_theta = (self.t_hi - self.t_lo) / max(nt - 1, 1)
+        self.step_phi = (self.f_hi - self.f_lo) / max(npf - 1, 1)
+        d = self.dense
+        self.ridge_pts = np.concatenate(
+            [self.mirror(d[:, 0], d[:, 1]), self.peak(d[:, 0], d[:, 1]), self.retro(d[:, 0], d[:, 1])]
+        )
+        self.ridge_ang = np.concatenate([d, d, d])
+
+    def mirror(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        return direction_to_disk(angles_to_wo(theta, phi + math.pi), self.proj)
+
+    def retro(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        return direction_to_disk(angles_to_wo(theta, phi), self.proj)
+
+    def peak(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """The ridge: mirror point plus the peak's offset from it, interpolated (bilinear) over the bin."""
+        off = self.peak_offset
+        ut = np.clip((theta - self.tb[0]) / max(self.tb[-1] - self.tb[0], 1e-300) * 2.0, 0.0, 2.0)
+        it = np.minimum(ut.astype(np.int64), 1)
+        at = (ut - it)[:, None]
+        if self.iso:
+            o = off[it, 0] * (1 - at) + off[it + 1, 0] * at
+        else:
+            up = np.clip((phi - self.fb[0]) / max(self.fb[-1] - self.fb[0], 1e-300) * 2.0, 0.0, 2.0)
+            ip = np.minimum(up.astype(np.int64), 1)
+            ap = (up - ip)[:, None]
+            o = (off[it, ip] * (1 - at) * (1 - ap) + off[it + 1, ip] * at * (1 - ap)
+                 + off[it, ip + 1] * (1 - at) * ap + off[it + 1, ip + 1] * at * ap)  # fmt: skip
+        p = self.mirror(theta, phi) + o
+        r = np.sqrt((p * p).sum(axis=1))
+        return p * np.where(r > R_MAX, R_MAX / np.where(r > 0, r, 1.0), 1.0)[:, None]
+
+    def peak_search(self, ang: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Compass search for the largest ``g(wo, X)`` over the disk for fixed ``wo`` (rows), from ``start``."""
+        dirs = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [-1, -1]], float)
+        dirs[4:] /= math.sqrt(2.0)
+        cur = _clamp_disk(start)
+        n = len(cur)
+        best = self.g(ang[:, 0], ang[:, 1], cur[:, 0], cur[:, 1])
+        step = np.full(n, 0.05)
+        for _ in range(48):
+            cand = _clamp_disk((cur[:, None, :] + step[:, None, None] * dirs[None]).reshape(-1, 2))
+            v = self.g(np.repeat(ang[:, 0], 8), np.repeat(ang[:, 1], 8), cand[:, 0], cand[:, 1]).reshape(n, 8)
+            j = np.argmax(v, axis=1)
+            vj = v[np.arange(n), j]
+            better = vj > best
+            cur[better] = cand.reshape(n, 8, 2)[better, j[better]]
+            best[better] = vj[better]
+            step[~better] *= 0.5
+            if np.all(step < 1e-6):
+                break
+        return cur, best
+
     def search(self, start: np.ndarray, best: np.ndarray, box: np.ndarray) -> np.ndarray:
-        """Compass search for a larger ``g`` in ``(X, Y, theta_o, phi_o)`` over each box x the bin."""
+        """Compass search for a larger ``g / c`` in ``(X, Y, theta_o, phi_o)`` over each box x the bin.
+
+        Besides the coordinate moves, moves in ``wo`` drag ``X`` along with the mirror point (the ridge of a
+        sharp lobe runs diagonally in these coordinates; plain coordinate moves fall off it)."""
         c = len(start)
         if c == 0:
             return best
         lo = np.column_stack([box[:, 0], box[:, 1], np.full(c, self.t_lo), np.full(c, self.f_lo)])
         hi = np.column_stack([box[:, 2], box[:, 3], np.full(c, self.t_hi), np.full(c, self.f_hi)])
-        step = 0.25 * (hi - lo)
-        dims = [0, 1, 2] if self.iso else [0, 1, 2, 3]
+        sx = 0.25 * (box[:, 2] - box[:, 0])
+        sy = 0.25 * (box[:, 3] - box[:, 1])
+        dirs = [(1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0)]
+        scales = [sx, sy]
+        jt = self.j_theta
+        dirs += [(0.0, 0.0, 1.0, 0.0), (jt[0], jt[1], 1.0, 0.0)]
+        scales += [np.full(c, self.step_theta * 0.5)] * 2
+        if not self.iso:
+            jp = self.j_phi
+            dirs += [(0.0, 0.0, 0.0, 1.0), (jp[0], jp[1], 0.0, 1.0)]
+            scales += [np.full(c, self.step_phi * 0.5)] * 2
+        D = np.array(dirs)  # (m, 4)
+        S = np.stack(scales, axis=1)  # (c, m)
+        m = len(D)
+        moves = np.concatenate([D, -D])  # (2m, 4)
         cur = start.copy()
         best = best.copy()
+        rows = np.arange(c)
         for _ in range(self.opts.search_iters):
-            cand = np.repeat(cur[:, None, :], 2 * len(dims), axis=1)
-            for j, d in enumerate(dims):
-                cand[:, 2 * j, d] -= step[:, d]
-                cand[:, 2 * j + 1, d] += step[:, d]
+            S2 = np.concatenate([S, S], axis=1)  # (c, 2m)
+            cand = cur[:, None, :] + S2[:, :, None] * moves[None, :, :]
             cand = np.clip(cand, lo[:, None, :], hi[:, None, :])
             flat = cand.reshape(-1, 4)
-            bx = np.repeat(box, 2 * len(dims), axis=0)
+            bx = np.repeat(box, 2 * m, axis=0)
             X, Y = _clamp_to_box(flat[:, 0], flat[:, 1], bx)
             flat[:, 0], flat[:, 1] = X, Y
-            vals = self.h(flat[:, 2], flat[:, 3], X, Y).reshape(c, -1)
+            vals = self.h(flat[:, 2], flat[:, 3], X, Y).reshape(c, 2 * m)
             j = np.argmax(vals, axis=1)
-            v = vals[np.arange(c), j]
+            v = vals[rows, j]
             better = v > best
             cur[better] = cand[better, j[better]]
             best[better] = v[better]
-            step[~better] *= 0.5
+            S[~better] *= 0.5
         return best
 
     def bound(self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(max before search, max after search)`` of ``g`` per box over the bin."""
+        """``(max before search, max after search)`` of ``g / c`` per box over the bin.
+
+        Candidates: a 4 x 4 grid over the box at every ``wo`` sample of the bin, and the box's nearest points
+        to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired with that
+        ``wo``); then a compass search from the best two."""
         nb, nw = len(boxes), len(wo_ang)
         t = np.linspace(0.0, 1.0, GRID)
         gxx, gyy = np.meshgrid(t, t, indexing="ij")
         gxx, gyy = gxx.ravel(), gyy.ravel()
         G = len(gxx)
-        # grid points (per box) and probes (per box and wo): mirror, retro-reflection, normal
-        X = boxes[:, 0:1] + (boxes[:, 2:3] - boxes[:, 0:1]) * gxx[None, :]
+        X = boxes[:, 0:1] + (boxes[:, 2:3] - boxes[:, 0:1]) * gxx[None, :]  # (nb, G)
         Y = boxes[:, 1:2] + (boxes[:, 3:4] - boxes[:, 1:2]) * gyy[None, :]
-        X = np.repeat(X[:, None, :], nw, axis=1)  # (nb, nw, G)
-        Y = np.repeat(Y[:, None, :], nw, axis=1)
-        th, ph = wo_ang[:, 0], wo_ang[:, 1]
-        mirror = direction_to_disk(angles_to_wo(th, ph + math.pi), self.proj)
-        retro = direction_to_disk(angles_to_wo(th, ph), self.proj)
-        probes = np.stack([mirror, retro, np.zeros_like(mirror)], axis=1)  # (nw, 3, 2)
-        PX = np.broadcast_to(probes[None, :, :, 0], (nb, nw, 3))
-        PY = np.broadcast_to(probes[None, :, :, 1], (nb, nw, 3))
-        inside = (
-            (PX >= boxes[:, None, None, 0]) & (PX <= boxes[:, None, None, 2])
-            & (PY >= boxes[:, None, None, 1]) & (PY <= boxes[:, None, None, 3])
-        )  # fmt: skip
-        PX = np.where(inside, PX, X[:, :, :1])
-        PY = np.where(inside, PY, Y[:, :, :1])
-        AX = np.concatenate([X, PX], axis=2).reshape(nb, -1)
-        AY = np.concatenate([Y, PY], axis=2).reshape(nb, -1)
-        bxr = np.repeat(boxes, AX.shape[1], axis=0)
+        X = np.repeat(X[:, None, :], nw, axis=1).reshape(nb, -1)  # (nb, nw*G)
+        Y = np.repeat(Y[:, None, :], nw, axis=1).reshape(nb, -1)
+        TH = np.broadcast_to(np.repeat(wo_ang[:, 0], G)[None, :], X.shape)
+        PH = np.broadcast_to(np.repeat(wo_ang[:, 1], G)[None, :], X.shape)
+        # ridge points of the dense wo set, clamped into each box
+        R = len(self.ridge_pts)
+        RX = np.broadcast_to(self.ridge_pts[None, :, 0], (nb, R))
+        RY = np.broadcast_to(self.ridge_pts[None, :, 1], (nb, R))
+        RT = np.broadcast_to(self.ridge_ang[None, :, 0], (nb, R))
+        RP = np.broadcast_to(self.ridge_ang[None, :, 1], (nb, R))
+        AX = np.concatenate([X, RX], axis=1)
+        AY = np.concatenate([Y, RY], axis=1)
+        AT = np.ascontiguousarray(np.concatenate([TH, RT], axis=1))
+        AP = np.ascontiguousarray(np.concatenate([PH, RP], axis=1))
+        K = AX.shape[1]
+        bxr = np.repeat(boxes, K, axis=0)
         AXf, AYf = _clamp_to_box(AX.ravel(), AY.ravel(), bxr)
-        K = G + 3
-        TH = np.broadcast_to(np.repeat(th, K)[None, :], (nb, nw * K)).ravel()
-        PH = np.broadcast_to(np.repeat(ph, K)[None, :], (nb, nw * K)).ravel()
-        vals = self.h(TH, PH, AXf, AYf).reshape(nb, nw * K)
-        order = np.argsort(-vals, axis=1)
+        vals = self.h(AT.ravel(), AP.ravel(), AXf, AYf).reshape(nb, K)
+        AXf, AYf = AXf.reshape(nb, K), AYf.reshape(nb, K)
         rows = np.arange(nb)
-        before = np.maximum(vals[rows, order[:, 0]], qmax)
-        # mirror and retro-reflection probes over a dense grid of the bin: the peak of a sharp lobe sits at
-        # the mirror point of some wo of the bin, not necessarily of a sampled one
-        dense = _tensor(
-            np.linspace(self.t_lo, self.t_hi, 9),
-            np.zeros(1) if self.iso else np.linspace(self.f_lo, self.f_hi, 9),
-        )
-        pts = np.concatenate(
-            [direction_to_disk(angles_to_wo(dense[:, 0], dense[:, 1] + math.pi), self.proj),
-             direction_to_disk(angles_to_wo(dense[:, 0], dense[:, 1]), self.proj)]
-        )  # fmt: skip
-        pang = np.concatenate([dense, dense])
-        inside = (
-            (pts[None, :, 0] >= boxes[:, 0:1]) & (pts[None, :, 0] <= boxes[:, 2:3])
-            & (pts[None, :, 1] >= boxes[:, 1:2]) & (pts[None, :, 1] <= boxes[:, 3:4])
-        )  # fmt: skip
-        bi, pi = np.nonzero(inside)
-        dense_start = None
-        if len(bi):
-            qx, qy = _clamp_to_box(pts[pi, 0], pts[pi, 1], boxes[bi])
-            dv = self.h(pang[pi, 0], pang[pi, 1], qx, qy)
-            dmax = np.full(nb, -1.0)
-            np.maximum.at(dmax, bi, dv)
-            hit = dv >= dmax[bi]
-            dense_start = (
-                bi[hit],
-                np.column_stack([qx[hit], qy[hit], pang[pi[hit], 0], pang[pi[hit], 1]]),
-                dv[hit],
-            )
-            before = np.maximum(before, dmax)
+        i1 = np.argmax(vals, axis=1)
+        before = np.maximum(vals[rows, i1], qmax)
         best = before.copy()
-        if dense_start is not None:
-            b_idx, start, v0 = dense_start
-            b_idx, first = np.unique(b_idx, return_index=True)
-            found = self.search(start[first], v0[first], boxes[b_idx])
-            best[b_idx] = np.maximum(best[b_idx], found)
-        for rank in (0, 1):
-            idx = order[:, rank]
-            start = np.column_stack(
-                [AXf.reshape(nb, -1)[rows, idx], AYf.reshape(nb, -1)[rows, idx],
-                 TH.reshape(nb, -1)[rows, idx], PH.reshape(nb, -1)[rows, idx]]
-            )  # fmt: skip
-            best = np.maximum(best, self.search(start, vals[rows, idx], boxes))
+        v2 = vals.copy()
+        v2[rows, i1] = -np.inf
+        i2 = np.argmax(v2, axis=1)
+        idx = np.concatenate([i1, i2])
+        r2 = np.concatenate([rows, rows])
+        start = np.column_stack([AXf[r2, idx], AYf[r2, idx], AT[r2, idx], AP[r2, idx]])
+        found = self.search(start, vals[r2, idx], np.concatenate([boxes, boxes]))  # both searches at once
+        best = np.maximum(best, np.maximum(found[:nb], found[nb:]))
         return before, best
 
     def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:
@@ -524,13 +768,10 @@ class _Builder:
         WR = np.repeat(wr, nphi) * R.ravel() * (TWO_PI / nphi)
         X = (R * np.cos(P)).ravel()
         Y = (R * np.sin(P)).ravel()
-        est = np.zeros(len(wo_ang))
-        g_max = 0.0
-        for k, (t, f) in enumerate(wo_ang):
-            vals = self.g(np.full(len(X), t), np.full(len(X), f), X, Y)
-            est[k] = float(vals @ WR)
-            g_max = max(g_max, float(vals.max()))
-        return est, g_max
+        nw, P = len(wo_ang), len(X)
+        vals = self.g(np.repeat(wo_ang[:, 0], P), np.repeat(wo_ang[:, 1], P), np.tile(X, nw), np.tile(Y, nw))
+        vals = vals.reshape(nw, P)
+        return vals @ WR, float(vals.max())
 
     def scale(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """The per-``wo`` scale ``c(wo)`` (see :meth:`QuadtreeTable.scales`)."""
@@ -559,6 +800,7 @@ class _Builder:
         if self.proj == "auto":
             self.proj = "equidistant" if self.grows_at_rim(wo_all) else "orthographic"
         est, g_max = self.polar_estimate(wo_norm)
+        self.ridge_setup(wo_all)
         # c(wo): the Chebyshev interpolant of the estimates, floored; bounds hold for g / c (exactness needs
         # only that sampling uses the same c; the closer c is to I, the less the bound varies over the bin)
         top = float(est.max())
@@ -568,82 +810,102 @@ class _Builder:
         c_norm = self.scale(wo_norm[:, 0], wo_norm[:, 1])
         i_ref = float(np.min(est / c_norm)) if top > 0.0 else 1.0
         floor = 1e-9 * g_max / float(c_norm.min()) if g_max > 0.0 else 1e-300
+        nw = len(wo_norm)
 
-        # node table, grown level by level; children of a node are consecutive rows
-        x0 = [np.array([-1.0])]
-        y0 = [np.array([-1.0])]
-        size = [np.array([2.0])]
-        child_l: list[np.ndarray] = []
-        M_l: list[np.ndarray] = []
-        box_l: list[np.ndarray] = []
-        I_l: list[np.ndarray] = []
-        count = 0  # row of the first node of the current level
+        # the node store: rows in creation order; children of a node are 4 consecutive rows
+        store = _NodeStore(nw)
+        store.add(np.array([-1.0]), np.array([-1.0]), np.array([2.0]), np.array([0]))
+
+        def evaluate(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """Integrals and bounds of the listed nodes; returns (unsure, V / (I at the best node))."""
+            boxes, ok = store.box[rows], store.ok[rows]
+            unsure = np.zeros(len(rows), dtype=bool)
+            ratio = np.zeros(len(rows))
+            ev = np.flatnonzero(ok)
+            if len(ev):
+                b = boxes[ev]
+                Ie, qmax = self.integrals(b, wo_norm)
+                before, after = self.bound(b, wo_all, qmax)
+                un = after > 1.02 * before
+                Me = np.maximum((1.0 + o.safety) * after, floor)
+                area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+                store.M[rows[ev]] = Me
+                store.I[rows[ev]] = Ie / c_norm[None, :]
+                store.V[rows[ev]] = area * Me
+                store.raw_unsure[rows[ev]] = un
+                unsure[ev] = un
+            return unsure, ratio
+
+        # phase 1, level by level: split where the bound is unsure, or where the envelope is loose even for the
+        # best wo of the bin (a lobe that moves across the bin by more than its width cannot be fitted by
+        # smaller leaves at every wo: phase 2 handles the acceptance over the whole bin)
+        level = np.array([0])
         depth = 0
-        lx0, ly0, lsize = x0[0], y0[0], size[0]
-        while len(lx0):
-            n = len(lx0)
-            boxes, ok = clip_boxes(lx0, lx0 + lsize, ly0, ly0 + lsize)
-            M = np.zeros(n)
-            I = np.zeros((n, len(wo_norm)))
-            split = np.zeros(n, dtype=bool)
+        while len(level):
             if depth < o.min_depth:
-                split = ok.copy()
+                split = store.ok[level].copy()
             else:
-                ev = np.flatnonzero(ok)
-                if len(ev):
-                    b = boxes[ev]
-                    Ie, qmax = self.integrals(b, wo_norm)
-                    before, after = self.bound(b, wo_all, qmax)
-                    unsure = after > 1.02 * before
-                    Me = np.maximum((1.0 + o.safety) * after, floor)
-                    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-                    V = area * Me
-                    # refine where it helps: the envelope is loose even for the best wo of the bin (a lobe
-                    # that moves across the bin by more than its width cannot be fitted by smaller leaves)
-                    i_best = (Ie / c_norm[None, :]).max(axis=1)
-                    wasteful = (V > o.n_max * i_best) & (V - i_best > o.excess_tol * i_ref)
-                    sp = (unsure | wasteful) & (depth < o.max_depth)
-                    budget = (o.max_nodes - count - 4 * n) // 4
-                    if sp.sum() > max(budget, 0):
-                        sp[np.flatnonzero(sp)[max(budget, 0) :]] = False
-                    Me = np.where(unsure & ~sp, 2.0 * Me, Me)  # still unsure at the guard: a wider margin
-                    M[ev] = Me
-                    I[ev] = Ie
-                    split[ev] = sp
-            ch = np.full(n, -1, dtype=np.int64)
-            ns = int(split.sum())
-            ch[split] = count + n + 4 * np.arange(ns)  # rows of the next level start after this one
-            child_l.append(ch)
-            M_l.append(np.where(ok & ~split, M, 0.0))
-            box_l.append(np.where(ok[:, None], boxes, 0.0))
-            I_l.append(np.where((ok & ~split)[:, None], I, 0.0))
-            # next level
-            h = 0.5 * lsize[split]
-            sx, sy = lx0[split], ly0[split]
-            nx0 = np.stack([sx, sx + h, sx, sx + h], axis=1).ravel()
-            ny0 = np.stack([sy, sy, sy + h, sy + h], axis=1).ravel()
-            count += n
-            lx0, ly0, lsize = nx0, ny0, np.repeat(h, 4)
+                unsure, _ = evaluate(level)
+                V = store.V[level]
+                i_best = store.I[level].max(axis=1)
+                wasteful = (V > o.n_max * i_best) & (V - i_best > o.excess_tol * i_ref)
+                split = store.ok[level] & (unsure | wasteful) & (depth < o.max_depth)
+                budget = max((o.max_nodes - store.n) // 4, 0)
+                if split.sum() > budget:
+                    split[np.flatnonzero(split)[budget:]] = False
+            level = store.split(level[split])
             depth += 1
-        child = np.concatenate(child_l)
-        M = np.concatenate(M_l)
-        boxes = np.concatenate(box_l)
-        Iall = np.concatenate(I_l)
-        # level order: a node's children sit in the next level, in the order of their parents
-        area = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
-        vmass = np.where(child < 0, area * M, 0.0)
-        for k in np.flatnonzero(child >= 0)[::-1]:
-            c = child[k]
-            vmass[k] = vmass[c] + vmass[c + 1] + vmass[c + 2] + vmass[c + 3]
-        is_leaf = child < 0
-        leaf_rows = np.flatnonzero(is_leaf)
-        child32 = child.astype(np.int32)
-        child32[leaf_rows] = -(np.arange(len(leaf_rows)) + 1)
-        leaf = np.column_stack([M[leaf_rows], boxes[leaf_rows]])
-        empty = vmass[leaf_rows] <= 0.0
-        leaf[empty] = 0.0
+
+        def widen_unsure() -> None:
+            """Leaves whose bound is still unsure (depth guard, node budget): a 2x margin."""
+            leaves = store.leaves()
+            un = leaves[store.raw_unsure[leaves]]
+            store.M[un] *= 2.0
+            store.V[un] *= 2.0
+            store.raw_unsure[un] = False
+
+        widen_unsure()
+        # phase 2: the acceptance I(wo) / (c V) must reach 1/n_max at every normalizer node; split greedily
+        # the leaves with the largest excess V_L - I_L(wo)/c at the worst node, while that helps
+        # (a lobe that moves across the bin by more than its width cannot reach it: stop when a round gains
+        # less than 3 %, or when phase 2 has added half as many leaves as phase 1 made)
+        target_acc = 1.0 / o.n_max
+        last = -1.0
+        leaf_cap = int(1.5 * len(store.leaves())) + 64
+        for _ in range(40):
+            leaves = store.leaves()
+            live = leaves[store.ok[leaves]]
+            tot_V = float(store.V[live].sum())
+            tot_I = store.I[live].sum(axis=0)
+            if tot_V <= 0.0:
+                break
+            acc = tot_I / tot_V
+            w = int(np.argmin(acc))
+            if (
+                acc[w] >= target_acc * (1.0 + o.acc_margin)
+                or acc[w] <= last * 1.03
+                or len(leaves) >= leaf_cap
+            ):
+                break
+            last = float(acc[w])
+            excess = store.V[live] - store.I[live, w]
+            excess[store.depth[live] >= o.max_depth] = 0.0
+            order = np.argsort(-excess)
+            need = tot_V - tot_I[w] / (target_acc * (1.0 + o.acc_margin))  # V to remove
+            cum = np.cumsum(excess[order])
+            k = int(np.searchsorted(cum, 2.0 * need)) + 1
+            pick = order[: max(1, min(k, len(order)))]
+            pick = pick[excess[pick] > 0.0]
+            budget = max(min((o.max_nodes - store.n) // 4, (leaf_cap - len(leaves) + 2) // 3), 0)
+            pick = pick[:budget]
+            if len(pick) == 0:
+                break
+            evaluate(store.split(live[pick]))
+            widen_unsure()  # phase 2 does not chase unsure bounds
+
+        child32, vmass, leaf, Iall = store.linearize()
         leaf_boxes = np.ascontiguousarray(leaf[:, 1:])
-        norm = Iall[leaf_rows].sum(axis=0)
+        norm = Iall.sum(axis=0) * c_norm
         norm, mt, mp, err = self.normalizer_table(leaf_boxes, norm, mt, mp)
         return {
             "child": child32,
@@ -660,34 +922,55 @@ class _Builder:
         }
 
     def normalizer_table(self, leaf_boxes: np.ndarray, norm: np.ndarray, mt: int, mp: int):
-        """Check the Chebyshev interpolation of ``I(wo)`` half-way between the nodes and refine the node set
-        until the relative error is below ``interp_tol`` (or 48 nodes)."""
+        """Check the Chebyshev interpolation of ``I(wo)`` and refine the node set until the relative error
+        is below ``interp_tol``.
+
+        Isotropic bins triple the nodes (6, 18, 54): the first-kind Chebyshev points of ``m`` are among
+        those of ``3m``, so every value is reused, and the ``2m`` new values measure the error of the
+        ``m``-point interpolant. The coarsest passing set is stored; if none passes below 54 nodes, the 54
+        are stored and the error of the 18-point interpolant is reported (an upper bound in practice).
+        Anisotropic bins check half-way between the nodes and double them (up to 48 x 20)."""
         t_lo, t_hi, f_lo, f_hi = self.t_lo, self.t_hi, self.f_lo, self.f_hi
+
+        def interp(vals: np.ndarray, m_t: int, m_p: int, pts: np.ndarray) -> np.ndarray:
+            meta = np.array([[0.0, m_t, m_p, t_lo, t_hi, f_lo, f_hi]])
+            return normalizer_values(meta, vals, np.zeros(len(pts), dtype=np.int64), pts[:, 0], pts[:, 1])
+
+        def rel(approx: np.ndarray, truth: np.ndarray) -> float:
+            scale = max(float(np.max(np.abs(truth))), 1e-300)
+            return float(np.max(np.abs(approx - truth)) / scale)
+
+        if self.iso:
+            err = math.inf
+            while True:
+                fine = chebyshev_points(t_lo, t_hi, 3 * mt)
+                old = np.arange(3 * mt) % 3 == 1  # the m coarse points sit at every third fine point
+                pts = _tensor(fine[~old], np.zeros(1))
+                new_vals = self.integrals(leaf_boxes, pts)[0].sum(axis=0)
+                err = rel(interp(norm, mt, 1, pts), new_vals)
+                vals = np.empty(3 * mt)
+                vals[old] = norm
+                vals[~old] = new_vals
+                if err <= self.opts.interp_tol:
+                    return norm, mt, mp, err
+                norm, mt = vals, 3 * mt
+                if mt >= 54:
+                    return norm, mt, mp, err
 
         def error(mt: int, mp: int, vals: np.ndarray) -> float:
             xt = np.cos(np.arange(1, mt) * np.pi / mt)
             tt = 0.5 * (t_lo + t_hi) + 0.5 * (t_hi - t_lo) * xt
-            if self.iso:
-                pts = _tensor(tt, np.zeros(1))
-            else:
-                xp = np.cos(np.arange(1, mp) * np.pi / mp)
-                ff = 0.5 * (f_lo + f_hi) + 0.5 * (f_hi - f_lo) * xp
-                pts = _tensor(tt[[0, len(tt) // 2, -1]], ff[[0, len(ff) // 2, -1]])
+            xp = np.cos(np.arange(1, mp) * np.pi / mp)
+            ff = 0.5 * (f_lo + f_hi) + 0.5 * (f_hi - f_lo) * xp
+            pts = _tensor(tt[[0, len(tt) // 2, -1]], ff[[0, len(ff) // 2, -1]])
             truth = self.integrals(leaf_boxes, pts)[0].sum(axis=0)
-            meta = np.array([[0.0, mt, mp, t_lo, t_hi, f_lo, f_hi]])
-            approx = normalizer_values(meta, vals, np.zeros(len(pts), dtype=np.int64), pts[:, 0], pts[:, 1])
-            scale = max(float(np.max(np.abs(truth))), 1e-300)
-            return float(np.max(np.abs(approx - truth)) / scale)
+            return rel(interp(vals, mt, mp, pts), truth)
 
         err = error(mt, mp, norm)
         while err > self.opts.interp_tol and mt < 48:
             mt *= 2
-            if not self.iso:
-                mp = min(2 * mp, 20)
-            nodes = _tensor(
-                chebyshev_points(t_lo, t_hi, mt),
-                np.zeros(1) if self.iso else chebyshev_points(f_lo, f_hi, mp),
-            )
+            mp = min(2 * mp, 20)
+            nodes = _tensor(chebyshev_points(t_lo, t_hi, mt), chebyshev_points(f_lo, f_hi, mp))
             norm = self.integrals(leaf_boxes, nodes)[0].sum(axis=0)
             err = error(mt, mp, norm)
         return norm, mt, mp, err

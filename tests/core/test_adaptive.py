@@ -96,14 +96,13 @@ def test_pdf_integrates_to_one(name):
         assert abs(total - 1.0) < 1e-3, f"{name} theta={theta}: integral {total}"
 
 
-FAST_MODELS = [m for m in MODELS if m.name in ("lambert", "phong", "minnaert", "cook_torrance")]
+FAST_MODELS = [m for m in MODELS if m.name in ("lambert", "phong", "minnaert", "cook_torrance", "lafortune")]
 
 
 def _acceptance_floor(model, n_max):
-    """1/n_max for isotropic models. Anisotropic ones share a tree over a (theta_o, phi_o) bin of 1 x 5
-    degrees: a lobe that moves across the bin by more than its width cannot be enveloped that tightly for
-    every wo (docs/adaptive.md, section 3); measured >= 0.85/n_max at the defaults, asserted >= 0.8/n_max."""
-    return 1.0 / n_max if model.isotropic else 0.8 / n_max
+    """1/n_max for every model: the construction refines until the acceptance reaches it at every
+    normalizer node of the bin (tests/core/test_adaptive_build.py checks it over the whole bin)."""
+    return 1.0 / n_max
 
 
 @pytest.mark.parametrize("model", FAST_MODELS, ids=[m.name for m in FAST_MODELS])
@@ -208,18 +207,6 @@ def test_hard_cases_stay_finite(name, params, theta):
         np.testing.assert_allclose(pdf, wi[:, 2] / math.pi)
     else:
         assert np.std(w) / np.mean(w) < 1e-9
-    if name != "ward":
-        assert sampler.bound_violations == 0
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason="known gap: Ward with alpha = 0.005 (a lobe ~0.3 degrees wide) moving across a 5-degree phi_o bin; "
-    "the bound search misses part of the peak (37 violations in 20000 samples at 60 degrees): see docs/adaptive.md",
-)
-def test_very_sharp_anisotropic_lobe_has_no_bound_violation():
-    sampler = _adaptive("ward", params={"sx": 0.005, "sy": 0.005})
-    sampler.sample(degrees_to_dir(60.0, 12.0), 20_000, seed=2)
     assert sampler.bound_violations == 0
 
 
