@@ -237,7 +237,7 @@ def test_light_edit_reaches_the_saved_file_and_the_render(fresh, tmp_path):
     assert saved["camera"]["fov_deg"] == pytest.approx(50.0)
 
 
-def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, tmp_path):
+def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, tmp_path, qtbot):
     w = fresh
     w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
     w.scene_tree.setCurrentItem(w.scene_tree.item_for("camera"))
@@ -261,6 +261,19 @@ def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, t
     assert w.document.undo_text() == "Move camera"
     assert w.document.camera()["position"] == pytest.approx(list(cam.position))
     assert page.rows["position"].value() == pytest.approx(tuple(cam.position), abs=1e-3)
+    # the same through the interactor: a left drag (press, the style moves the camera, release) is recorded
+    iren = w.viewport.plotter.iren.interactor
+    w.document.end_merge()  # its own undo step (not merged with the move above, however fast the machine)
+    iren.SetEventPosition(100, 100)
+    w.viewport._on_press(iren, "LeftButtonPressEvent")
+    cam.Elevation(10.0)
+    iren.SetEventPosition(130, 110)
+    w.viewport._on_release(iren, "LeftButtonReleaseEvent")
+    qtbot.waitUntil(
+        lambda: w.document.camera()["position"] == pytest.approx(list(cam.position)), timeout=5000
+    )
+    assert w.document.undo_text() == "Move camera"
+    w.document.undo()
     w.document.undo()
     assert w.viewport.plotter.camera.position == pytest.approx(
         (before["position"][0], before["position"][1], 9.0)
