@@ -20,6 +20,7 @@ app's end of its command pipe closes, so it never outlives the app, even one tha
 from __future__ import annotations
 
 import multiprocessing
+import queue
 import signal
 import threading
 from collections import deque
@@ -46,22 +47,32 @@ class _Handle:
         child_commands.close()
         child_events.close()
         self.stopping = False  # an exit we asked for (quit or restart) is not a crash
+        # Commands go through a writer thread: a job with a large reference image does not fit the pipe's
+        # buffer, and the GUI thread must not wait for the process to read it.
+        self._outbox: queue.Queue[tuple[Any, ...] | None] = queue.Queue()
+        threading.Thread(target=self._write, name="render-commands", daemon=True).start()
 
     @property
     def pid(self) -> int | None:
         return self.process.pid
 
-    def send(self, message: tuple[Any, ...]) -> bool:
-        try:
-            self.commands.send(message)
-            return True
-        except (BrokenPipeError, EOFError, OSError):
-            return False
+    def send(self, message: tuple[Any, ...]) -> None:
+        """Queue a command (returns at once; lost if the process has died, which the reader reports)."""
+        self._outbox.put(message)
+
+    def _write(self) -> None:  # runs in the writer thread, which owns the command pipe
+        while (message := self._outbox.get()) is not None:
+            try:
+                self.commands.send(message)
+            except (BrokenPipeError, EOFError, OSError):
+                break
+        self.commands.close()
 
     def end(self, timeout_s: float) -> None:
         """Ask the process to quit, then terminate and kill it if it does not."""
         self.stopping = True
         self.send(("quit",))
+        self._outbox.put(None)
         self.process.join(timeout_s)
         if self.process.is_alive():
             self.process.terminate()
@@ -69,14 +80,13 @@ class _Handle:
         if self.process.is_alive():
             self.process.kill()
             self.process.join(timeout_s)
-        self.commands.close()
 
     def kill(self) -> None:
         """End the process now (its reader thread reaps it)."""
         self.stopping = True
         if self.process.is_alive():
             self.process.kill()
-        self.commands.close()
+        self._outbox.put(None)
 
 
 def exit_text(code: int | None) -> str:
@@ -193,9 +203,8 @@ class RenderServer(QObject):
         self._jobs[job_id] = job
         self.ensure_started()
         assert self._handle is not None
-        if not self._handle.send(("start", job)):
-            self._replace()
-        elif older:
+        self._handle.send(("start", job))
+        if older:
             QTimer.singleShot(self.grace_ms, lambda older=older: self._check_stopped(older))
         return job_id
 

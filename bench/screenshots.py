@@ -1,10 +1,11 @@
 """Save a screenshot of every panel of the desktop app to docs/screenshots/ (PNG).
 
-    .venv/bin/python bench/screenshots.py [--out docs/screenshots]
+    .venv/bin/python bench/screenshots.py [--out docs/screenshots] [--only render,scene,...]
 
 Opens the app on the bundled demo scene (under Xvfb when there is no display), drives it to a meaningful
-state (a glossy material at 45 degrees, the sampler view, a short side-by-side render) and grabs each panel
-from the screen, so the OpenGL views are captured too.
+state (a glossy material at 45 degrees, the sampler view, a short side-by-side render of the demo scene:
+uniform against adaptive sampling at equal samples per pixel) and grabs each panel from the screen, so the
+OpenGL views are captured too.
 """
 
 from __future__ import annotations
@@ -20,14 +21,25 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _display import ensure_display  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+EXPLORE_SHOTS = (
+    "window", "explore", "lobe", "polar", "albedo", "lit_sphere", "direction", "material_editor", "scene_tree",
+)  # fmt: skip
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "screenshots")
     parser.add_argument("--material", default="polished copper")
-    parser.add_argument("--render-b", default="analytic", help="the render panel's second strategy")
+    parser.add_argument("--render-a", default="uniform", help="the render panel's first strategy")
+    parser.add_argument("--render-b", default="adaptive", help="the render panel's second strategy")
+    parser.add_argument("--render-spp", type=int, default=4, help="samples per pixel of each render")
+    parser.add_argument("--render-size", default="288x192", help="render size, WIDTHxHEIGHT")
+    parser.add_argument(
+        "--only", default="", help="comma-separated screenshot names to write (default: all of them)"
+    )
     args = parser.parse_args()
+    only = {name.strip() for name in args.only.split(",") if name.strip()}
+    width, height = (int(v) for v in args.render_size.lower().split("x"))
     ensure_display()
     os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-shots-"))
 
@@ -54,6 +66,8 @@ def main() -> int:
         app.processEvents()
 
     def grab(widget: QWidget, name: str) -> None:
+        if only and name not in only:
+            return
         top_left = widget.mapToGlobal(widget.rect().topLeft())
         rect = QRect(top_left, widget.size())
         pixmap = widget.screen().grabWindow(0, rect.x(), rect.y(), rect.width(), rect.height())
@@ -64,12 +78,16 @@ def main() -> int:
             f"wrote {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path} ({rect.width()}x{rect.height()})"
         )
 
+    def wanted(*names: str) -> bool:
+        return not only or bool(only & set(names))
+
     if args.material in doc.material_names():
         doc.select_material(args.material)
     doc.set_direction(45.0, 0.0)
     window.refresh_now()
-    window.flush_slow_jobs()
-    settle(1.0, until=lambda: window.jobs_idle("albedo", "adaptive"))
+    if wanted(*EXPLORE_SHOTS, "sampling"):
+        window.flush_slow_jobs()
+        settle(1.0, until=lambda: window.jobs_idle("albedo", "adaptive"))
     window.tabs.setCurrentWidget(window.explore)
     settle(0.5)
     grab(window, "window")
@@ -82,9 +100,10 @@ def main() -> int:
     grab(window.material_dock, "material_editor")
     grab(window.tree_dock, "scene_tree")
 
-    window.tabs.setCurrentWidget(window.sampling_panel)
-    settle(0.5, until=lambda: window.jobs_idle("sampling") and window.sampling_view.snapshot is not None)
-    grab(window.sampling_panel, "sampling")
+    if wanted("sampling"):
+        window.tabs.setCurrentWidget(window.sampling_panel)
+        settle(0.5, until=lambda: window.jobs_idle("sampling") and window.sampling_view.snapshot is not None)
+        grab(window.sampling_panel, "sampling")
 
     window.tabs.setCurrentWidget(window.scene_panel)
     objects = [o.name for o in doc.data.objects]
@@ -93,27 +112,26 @@ def main() -> int:
     settle(0.5)
     grab(window.scene_panel, "scene")
 
-    if hasattr(window, "render_view"):
-        # The render panel on a small scene of models with analytic samplers: the demo scene's measured and
-        # anisotropic materials need adaptive tables built first (minutes on a loaded 2-core machine).
-        demo_dir = demo_scene_path().parent
-        window.new_project()
-        doc.add_material("lambert", name="floor", params={"kd": 0.6})
-        window.import_mesh(demo_dir / "floor.obj")
-        doc.add_material("phong", name="glossy")
-        window.import_mesh(demo_dir / "torus.obj")
+    if hasattr(window, "render_view") and wanted("render"):
+        # The demo scene as saved (its camera, all its materials), each strategy to the same few spp. The
+        # adaptive sampler's tables come from the table cache when an earlier run built them; the first run
+        # builds them in the render process (a minute or more on a loaded 2-core machine).
+        window.open_project(demo_scene_path(), confirm=False, remember=False)
         window.tabs.setCurrentWidget(window.scene_panel)
-        settle(0.3)
-        cam = window.viewport.plotter.camera
-        cam.position, cam.focal_point, cam.up = (0.0, 1.6, 4.5), (0.0, 0.3, 0.0), (0.0, 1.0, 0.0)
+        settle(0.5)
         panel = window.render_view
-        panel.width_box.setValue(240)
-        panel.height_box.setValue(160)
-        panel.spp.setValue(8)
-        panel.strategy_a.setCurrentText("uniform")
+        panel.width_box.setValue(width)
+        panel.height_box.setValue(height)
+        panel.mode.setCurrentIndex(panel.mode.findData("spp"))
+        panel.spp.setValue(args.render_spp)
+        panel.strategy_a.setCurrentText(args.render_a)
         panel.strategy_b.setCurrentText(args.render_b)
+        t0 = time.monotonic()
         window.start_render()
-        settle(0.5, until=lambda: not panel.running, timeout=600)
+        settle(0.5, until=lambda: not panel.running, timeout=900)
+        print(f"render: {panel.status_text} ({time.monotonic() - t0:.0f} s with preparation)")
+        if window.errors:
+            print("errors: " + "; ".join(window.errors))
         grab(window.render_panel, "render")
     window.close()
     from app.workers import exit_if_abandoned
