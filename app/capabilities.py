@@ -115,7 +115,7 @@ def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: f
     # the mass in the units of f, so that V = I / acceptance.
     true_mass = integral / acceptance if acceptance > 0 else tree.total_mass
     unit = true_mass / tree.total_mass if tree.total_mass > 0 else 1.0
-    leaves = np.array(tree.leaf, dtype=np.float64)[:, :5]
+    leaves = np.array(tree.leaf_rows(), dtype=np.float64)[:, :5]
     leaves[:, 0] *= unit
     return {
         "leaves": leaves,

@@ -1,176 +1,96 @@
-"""The adaptive sampler's tables: the trees of one BRDF (:class:`QuadtreeTable`), exact rejection sampling
-and the pdf. The construction of one tree and the disk projections live in :mod:`core.quadtree`; the
-sampling proof is in its docstring and in ``docs/adaptive.md``.
+"""The adaptive sampler's tables: the trees of one BRDF (:class:`QuadtreeTable`) in compact form, and the
+entry points of exact rejection sampling and the pdf (fused numba kernels, :mod:`core.quadtree_kernels`).
+The construction of one tree and the disk projections live in :mod:`core.quadtree`; the sampling proof is in
+its docstring and in ``docs/adaptive.md``.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 from numba import njit
 
-from core.quadtree import (
-    INV_PI,
-    PROJECTIONS,
-    TABLE_VERSION,
-    TWO_PI,
-    BuildOptions,
-    build_tree,
-    disk_to_direction,
-    f_luminance,
-    normalizer_values,
-    target,
-    theta_edges,
+from core.errors import BrdfStudioError
+from core.quadtree import TABLE_VERSION, TWO_PI, BuildOptions, build_tree, theta_edges
+from core.quadtree_kernels import (
+    bins_present,
+    chebyshev_coefficients,
+    locate_rows,
+    model_kernels,
+    setup_rows,
+    tree_leaves,
+    values_rows,
 )
-from core.rng import next_u01, stream
 
-# ------------------------------------------------------------------------------------ trial proposals
-
-
-@njit(nogil=True, cache=True)
-def propose(states, rows, roots, child, vmass, leaf):
-    """One trial for each listed row: a leaf chosen by mass from the root (fresh uniform per level), a point
-    uniform in its clipped box, and the acceptance uniform. ``states`` (per row) advance in place.
-    ``leaf[l] = (M, x0, y0, x1, y1)``; ``child[k] < 0`` marks leaf ``-child[k] - 1``."""
-    n = rows.shape[0]
-    X = np.empty(n)
-    Y = np.empty(n)
-    bound = np.empty(n)
-    u3 = np.empty(n)
-    for t in range(n):
-        i = rows[t]
-        state = states[i]
-        k = roots[i]
-        while child[k] >= 0:
-            c = child[k]
-            v0 = vmass[c]
-            v1 = vmass[c + 1]
-            v2 = vmass[c + 2]
-            v3 = vmass[c + 3]
-            state, u = next_u01(state)
-            s = u * (v0 + v1 + v2 + v3)
-            if s < v0:
-                k = c
-            elif s < v0 + v1:
-                k = c + 1
-            elif s < v0 + v1 + v2:
-                k = c + 2
-            else:
-                k = c + 3
-            if vmass[k] <= 0.0:  # rounding at the top end: the last child with mass
-                for j in range(3, -1, -1):
-                    if vmass[c + j] > 0.0:
-                        k = c + j
-                        break
-        li = -child[k] - 1
-        state, a = next_u01(state)
-        state, b = next_u01(state)
-        state, c3 = next_u01(state)
-        X[t] = leaf[li, 1] + (leaf[li, 3] - leaf[li, 1]) * a
-        Y[t] = leaf[li, 2] + (leaf[li, 4] - leaf[li, 2]) * b
-        bound[t] = leaf[li, 0]
-        u3[t] = c3
-        states[i] = state
-    return X, Y, bound, u3
+MASS_UNITS = float(2**30)
+"""A tree's total mass in integer units: leaf masses are rounded up to multiples of ``V / 2^30`` (the bound
+grows by at most one unit per leaf, ~1e-9 V), and the sums stay below ``2^32``."""
 
 
 @njit(nogil=True, cache=True)
-def seed_states(seed, n):
-    out = np.empty(n, dtype=np.uint64)
-    for i in range(n):
-        out[i] = stream(seed, i)
-    return out
+def _sum_up(mass, first):
+    """Internal nodes' masses as the exact sums of their children's (children after parents)."""
+    for k in range(mass.shape[0] - 1, -1, -1):
+        c = first[k]
+        if c >= 0:
+            mass[k] = mass[c] + mass[c + 1] + mass[c + 2] + mass[c + 3]
 
 
-@njit(nogil=True, cache=True)
-def cosine_rows(states, rows):
-    """Cosine-weighted hemisphere directions for the listed rows (the fallback where ``I(wo) = 0``)."""
-    n = rows.shape[0]
-    out = np.empty((n, 3))
-    for t in range(n):
-        i = rows[t]
-        state = states[i]
-        state, u1 = next_u01(state)
-        state, u2 = next_u01(state)
-        states[i] = state
-        r = math.sqrt(u1)
-        ph = 2.0 * math.pi * u2
-        out[t, 0] = r * math.cos(ph)
-        out[t, 1] = r * math.sin(ph)
-        out[t, 2] = math.sqrt(max(0.0, 1.0 - u1))
-    return out
-
-
-@njit(nogil=True, cache=True)
-def split_batch(seed, rnd, root, count, child, vmass, leaf):
-    """The seed's batch variant: ``count`` trials split from the root among children by systematic
-    (stochastic) rounding of ``count V_c / V`` -- one uniform ``u`` per node and
-    ``n_c = floor(k C_c + u) - floor(k C_{c-1} + u)`` with ``C`` the cumulative mass fractions, so that
-    ``E[n_c] = k V_c / V`` exactly and the counts sum to ``k`` -- then uniform points in the leaves.
-    Returns ``X, Y, bound, u3`` for every trial."""
-    X = np.empty(count)
-    Y = np.empty(count)
-    bound = np.empty(count)
-    u3 = np.empty(count)
-    state = stream(seed, rnd)
-    stack_node = np.empty(512, dtype=np.int64)
-    stack_cnt = np.empty(512, dtype=np.int64)
-    stack_node[0] = root
-    stack_cnt[0] = count
-    sp = 1
-    filled = 0
-    while sp > 0:
-        sp -= 1
-        k = stack_node[sp]
-        cnt = stack_cnt[sp]
-        ch = child[k]
-        if ch >= 0:
-            tot = vmass[ch] + vmass[ch + 1] + vmass[ch + 2] + vmass[ch + 3]
-            state, u = next_u01(state)
-            cum = 0.0
-            prev = 0.0
-            last = 3
-            while vmass[ch + last] <= 0.0:
-                last -= 1
-            assigned = 0
-            for j in range(4):
-                if vmass[ch + j] <= 0.0:
-                    continue
-                cum += vmass[ch + j]
-                if j == last:
-                    nj = cnt - assigned
-                else:
-                    nxt = math.floor(cnt * (cum / tot) + u)
-                    nj = int(nxt - prev)
-                    prev = nxt
-                if nj > 0:
-                    stack_node[sp] = ch + j
-                    stack_cnt[sp] = nj
-                    sp += 1
-                    assigned += nj
-        else:
-            li = -ch - 1
-            for _ in range(cnt):
-                state, a = next_u01(state)
-                state, b = next_u01(state)
-                state, c3 = next_u01(state)
-                X[filled] = leaf[li, 1] + (leaf[li, 3] - leaf[li, 1]) * a
-                Y[filled] = leaf[li, 2] + (leaf[li, 4] - leaf[li, 2]) * b
-                bound[filled] = leaf[li, 0]
-                u3[filled] = c3
-                filled += 1
-    return X[:filled], Y[:filled], bound[:filled], u3[:filled]
+def compact_tree(child: np.ndarray, vmass: np.ndarray, leaf: np.ndarray) -> dict[str, Any]:
+    """The stored form of a tree from the builder's arrays (``child`` with leaves as ``-(index + 1)``,
+    ``vmass`` per node, ``leaf (L, 5)`` rows ``M, x0, y0, x1, y1``): integer masses per node, one bit per node
+    marking internal nodes, the count of internal nodes before each 64-bit word, and the mass unit."""
+    child = np.asarray(child, dtype=np.int64)
+    n = len(child)
+    internal = child >= 0
+    rank = np.cumsum(internal) - internal
+    if np.any(child[internal] != 1 + 4 * rank[internal]):
+        raise ValueError("the tree is not in level order (children of internal node r at 1 + 4 r)")
+    leaf_rows = np.flatnonzero(~internal)
+    if not np.array_equal(-child[leaf_rows] - 1, np.arange(len(leaf_rows))):
+        raise ValueError("leaves are not numbered in level order")
+    M = leaf[:, 0]
+    area = (leaf[:, 3] - leaf[:, 1]) * (leaf[:, 4] - leaf[:, 2])
+    v_leaf = np.asarray(vmass, dtype=np.float64)[leaf_rows]
+    total = float(vmass[0])
+    unit = total / MASS_UNITS if total > 0.0 else 1.0
+    pos = v_leaf > 0.0
+    q = np.where(pos, np.ceil(np.where(pos, v_leaf, 0.0) / unit), 0.0)
+    for _ in range(8):  # the bound the sampler derives, V unit / area, must not fall below M
+        safe = np.where(pos, area, 1.0)
+        low = pos & (q * unit / safe < M)
+        if not low.any():
+            break
+        q[low] += 1.0
+    mass = np.zeros(n, dtype=np.int64)
+    mass[leaf_rows] = q.astype(np.int64)
+    _sum_up(mass, np.where(internal, child, -1))
+    if n and mass[0] >= 2**32:
+        raise ValueError("tree mass does not fit 32 bits")
+    words = (n + 63) // 64
+    padded = np.zeros(words * 64, dtype=bool)
+    padded[:n] = internal
+    bits = np.packbits(padded, bitorder="little").view("<u8").astype(np.uint64)
+    per_word = padded.reshape(words, 64).sum(axis=1)
+    cum = (np.cumsum(per_word) - per_word).astype(np.uint32)
+    return {"mass": mass.astype(np.uint32), "bits": bits, "cum": cum, "unit": np.asarray(unit)}
 
 
 class Bin:
-    """One incident-angle bin: its tree (indices local to the tree) and its normalizer table."""
+    """One incident-angle bin: its tree in compact form (see :mod:`core.quadtree_kernels`) and its
+    normalizer and scale tables. Made from the builder's arrays or from a stored (cached) bin."""
 
     def __init__(self, arrays: dict[str, np.ndarray]):
-        self.child = np.ascontiguousarray(arrays["child"], dtype=np.int32)
-        self.vmass = np.ascontiguousarray(arrays["vmass"], dtype=np.float64)
-        self.leaf = np.ascontiguousarray(arrays["leaf"], dtype=np.float64)
+        if "leaf" in arrays:  # the builder's form
+            arrays = {**arrays, **compact_tree(arrays["child"], arrays["vmass"], arrays["leaf"])}
+        self.mass = np.ascontiguousarray(arrays["mass"], dtype=np.uint32)
+        """Integer mass per node (level order), in units of :attr:`unit`."""
+        self.bits = np.ascontiguousarray(arrays["bits"], dtype=np.uint64)
+        """One bit per node: internal (1) or leaf (0)."""
+        self.cum = np.ascontiguousarray(arrays["cum"], dtype=np.uint32)
+        """Internal nodes before each word of :attr:`bits`."""
+        self.unit = float(arrays["unit"])
         self.norm = np.ascontiguousarray(arrays["norm"], dtype=np.float64)
         self.shape = np.asarray(arrays["shape"], dtype=np.int64)  # (m_theta, m_phi)
         self.build_seconds = float(arrays["build_seconds"])
@@ -180,12 +100,15 @@ class Bin:
         self.scale = np.ascontiguousarray(arrays["scale"], dtype=np.float64)
         self.scale_shape = np.asarray(arrays["scale_shape"], dtype=np.int64)
         self.scale_floor = float(arrays["scale_floor"])
+        if len(self.bits) != (len(self.mass) + 63) // 64 or len(self.cum) != len(self.bits):
+            raise ValueError("inconsistent tree arrays")
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {
-            "child": self.child,
-            "vmass": self.vmass,
-            "leaf": self.leaf,
+            "mass": self.mass,
+            "bits": self.bits,
+            "cum": self.cum,
+            "unit": np.asarray(self.unit),
             "norm": self.norm,
             "shape": self.shape,
             "build_seconds": np.asarray(self.build_seconds),
@@ -198,18 +121,30 @@ class Bin:
 
     @property
     def nbytes(self) -> int:
-        """Memory of the tree and its normalizer table."""
+        """Memory of the tree and its normalizer and scale tables (the arrays held; a few scalars aside)."""
         return int(
-            self.child.nbytes + self.vmass.nbytes + self.leaf.nbytes + self.norm.nbytes + self.scale.nbytes
+            self.mass.nbytes + self.bits.nbytes + self.cum.nbytes + self.norm.nbytes + self.scale.nbytes
         )
 
     @property
     def total_mass(self) -> float:
-        return float(self.vmass[0])
+        """``V``, the sum of the leaves' envelope masses (in the units of ``g / c``)."""
+        return float(self.mass[0]) * self.unit
+
+    @property
+    def n_nodes(self) -> int:
+        return int(len(self.mass))
 
     @property
     def n_leaves(self) -> int:
-        return int(self.leaf.shape[0])
+        internal = int(self.cum[-1]) + int(np.unpackbits(self.bits[-1:].view(np.uint8)).sum())
+        return self.n_nodes - internal
+
+    def leaf_rows(self) -> np.ndarray:
+        """``(L, 5)`` rows ``M, x0, y0, x1, y1`` of every leaf in level order: the bound the sampler uses
+        (``V_L unit / area``, in the units of ``g / c``) and the disk-clipped box, recomputed from the leaf's
+        position exactly as sampling does (zeros for leaves of mass 0, outside the disk)."""
+        return tree_leaves(self.mass, self.bits, self.cum, self.unit, self.n_nodes)
 
 
 # ------------------------------------------------------------------------------------------- the table
@@ -227,7 +162,7 @@ def _source_hash() -> str:
 
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for name in ("quadtree.py", "quadtree_table.py"):
+    for name in ("quadtree.py", "quadtree_table.py", "quadtree_kernels.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()[:16]
 
@@ -239,6 +174,8 @@ class QuadtreeTable:
     Isotropic BRDFs have bins over ``theta_o`` only and work in the frame rotated so that ``phi_o = 0``;
     anisotropic ones have bins over ``(theta_o, phi_o)``. ``sample`` and ``pdf`` use the same bin for a given
     ``wo``. Where ``cos(theta_o) < z_min`` or ``I(wo) = 0`` (``f`` vanishes) both use the cosine density.
+    Sampling and the pdf run in fused numba kernels specialized to the model's ``eval``
+    (:mod:`core.quadtree_kernels`); the trees are built in Python before a kernel runs.
     """
 
     def __init__(self, model: Any, params: np.ndarray, opts: BuildOptions, cache: Any = None):
@@ -248,7 +185,7 @@ class QuadtreeTable:
         self.params = np.ascontiguousarray(params, dtype=np.float64)
         self.opts = opts
         self.iso = bool(model.isotropic)
-        self.t_edges = theta_edges(opts.theta_step, opts.z_min)
+        self.t_edges = np.ascontiguousarray(theta_edges(opts.theta_step, opts.z_min), dtype=np.float64)
         self.n_theta = len(self.t_edges) - 1
         self.n_phi = 1 if self.iso else opts.phi_bins
         self.n_bins = self.n_theta * self.n_phi
@@ -257,20 +194,12 @@ class QuadtreeTable:
             ["adaptive-quadtree", TABLE_VERSION, _source_hash(), model.name, self.params, opts.key_parts()]
         )
         self.bins: dict[int, Bin] = {}
-        self.meta = np.zeros((self.n_bins, 7))
-        self.roots = np.full(self.n_bins, -1, dtype=np.int64)
-        self.bin_projection = np.zeros(self.n_bins, dtype=np.int64)
-        self.child = np.zeros(0, dtype=np.int32)
-        self.vmass = np.zeros(0)
-        self.leaf = np.zeros((0, 5))
-        self.vals = np.zeros(0)
-        self.c_meta = np.zeros((self.n_bins, 7))
-        self.c_vals = np.zeros(0)
-        self.c_floor = np.zeros(self.n_bins)
         self.violations = 0
         self.trials = 0
         self.samples = 0
         self.cache_hits = 0
+        self._kernels: Any = None
+        self._pack()
 
     # -- bins
     def bin_range(self, b: int) -> tuple[float, float, float, float]:
@@ -280,26 +209,29 @@ class QuadtreeTable:
         step = TWO_PI / self.n_phi
         return float(self.t_edges[it]), float(self.t_edges[it + 1]), ip * step, (ip + 1) * step
 
+    def _where(self) -> tuple:
+        return self.t_edges, self.n_phi, self.iso, float(self.opts.z_min)
+
     def locate(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(bin, theta_o, phi_o)`` per row; bin -1 where ``cos(theta_o) < z_min`` (the cosine fallback)."""
-        s = np.sqrt(wo[:, 0] ** 2 + wo[:, 1] ** 2)
-        theta = np.arctan2(s, wo[:, 2])
-        phi = np.mod(np.arctan2(wo[:, 1], wo[:, 0]), TWO_PI)
-        it = np.clip(np.searchsorted(self.t_edges, theta, side="right") - 1, 0, self.n_theta - 1)
-        if self.iso:
-            b = it
-        else:
-            ip = np.clip((phi * (self.n_phi / TWO_PI)).astype(np.int64), 0, self.n_phi - 1)
-            b = it * self.n_phi + ip
-        ok = (wo[:, 2] >= self.opts.z_min) & np.isfinite(theta)
-        return np.where(ok, b, -1).astype(np.int64), theta, phi
+        return locate_rows(_rows(wo), *self._where())
 
     def ensure(self, bins: np.ndarray) -> None:
         """Build (or load) the trees of every listed bin that is not in memory yet."""
-        missing = [int(b) for b in np.unique(bins) if b >= 0 and int(b) not in self.bins]
-        if not missing:
+        present = np.zeros(self.n_bins, dtype=bool)
+        bins = np.asarray(bins, dtype=np.int64)
+        present[bins[bins >= 0]] = True
+        self._ensure_present(present)
+
+    def ensure_rows(self, wo: np.ndarray) -> None:
+        """Build (or load) the trees of the bins the rows of ``wo`` fall in."""
+        self._ensure_present(bins_present(wo, *self._where(), self.n_bins))
+
+    def _ensure_present(self, present: np.ndarray) -> None:
+        missing = np.flatnonzero(present & (self.node_off < 0))
+        if not len(missing):
             return
-        for b in missing:
+        for b in (int(v) for v in missing):
             entry = self.cache.load(self.key, f"bin{b}") if self.cache is not None else None
             table = None
             if entry is not None:
@@ -316,35 +248,71 @@ class QuadtreeTable:
         self._pack()
 
     def _pack(self) -> None:
-        child, vmass, leaf, vals, cvals = [], [], [], [], []
-        n_nodes = n_leaves = n_vals = n_c = 0
+        """Concatenate the bins' arrays into the tuple the kernels read (``tab``)."""
+        nb = self.n_bins
+        self.node_off = np.full(nb, -1, dtype=np.int64)
+        self.word_off = np.zeros(nb, dtype=np.int64)
+        self.proj_of = np.zeros(nb, dtype=np.int64)
+        self.unit_of = np.ones(nb)
+        self.meta = np.zeros((nb, 7))
+        self.c_meta = np.zeros((nb, 7))
+        self.c_floor = np.zeros(nb)
+        mass, bits, cum, vals, cvals = [], [], [], [], []
+        n_nodes = n_words = n_vals = n_c = 0
+        m_max = 1
         for b, t in sorted(self.bins.items()):
-            c = t.child.astype(np.int64)
-            c = np.where(c >= 0, c + n_nodes, c - n_leaves)
-            child.append(c)
-            vmass.append(t.vmass)
-            leaf.append(t.leaf)
-            vals.append(t.norm)
-            self.roots[b] = n_nodes
-            self.bin_projection[b] = t.projection
+            self.node_off[b] = n_nodes
+            self.word_off[b] = n_words
+            self.proj_of[b] = t.projection
+            self.unit_of[b] = t.unit
             t_lo, t_hi, f_lo, f_hi = self.bin_range(b)
             self.meta[b] = (n_vals, t.shape[0], t.shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_meta[b] = (n_c, t.scale_shape[0], t.scale_shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_floor[b] = t.scale_floor
-            cvals.append(t.scale)
-            n_c += len(t.scale)
-            n_nodes += len(t.child)
-            n_leaves += t.n_leaves
+            m_max = max(m_max, int(t.shape.max()), int(t.scale_shape.max()))
+            mass.append(t.mass)
+            bits.append(t.bits)
+            cum.append(t.cum)
+            vals.append(chebyshev_coefficients(t.norm, int(t.shape[0]), int(t.shape[1])))
+            cvals.append(chebyshev_coefficients(t.scale, int(t.scale_shape[0]), int(t.scale_shape[1])))
+            n_nodes += t.n_nodes
+            n_words += len(t.bits)
             n_vals += len(t.norm)
-        self.child = np.ascontiguousarray(np.concatenate(child), dtype=np.int64)
-        self.vmass = np.ascontiguousarray(np.concatenate(vmass))
-        self.leaf = np.ascontiguousarray(np.concatenate(leaf))
-        self.vals = np.ascontiguousarray(np.concatenate(vals))
-        self.c_vals = np.ascontiguousarray(np.concatenate(cvals))
+            n_c += len(t.scale)
+        self.mass = _cat(mass, np.uint32)
+        self.bits = _cat(bits, np.uint64)
+        self.cum = _cat(cum, np.uint32)
+        self.coef = _cat(vals, np.float64)
+        self.c_coef = _cat(cvals, np.float64)
+        self.m_max = int(m_max)
+        self.tab = (
+            *self._where(),
+            self.node_off, self.word_off, self.proj_of, self.unit_of,
+            self.mass, self.bits, self.cum,
+            self.meta, self.coef, self.c_meta, self.c_coef, self.c_floor,
+            self.m_max,
+        )  # fmt: skip
+
+    @property
+    def kernels(self) -> Any:
+        """The fused entry points for this model (compiled on first use, cached on disk)."""
+        if self._kernels is None:
+            self._kernels = model_kernels(self.model.eval)
+        return self._kernels
 
     # -- densities
     def normalizer(self, bins: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        return normalizer_values(self.meta, self.vals, bins, theta, phi)
+        """``I(wo)`` per row from the bins' Chebyshev tables (0 where ``bins < 0``)."""
+        return values_rows(self.meta, self.coef, *_bin_rows(bins, theta, phi), self.m_max)
+
+    def scales(self, bins: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """The per-``wo`` scale ``c(wo) > 0`` of each row's bin: the leaf bounds hold for ``g(wo, X) / c(wo)``
+        over the whole bin, and sampling accepts with probability ``g / (c M_L)``. Any positive ``c`` keeps
+        the sampler exact (for one ``wo`` it is a constant); ``c`` is a smooth estimate of ``I(wo)``, so the
+        bounds need not follow the overall change of ``f`` across the bin."""
+        bins, theta, phi = _bin_rows(bins, theta, phi)
+        v = values_rows(self.c_meta, self.c_coef, bins, theta, phi, self.m_max)
+        return np.where(bins >= 0, np.maximum(v, self.c_floor[np.maximum(bins, 0)]), 1.0)
 
     def _prepare(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bins and normalizers of the rows, with the fallback (-1) where ``I(wo)`` is not positive."""
@@ -352,140 +320,96 @@ class QuadtreeTable:
         return bins, norm
 
     def _prepare_scaled(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        bins, theta, phi = self.locate(wo)
-        self.ensure(bins)
-        norm = self.normalizer(bins, theta, phi)
-        bins = np.where(norm > 0.0, bins, -1)
-        return bins, norm, self.scales(bins, theta, phi)
-
-    def scales(self, bins: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """The per-``wo`` scale ``c(wo) > 0`` of each row's bin: the leaf bounds hold for ``g(wo, X) / c(wo)``
-        over the whole bin, and sampling accepts with probability ``g / (c M_L)``. Any positive ``c`` keeps
-        the sampler exact (for one ``wo`` it is a constant); ``c`` is a smooth estimate of ``I(wo)``, so the
-        bounds need not follow the overall change of ``f`` across the bin."""
-        v = normalizer_values(self.c_meta, self.c_vals, bins, theta, phi)
-        return np.where(bins >= 0, np.maximum(v, self.c_floor[np.maximum(bins, 0)]), 1.0)
-
-    def _pdf(self, wo: np.ndarray, wi: np.ndarray, bins: np.ndarray, norm: np.ndarray) -> np.ndarray:
-        up = wi[:, 2] > 0.0
-        f = f_luminance(self.model, self.params, wo, wi)
-        safe = np.where(bins >= 0, norm, 1.0)
-        adaptive = np.where(up, f * wi[:, 2] / safe, 0.0)
-        cosine = np.where(up, wi[:, 2] * INV_PI, 0.0)
-        return np.where(bins >= 0, adaptive, cosine)
+        wo = _rows(wo)
+        self.ensure_rows(wo)
+        return setup_rows(wo, self.tab)
 
     def pdf(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-        bins, norm = self._prepare(wo)
-        return self._pdf(wo, wi, bins, norm)
-
-    def _frames(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Canonical ``wo`` (rotated to ``phi_o = 0`` when isotropic) and the rotation's cos, sin."""
-        if not self.iso:
-            n = len(wo)
-            return wo, np.ones(n), np.zeros(n)
-        s = np.sqrt(wo[:, 0] ** 2 + wo[:, 1] ** 2)
-        safe = np.where(s > 0.0, s, 1.0)
-        c = np.where(s > 0.0, wo[:, 0] / safe, 1.0)
-        sn = np.where(s > 0.0, wo[:, 1] / safe, 0.0)
-        return np.stack([s, np.zeros_like(s), wo[:, 2]], axis=1), c, sn
-
-    def _to_world(self, X, Y, proj, c, sn) -> np.ndarray:
-        wi = np.empty((len(X), 3))
-        for k, name in enumerate(PROJECTIONS):
-            sel = proj == k
-            if np.any(sel):
-                wi[sel] = disk_to_direction(X[sel], Y[sel], name)[0]
-        x, y = wi[:, 0].copy(), wi[:, 1].copy()
-        wi[:, 0] = c * x - sn * y
-        wi[:, 1] = sn * x + c * y
-        return wi
-
-    def _g(self, wo_c, X, Y, proj) -> np.ndarray:
-        out = np.empty(len(X))
-        for k, name in enumerate(PROJECTIONS):
-            sel = proj == k
-            if np.any(sel):
-                out[sel] = target(self.model, self.params, wo_c[sel], X[sel], Y[sel], name)
+        wo, wi = _rows(wo), _rows(wi)
+        out = np.empty(len(wo))
+        self._run(lambda missing: self.kernels.pdf_rows(wo, wi, self.params, self.tab, out, missing))
         return out
+
+    def _run(self, kernel: Any) -> Any:
+        """Run a fused kernel; if it met rows whose bins are not built yet (it skips them and flags the
+        bins), build those bins and run it again (the bins are located inside the kernel: no extra pass)."""
+        missing = np.zeros(self.n_bins, dtype=bool)
+        result = kernel(missing)
+        if missing.any():
+            self._ensure_present(missing)
+            missing[:] = False
+            result = kernel(missing)
+            if missing.any():  # pragma: no cover - the bins were just built
+                raise BrdfStudioError("adaptive sampler: tables missing after the build")
+        return result
 
     # -- sampling
     def sample_each(self, wo: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One sample per row: ``(wi (n,3), pdf (n,), trials (n,))``; sample ``i`` uses stream ``(seed, i)``."""
+        wo = _rows(wo)
         n = len(wo)
-        bins, norm, scale = self._prepare_scaled(wo)
-        states = seed_states(np.uint64(seed), n)
         wi = np.empty((n, 3))
-        trials = np.zeros(n, dtype=np.int64)
-        fallback = np.flatnonzero(bins < 0)
-        if len(fallback):
-            wi[fallback] = cosine_rows(states, fallback)
-            trials[fallback] = 1
-        wo_c, c, sn = self._frames(wo)
-        roots = np.where(bins >= 0, self.roots[np.maximum(bins, 0)], 0)
-        proj_rows = self.bin_projection[np.maximum(bins, 0)]
-        pending = np.flatnonzero(bins >= 0)
-        rounds = 0
-        while len(pending):
-            X, Y, bound, u3 = propose(states, pending, roots, self.child, self.vmass, self.leaf)
-            g = self._g(wo_c[pending], X, Y, proj_rows[pending])
-            bound = bound * scale[pending]
-            self.violations += int(np.count_nonzero(g > bound))
-            trials[pending] += 1
-            acc = u3 * bound < g
-            rounds += 1
-            if rounds >= 100_000:  # never seen; counted as a violation rather than looping forever
-                self.violations += int(np.count_nonzero(~acc))
-                acc[:] = True
-            rows = pending[acc]
-            wi[rows] = self._to_world(X[acc], Y[acc], proj_rows[rows], c[rows], sn[rows])
-            pending = pending[~acc]
+        pdf = np.empty(n)
+        trials = np.empty(n, dtype=np.int64)
+        viol, _ = self._run(
+            lambda missing: self.kernels.sample_rows(
+                wo, self.params, np.uint64(seed), self.tab, wi, pdf, trials, missing
+            )
+        )
+        self.violations += int(viol)
         self.trials += int(trials.sum())
         self.samples += n
-        return wi, self._pdf(wo, wi, bins, norm), trials
+        return wi, pdf, trials
 
     def sample_batch(self, wo: np.ndarray, n: int, seed: int) -> tuple[np.ndarray, np.ndarray, int]:
         """``n`` samples for one direction ``wo (3,)`` by the batch variant; ``(wi, pdf, trials)``."""
-        wo1 = wo.reshape(1, 3)
-        bins, norm, scale = self._prepare_scaled(wo1)
-        b = int(bins[0])
-        if b < 0:
+        wo1 = _rows(np.reshape(wo, (1, 3)))
+        bins, _, _ = self._prepare_scaled(wo1)
+        if bins[0] < 0:
             wi, pdf, trials = self.sample_each(np.repeat(wo1, n, axis=0), seed)
             return wi, pdf, int(trials.sum())
-        wo_c, c, sn = self._frames(wo1)
-        proj = self.bin_projection[b]
-        root = int(self.roots[b])
-        out = []
-        remaining = n
-        total = 0
-        rnd = 0
-        while remaining > 0:
-            X, Y, bound, u3 = split_batch(
-                np.uint64(seed), rnd, root, remaining, self.child, self.vmass, self.leaf
-            )
-            rnd += 1
-            g = self._g(np.repeat(wo_c, len(X), axis=0), X, Y, np.full(len(X), proj))
-            bound = bound * scale[0]
-            self.violations += int(np.count_nonzero(g > bound))
-            total += len(X)
-            acc = u3 * bound < g
-            out.append(self._to_world(X[acc], Y[acc], np.full(int(acc.sum()), proj), c[0], sn[0]))
-            remaining -= int(acc.sum())
-        wi = np.concatenate(out)
-        wi = wi[np.random.default_rng([int(seed), 0x5EED]).permutation(n)]
-        self.trials += total
+        wi = np.empty((n, 3))
+        pdf = np.empty(n)
+        filled, total, viol = self.kernels.sample_batch(
+            wo1[0], self.params, np.uint64(seed), int(n), self.tab, wi, pdf
+        )
+        self.violations += int(viol)
+        if filled < n:  # never seen: a round budget of 1e5 exhausted
+            raise BrdfStudioError(f"adaptive sampler: only {filled} of {n} samples accepted")
+        order = np.random.default_rng([int(seed), 0x5EED]).permutation(n)
+        self.trials += int(total)
         self.samples += n
-        wos = np.repeat(wo1, n, axis=0)
-        return wi, self._pdf(wos, wi, np.full(n, b), np.full(n, norm[0])), total
+        return wi[order], pdf[order], int(total)
 
     # -- facts
     def acceptance(self, wo: np.ndarray) -> np.ndarray:
-        """Exact per-trial acceptance ``I(wo) / V`` per row (1 for the cosine fallback)."""
+        """Exact per-trial acceptance ``I(wo) / (c V)`` per row (1 for the cosine fallback)."""
         bins, norm, scale = self._prepare_scaled(wo)
-        mass = np.where(bins >= 0, self.vmass[self.roots[np.maximum(bins, 0)]], 1.0)
-        return np.where(bins >= 0, norm / (scale * mass), 1.0)
+        safe = np.maximum(bins, 0)
+        off = np.maximum(self.node_off[safe], 0)
+        mass = (
+            self.mass[off].astype(np.float64) * self.unit_of[safe] if len(self.mass) else np.ones(len(bins))
+        )
+        return np.where(bins >= 0, norm / (scale * np.where(bins >= 0, mass, 1.0)), 1.0)
 
     def memory_bytes(self) -> int:
         return int(sum(t.nbytes for t in self.bins.values()))
 
     def build_seconds(self) -> float:
         return float(sum(t.build_seconds for t in self.bins.values()))
+
+
+def _rows(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(np.atleast_2d(a), dtype=np.float64)
+
+
+def _bin_rows(bins, theta, phi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return (
+        np.ascontiguousarray(bins, dtype=np.int64),
+        np.ascontiguousarray(theta, dtype=np.float64),
+        np.ascontiguousarray(phi, dtype=np.float64),
+    )
+
+
+def _cat(parts: list[np.ndarray], dtype) -> np.ndarray:
+    return np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros(0), dtype=dtype)
