@@ -42,6 +42,8 @@ LUM_R, LUM_G, LUM_B = 0.2126, 0.7152, 0.0722
 MAX_TRIALS = 100_000
 """A row that has not accepted after this many trials (never seen) takes the last one, counted as a violation."""
 STACK = 256
+CHUNK = 4096
+"""Rows per task of the threaded sampler."""
 
 
 @intrinsic
@@ -359,9 +361,10 @@ TEMPLATE = '''
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from core.quadtree_kernels import (
+    CHUNK,
     INV_PI,
     LUM_B,
     LUM_G,
@@ -380,16 +383,16 @@ from core.rng import next_u01, stream
 
 
 @njit(nogil=True, cache=True)
-def sample_rows(wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
-    """One sample per row, sample ``i`` from stream ``(seed, i)``. Returns ``(violations, skipped)``: rows
-    whose bin is not built yet are skipped and their bins flagged in ``missing`` (the caller builds them and
-    runs again)."""
+def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
+    """One sample per row ``lo <= i < hi``, sample ``i`` from stream ``(seed, i)``. Returns
+    ``(violations, skipped)``: rows whose bin is not built yet are skipped and their bins flagged in
+    ``missing`` (the caller builds them and runs again)."""
     (t_edges, n_phi, iso, z_min, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
     wp = np.empty(m_max)
     viol = 0
     skipped = 0
-    for i in range(wo.shape[0]):
+    for i in range(lo, hi):
         wx, wy, wz = wo[i, 0], wo[i, 1], wo[i, 2]
         state = stream(seed, i)
         b, norm, scale, cr, sr = row_setup(wx, wy, wz, tab, wp)
@@ -442,6 +445,28 @@ def sample_rows(wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
                 pdf_out[i] = f * iz / norm if iz > 0.0 else 0.0
                 trials_out[i] = trials
                 break
+    return viol, skipped
+
+
+@njit(nogil=True, cache=True)
+def sample_rows(wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
+    """:func:`sample_range` over every row (one thread)."""
+    return sample_range(0, wo.shape[0], wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
+
+
+@njit(nogil=True, cache=True, parallel=True)
+def sample_rows_parallel(wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
+    """:func:`sample_range` over chunks of rows on numba's threads (the same samples as one thread)."""
+    n = wo.shape[0]
+    chunks = (n + CHUNK - 1) // CHUNK
+    viol = 0
+    skipped = 0
+    for c in prange(chunks):
+        lo = c * CHUNK
+        hi = min(n, lo + CHUNK)
+        v, s = sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
+        viol += v
+        skipped += s
     return viol, skipped
 
 

@@ -14,6 +14,7 @@ from numba import njit
 from core.errors import BrdfStudioError
 from core.quadtree import TABLE_VERSION, TWO_PI, BuildOptions, build_tree, theta_edges
 from core.quadtree_kernels import (
+    CHUNK,
     bins_present,
     chebyshev_coefficients,
     locate_rows,
@@ -344,17 +345,19 @@ class QuadtreeTable:
         return result
 
     # -- sampling
-    def sample_each(self, wo: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One sample per row: ``(wi (n,3), pdf (n,), trials (n,))``; sample ``i`` uses stream ``(seed, i)``."""
+    def sample_each(
+        self, wo: np.ndarray, seed: int, threads: bool = False
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One sample per row: ``(wi (n,3), pdf (n,), trials (n,))``; sample ``i`` uses stream ``(seed, i)``.
+        ``threads``: run large batches on numba's threads (the same samples)."""
         wo = _rows(wo)
         n = len(wo)
         wi = np.empty((n, 3))
         pdf = np.empty(n)
         trials = np.empty(n, dtype=np.int64)
+        run = self.kernels.sample_rows_parallel if threads and n >= 2 * CHUNK else self.kernels.sample_rows
         viol, _ = self._run(
-            lambda missing: self.kernels.sample_rows(
-                wo, self.params, np.uint64(seed), self.tab, wi, pdf, trials, missing
-            )
+            lambda missing: run(wo, self.params, np.uint64(seed), self.tab, wi, pdf, trials, missing)
         )
         self.violations += int(viol)
         self.trials += int(trials.sum())

@@ -47,6 +47,8 @@ class AdaptiveSampler(Sampler):
     n_max : mean number of rejection trials the trees aim at (> 1; the seed's knob)
     batch : ``sample(wo, n)`` uses the batch variant (True) or ``n`` independent draws (False)
     cache : True (default folder, ``$BRDF_STUDIO_CACHE`` or ``~/.cache/brdf-studio``), False, or a folder
+    threads : ``sample_each`` of large batches on numba's threads (same samples; off by default: callers
+        that run their own threads, like the renderer, should not nest them)
     **build : further :class:`core.quadtree.BuildOptions` (``projection``, ``theta_step``, ``phi_bins``, ...)
     """
 
@@ -58,11 +60,13 @@ class AdaptiveSampler(Sampler):
         n_max: float = 2.0,
         batch: bool = True,
         cache: bool | str | os.PathLike[str] = True,
+        threads: bool = False,
         **build: Any,
     ):
         super().__init__(brdf)
         self.n_max = _check_n_max(n_max)
         self.batch = bool(batch)
+        self.threads = bool(threads)
         try:
             self.options = BuildOptions(n_max=self.n_max, **build)
         except (TypeError, ValueError) as exc:
@@ -89,13 +93,13 @@ class AdaptiveSampler(Sampler):
 
     def sample_each(self, wo: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
-        wi, pdf, _ = self.table.sample_each(wo, _seed(seed))
+        wi, pdf, _ = self.table.sample_each(wo, _seed(seed), self.threads)
         return wi, pdf
 
     def sample_with_trials(self, wo: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Like :meth:`sample_each`, with the number of rejection trials of every sample."""
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
-        return self.table.sample_each(wo, _seed(seed))
+        return self.table.sample_each(wo, _seed(seed), self.threads)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         return self.table.pdf(wo, wi)

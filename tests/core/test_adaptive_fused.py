@@ -182,6 +182,18 @@ def test_rows_are_reproducible_and_independent_of_the_batch():
     np.testing.assert_array_equal(sampler.sample_each(wo, seed=11)[1], pdf)
 
 
+def test_threads_give_the_same_samples():
+    """The threaded variant (chunks of rows on numba's threads) draws every row from the same stream."""
+    wo = _directions(np.linspace(40.0, 44.0, 20_000), np.linspace(0.0, 720.0, 20_000))
+    serial = _adaptive("phong").sample_each(wo, seed=12)
+    clear_memory_cache()
+    threaded = _adaptive("phong", threads=True)
+    wi, pdf, trials = threaded.table.sample_each(wo, 12, threads=True)
+    np.testing.assert_array_equal(wi, serial[0])
+    np.testing.assert_array_equal(pdf, serial[1])
+    assert threaded.table.trials == trials.sum() and threaded.bound_violations == 0
+
+
 def test_fallback_rows_use_the_cosine_density():
     """Rows beyond the last bin (cos theta_o < 1e-6), at the horizon and below it: cosine-weighted directions
     with pdf cos / pi, one trial each, next to ordinary rows in the same call."""
