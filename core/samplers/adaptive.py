@@ -5,6 +5,8 @@
 lazily per incident-angle bin (see :mod:`core.quadtree`), kept in memory, shared by every sampler of the same
 BRDF and options, and stored on disk (:mod:`core.cache`). ``sample(wo, n, seed)`` uses the seed's batch
 variant; ``sample_each(wo (n,3), seed)`` draws one sample per row (sample ``i`` from its own random stream).
+Sampling and the pdf run in fused numba kernels specialized to the model (:mod:`core.quadtree_kernels`);
+the trees are stored compactly (:mod:`core.quadtree_table`).
 """
 
 from __future__ import annotations
