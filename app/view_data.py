@@ -24,6 +24,37 @@ def hemisphere_grid(n_theta: int = 40, n_phi: int = 80) -> np.ndarray:
     return np.stack([s * np.cos(p), s * np.sin(p), np.cos(t)], axis=-1)
 
 
+def grid_quads(n_theta: int, n_cols: int) -> np.ndarray:
+    """The faces of a ``(n_theta, n_cols)`` grid of points (C order, point ``i * n_cols + j``) as a VTK cell
+    array: ``(n_theta - 1) * (n_cols - 1)`` quads, each ``[4, a, b, c, d]``, wound so that the normal points
+    outwards for :func:`hemisphere_grid` (theta down the rows, phi along the columns)."""
+    i, j = np.meshgrid(np.arange(n_theta - 1), np.arange(n_cols - 1), indexing="ij")
+    a = (i * n_cols + j).ravel()
+    quads = np.stack([np.full_like(a, 4), a, a + n_cols, a + n_cols + 1, a + 1], axis=1)
+    return quads.ravel()
+
+
+def grid_normals(points: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Unit outward normals ``(n_theta, n_phi + 1, 3)`` of the surface through ``points`` (same shape), a
+    deformed :func:`hemisphere_grid` whose last column repeats the first.
+
+    Central differences along theta and (periodically) along phi; the theta = 0 row, where the phi tangent
+    vanishes, takes the mean of the next row's normals; where the surface degenerates (the lobe is 0 around a
+    point) the normal falls back to the grid direction.
+    """
+    p = points[:, :-1]  # drop the closing column: phi is periodic
+    d_theta = np.gradient(p, axis=0)
+    d_phi = 0.5 * (np.roll(p, -1, axis=1) - np.roll(p, 1, axis=1))
+    n = np.cross(d_theta, d_phi)
+    n = np.concatenate([n, n[:, :1]], axis=1)
+    n[0] = np.sum(n[1, :-1], axis=0) if n.shape[0] > 1 else n[0]
+    length = np.linalg.norm(n, axis=-1)
+    # relative threshold: tangents scale with the lobe's size
+    tiny = length <= 1e-12 * max(float(np.max(length, initial=0.0)), 1e-300)
+    n = np.where(tiny[..., None], directions, n / np.where(tiny, 1.0, length)[..., None])
+    return n
+
+
 def lobe(brdf: BRDF, wo: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The lobe ``f(wo, wi) cos(theta_i)`` (luminance) over ``directions (..., 3)``.
 
@@ -205,10 +236,12 @@ def sampling_snapshot(
     out["projection"] = projection
 
     out["samples"], out["samples_error"], out["sampler_info"] = None, "", {}
+    adaptive_draw = None  # (sampler, wi, pdf): reused by the ratio map when it shows the adaptive sampler
     if "adaptive" in sampler_names():
         try:
             s = make_sampler("adaptive", brdf, n_max=n_max)
-            wi, _ = s.sample(wo_true, n_samples, seed)
+            wi, wpdf = s.sample(wo_true, n_samples, seed)
+            adaptive_draw = (s, wi, wpdf)
             up = wi[:, 2] > 0.0
             out["samples"] = to_disk(rotate_z(wi[up], -frame_phi), projection)
             out["sampler_info"] = s.info()
@@ -231,15 +264,19 @@ def sampling_snapshot(
     out["ratio_sampler"] = ratio_sampler
     if ratio_sampler in sampler_names():
         try:
-            s = make_sampler(ratio_sampler, brdf, n_max=n_max) if ratio_sampler == "adaptive" else None
-            s = s or make_sampler(ratio_sampler, brdf)
+            if ratio_sampler == "adaptive" and adaptive_draw is not None:
+                s, ws, wpdf = adaptive_draw  # the same draw as the samples shown (same seed and count)
+            else:
+                s = make_sampler(
+                    ratio_sampler, brdf, **({"n_max": n_max} if ratio_sampler == "adaptive" else {})
+                )
+                ws, wpdf = s.sample(wo_true, n_samples, seed)
             pdf = s.pdf(np.broadcast_to(wo_true, wi_true.shape), wi_true)
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where((pdf > 0) | (target > 0), pdf / target, np.nan)
             img = np.full(x.shape, np.nan)
             img[inside] = r
             out["ratio"] = img
-            ws, wpdf = s.sample(wo_true, n_samples, seed)
             fw = luminance(brdf.eval(wo_true, ws)) * np.maximum(ws[:, 2], 0.0)
             with np.errstate(divide="ignore", invalid="ignore"):
                 w = np.where(wpdf > 0, fw / wpdf, 0.0)

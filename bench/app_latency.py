@@ -1,13 +1,26 @@
 """Desktop-app responsiveness: parameter edit -> redraw time, and event-loop stalls while a render runs.
 
     .venv/bin/python bench/app_latency.py [--edits 15] [--render-seconds 8] [--models ggx,phong,...]
+        [--parts latency,stall] [--fresh]
 
-1. For each analytic model: after a warm-up (kernel compilation excluded), ``--edits`` edits of one float
-   parameter; for each, the time from the edit to the redrawn 3D lobe (synchronous), to the redrawn quadtree
-   view (built in a worker, drawn on the GUI thread), and to everything (lobe, polar slice, lit sphere, tree).
-   Target: lobe + quadtree <= 100 ms.
-2. A 10 ms ``QTimer`` probe on the GUI thread while the render panel renders the demo scene (two strategies,
-   equal time): the stall is the largest delay of a tick beyond its interval. Target: <= 50 ms.
+1. ``latency``: for each analytic model, after a warm-up (kernel compilation excluded) and once the slow
+   background jobs (albedo quadrature, adaptive-table facts) are done, ``--edits`` edits of one float
+   parameter. For each edit, wall-clock time from the edit (``Document.set_param``) until the view is *on
+   screen*: the first flush of the window (``frameSwapped`` of the 3D view's OpenGL widget: the window is
+   composed through OpenGL) after the view painted its new content:
+   - ``lobe``: after the 3D lobe rendered (a VTK render that started after the edit);
+   - ``tree``: after the sampler view's canvas painted the snapshot of this edit (the quadtree, its samples and
+     the ratio map, computed in a worker and drawn on the GUI thread);
+   - ``lobe+tree``: until both are on screen (the later of the two: the GUI thread draws the lobe while the
+     worker builds the tree). Target: <= 100 ms.
+   - ``all``: until lobe, tree, polar slice and lit sphere are all on screen.
+   By default the edits alternate between two values, so after the first two edits the adaptive trees come
+   from the sampler's in-memory cache (the app's case for undo/redo or a slider going back); ``--fresh``
+   gives every edit a new value, so every edit builds its tree (the case of a slider drag: the build time is
+   core/quadtree.py's).
+2. ``stall``: a 10 ms ``QTimer`` probe on the GUI thread while the render panel renders the demo scene (two
+   strategies, equal time): the stall is the largest delay of a tick beyond its interval. Target: <= 50 ms.
+   ``--render-seconds 0`` skips it (as does leaving it out of ``--parts``).
 
 Prints tables; writes ``results/bench/app_latency.csv`` and ``results/bench/app_stall.csv``. Runs under Xvfb
 when there is no display. The machine's load average is printed: other processes inflate the numbers.
@@ -29,6 +42,7 @@ from _display import ensure_display  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_MODELS = "lambert,phong,blinn,lewis,ggx,cook_torrance,ward,ashikhmin_shirley,oren_nayar,lafortune"
+PARTS = ("latency", "stall")
 
 
 def pick_param(model):
@@ -38,44 +52,110 @@ def pick_param(model):
     return (logs or floats or [None])[0]
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--edits", type=int, default=15)
-    parser.add_argument("--render-seconds", type=float, default=8.0)
-    parser.add_argument("--models", default=DEFAULT_MODELS)
-    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    args = parser.parse_args()
-    ensure_display()
-    os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-bench-"))
+def edit_values(param, edits: int, fresh: bool) -> tuple[list[float], list[float]]:
+    """``(warm_up, timed)``: the values set before the clock starts, then by the timed edits in order. Two
+    alternating values (both set during the warm-up), or (``fresh``) a value never set before at every edit."""
+    lo, hi = param.lo, param.hi
+    if param.log:
+        base = [(lo * hi) ** 0.5, (lo * hi) ** 0.5 * 1.5]
+    else:
+        base = [lo + (hi - lo) * f for f in (0.3, 0.6)]
+    timed = [base[k % 2] * (1.0 + 0.003 * (k + 1) if fresh else 1.0) for k in range(edits)]
+    warm_up = [base[1]] if fresh else [base[0], base[1]]
+    clip = lambda vs: [min(max(v, lo), hi) for v in vs]  # noqa: E731
+    return clip(warm_up), clip(timed)
 
-    from PySide6.QtCore import QElapsedTimer, QTimer
-    from PySide6.QtWidgets import QApplication
 
-    from app.main_window import MainWindow, demo_scene_path
+class ScreenClock:
+    """Time stamps of what reached the screen: window flushes, 3D renders, widget paints, snapshots shown.
+
+    It watches the window from outside (signals, VTK observers, an event filter, a wrapped method), so it
+    measures any version of the views the same way."""
+
+    def __init__(self, window) -> None:
+        from PySide6.QtCore import QEvent, QObject, QTimer
+
+        self.flushes: list[float] = []
+        self.renders: list[float] = []
+        self.paints: dict[str, list[float]] = {"tree": [], "polar": [], "sphere": []}
+        self.shown: list[float] = []
+        plotter = window.lobe_view.plotter
+        self.has_flush = hasattr(plotter, "frameSwapped")
+        if self.has_flush:  # a QOpenGLWidget: every flush of the window composes it and emits this
+            plotter.frameSwapped.connect(lambda: self.flushes.append(time.perf_counter()))
+        plotter.ren_win.AddObserver("EndEvent", lambda *_: self.renders.append(time.perf_counter()))
+        widgets = {
+            window.sampling_view.figure_view.canvas: "tree",
+            window.polar_view.canvas: "polar",
+            window.sphere_view: "sphere",
+        }
+        paints = self.paints
+
+        class PaintFilter(QObject):
+            def eventFilter(self, obj, event):  # noqa: N802 (Qt name)
+                if event.type() == QEvent.Type.Paint and obj in widgets:
+                    what = widgets[obj]
+                    if what == "tree":  # its own window: painted and flushed when the event loop comes back
+                        QTimer.singleShot(0, lambda: paints["tree"].append(time.perf_counter()))
+                    else:
+                        paints[what].append(time.perf_counter())
+                return False
+
+        self._filter = PaintFilter()
+        for w in widgets:
+            w.installEventFilter(self._filter)
+        view = window.sampling_view
+        show = view.show_snapshot
+
+        def show_snapshot(snap):
+            self.shown.append(time.perf_counter())
+            return show(snap)
+
+        view.show_snapshot = show_snapshot
+
+    @staticmethod
+    def _first(times: list[float], after: float) -> float | None:
+        return next((t for t in times if t >= after), None)
+
+    def on_screen(self, what: str, t0: float) -> float | None:
+        """When ``what`` (lobe, tree, polar, sphere) first reached the screen after ``t0`` (None: not yet)."""
+        if what == "lobe":
+            painted = self._first(self.renders, t0)
+        elif what == "tree":
+            shown = self._first(self.shown, t0)
+            painted = None if shown is None else self._first(self.paints["tree"], shown)
+        else:
+            painted = self._first(self.paints[what], t0)
+        if painted is None or not self.has_flush or what == "tree":
+            return painted
+        return self._first(self.flushes, painted)
+
+
+def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> list[dict]:
     from core.model import get_model
 
-    app = QApplication.instance() or QApplication([])
-    window = MainWindow(warm_up=False)
-    window.ask_unsaved = lambda: "discard"
-    window.resize(1400, 900)
-    window.show()
-    window.sampling_always = True  # redraw the sampler view on every edit, as if both were on screen
-    app.processEvents()
     doc = window.document
+    clock = ScreenClock(window)
 
-    def wait_sampling(timeout=600.0) -> None:
+    def run_until(done, timeout=600.0) -> bool:
         end = time.monotonic() + timeout
-        while not window.jobs_idle("sampling") and time.monotonic() < end:
-            app.processEvents()
+        while not done() and time.monotonic() < end:
+            events.processEvents()
             time.sleep(0.0005)
-        app.processEvents()
+        events.processEvents()
+        return done()
 
     rows = []
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
+    mode = (
+        "a new value every edit (tree built each time)" if fresh else "two values alternating (trees cached)"
+    )
+    print(f"edits: {mode}; ms from the edit until on screen")
     print(
         f"{'model':<20} {'param':<8} {'lobe ms':>9} {'tree ms':>9} {'lobe+tree':>10} {'all views':>10}  (median / max)"
     )
-    for name in [m.strip() for m in args.models.split(",") if m.strip()]:
+    views = ("lobe", "tree", "polar", "sphere")
+    for name in models:
         try:
             model = get_model(name)
         except Exception as exc:  # a model not in this build
@@ -83,47 +163,110 @@ def main() -> int:
             continue
         param = pick_param(model)
         if param is None:
+            print(f"{name:<20} skipped: no float parameter")
             continue
         mat = doc.add_material(name, name=f"bench-{name}")
         doc.select_material(mat)
         window.refresh_now()
-        wait_sampling()
-        lo, hi = param.lo, param.hi
-        values = (
-            [lo + (hi - lo) * f for f in (0.3, 0.6)]
-            if not param.log
-            else [(lo * hi) ** 0.5, (lo * hi) ** 0.5 * 1.5]
-        )
-        values = [min(max(v, lo), hi) for v in values]
-        doc.set_param(param.name, values[1])  # warm-up: compile what this model needs
-        window.refresh_now()
-        wait_sampling()
-        lobe, tree, both, total = [], [], [], []
-        for k in range(args.edits):
+        run_until(lambda: window.jobs_idle("sampling"))
+        warm_up, values = edit_values(param, edits, fresh)
+        for v in warm_up:  # compile what this model needs (and, unless fresh, build both trees)
+            doc.set_param(param.name, v)
+            doc.end_merge()
+            window.refresh_now()
+            run_until(lambda: window.jobs_idle("sampling"))
+        window.flush_slow_jobs()  # the albedo quadrature must not run during the timed edits
+        run_until(window.jobs_idle, timeout=120.0)
+        per_view: dict[str, list[float]] = {v: [] for v in (*views, "both", "all")}
+        for k in range(edits):
             t0 = time.perf_counter()
-            doc.set_param(param.name, values[k % 2])
+            doc.set_param(param.name, values[k])
             doc.end_merge()
             window.refresh_now()
             t_sync = time.perf_counter()
-            wait_sampling()
-            t_done = time.perf_counter()
-            lobe_ms = window.timings["lobe"] * 1e3
-            tree_ms = window.timings["sampling"] * 1e3  # from the request to the drawn tree
-            lobe.append(lobe_ms)
-            tree.append(tree_ms)
-            both.append(lobe_ms + tree_ms)
-            total.append((t_done - t0) * 1e3)
-            rows.append({"model": name, "param": param.name, "edit": k, "lobe_ms": round(lobe_ms, 2),
-                         "tree_ms": round(tree_ms, 2), "sync_ms": round((t_sync - t0) * 1e3, 2),
-                         "total_ms": round((t_done - t0) * 1e3, 2)})  # fmt: skip
+            ok = run_until(
+                lambda t0=t0: all(clock.on_screen(v, t0) is not None for v in views), timeout=120.0
+            )
+            if not ok:
+                late = [v for v in views if clock.on_screen(v, t0) is None]
+                print(f"{name}: edit {k}: not redrawn within 120 s: {', '.join(late)}")
+                continue
+            ms = {v: (clock.on_screen(v, t0) - t0) * 1e3 for v in views}
+            ms["both"] = max(ms["lobe"], ms["tree"])
+            ms["all"] = max(ms[v] for v in views)
+            for v, x in ms.items():
+                per_view[v].append(x)
+            rows.append({"model": name, "param": param.name, "value": values[k], "edit": k,
+                         **{f"{v}_ms": round(x, 2) for v, x in ms.items()},
+                         "sync_ms": round((t_sync - t0) * 1e3, 2)})  # fmt: skip
+        if not per_view["both"]:
+            continue
         med = lambda x: f"{statistics.median(x):5.0f}/{max(x):<4.0f}"  # noqa: E731
-        print(f"{name:<20} {param.name:<8} {med(lobe):>9} {med(tree):>9} {med(both):>10} {med(total):>10}")
+        print(
+            f"{name:<20} {param.name:<8} {med(per_view['lobe']):>9} {med(per_view['tree']):>9} "
+            f"{med(per_view['both']):>10} {med(per_view['all']):>10}"
+        )
+    print(f"load average after part 1: {os.getloadavg()[0]:.2f}")
+    return rows
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--edits", type=int, default=15)
+    parser.add_argument("--render-seconds", type=float, default=8.0)
+    parser.add_argument("--models", default=DEFAULT_MODELS)
+    parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    parser.add_argument("--parts", default=",".join(PARTS), help="latency, stall or both (comma-separated)")
+    parser.add_argument("--fresh", action="store_true", help="a new parameter value (a new tree) every edit")
+    args = parser.parse_args()
+    parts = {p.strip() for p in args.parts.split(",") if p.strip()}
+    if not parts <= set(PARTS):
+        parser.error(f"--parts: choose from {', '.join(PARTS)}")
+    if args.render_seconds <= 0:
+        parts.discard("stall")
+    ensure_display()
+    os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-bench-"))
+
+    from PySide6.QtCore import QElapsedTimer, QEventLoop, QTimer
+    from PySide6.QtWidgets import QApplication
+
+    from app.main_window import MainWindow, demo_scene_path
+
+    _app = QApplication.instance() or QApplication([])  # kept referenced for the whole run
+    # Spin the event loop through a QEventLoop: with PySide6 6.12 on Python 3.11, each call of
+    # QCoreApplication.processEvents() from Python drops a reference to None, and a long wait ends in
+    # "Fatal Python error: none_dealloc"; QEventLoop.processEvents() does not.
+    events = QEventLoop()
+    window = MainWindow(warm_up=False)
+    window.ask_unsaved = lambda: "discard"
+    window.resize(1400, 900)
+    window.show()
+    if "latency" in parts:
+        # The lobe (Explore tab) and the quadtree (Sampling tab) on screen together: the sampler panel leaves
+        # its tab for a window of its own, of the tab area's size, and redraws on every edit.
+        panel = window.sampling_panel
+        size = window.tabs.currentWidget().size()
+        window.tabs.removeTab(window.tabs.indexOf(panel))
+        panel.setParent(None)
+        panel.resize(size)
+        panel.show()
+        window.sampling_always = True
+    events.processEvents()
 
     args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "app_latency.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    if "latency" in parts:
+        models = [m.strip() for m in args.models.split(",") if m.strip()]
+        rows = latency_part(events, window, models, args.edits, args.fresh)
+        if rows:
+            with open(args.out / "app_latency.csv", "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+                w.writeheader()
+                w.writerows(rows)
+    if "stall" not in parts:
+        window.close()
+        from app.workers import exit_if_abandoned
+
+        return exit_if_abandoned(0)
 
     # ---- event-loop stall probe while rendering ---------------------------------------------------------
     stall = {"baseline": [], "render": []}
@@ -140,10 +283,12 @@ def main() -> int:
     def run_for(seconds: float, until=None) -> None:
         end = time.monotonic() + seconds
         while time.monotonic() < end and not (until is not None and until()):
-            app.processEvents()
+            events.processEvents()
             time.sleep(0.001)
 
     window.sampling_always = False
+    if window.sampling_panel.parent() is None:
+        window.sampling_panel.hide()
     window.open_project(demo_scene_path(), confirm=False, remember=False)
     window.tabs.setCurrentWidget(window.render_panel)
     panel = window.render_view

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
+from matplotlib.artist import Artist
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from matplotlib.figure import Figure
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
@@ -12,7 +14,12 @@ from core.errors import OutputError
 
 
 class FigureView(QWidget):
-    """A matplotlib figure in a widget, with a status line and export to PNG/SVG."""
+    """A matplotlib figure in a widget, with a status line and export to PNG/SVG.
+
+    Two ways to show a change: :meth:`redraw` draws the whole figure (axes, ticks, text: tens of ms), and
+    :meth:`update_artists` redraws only the artists declared with :meth:`set_animated` over a saved copy of
+    the rest (blitting: a few ms), falling back to a full draw when the saved copy is missing or stale.
+    """
 
     def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None):
         super().__init__(parent)
@@ -28,9 +35,59 @@ class FigureView(QWidget):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.canvas, 1)
         layout.addWidget(self.status)
+        self._animated: list[Artist] = []
+        self._background = None
+        self._background_bounds: tuple[float, ...] | None = None
+        self.full_draws = 0
+        """Full figure draws so far (tests check that data updates avoid them)."""
+
+    def set_animated(self, artists: Iterable[Artist]) -> None:
+        """Declare the artists whose data changes: full draws leave them out of the saved background and
+        :meth:`update_artists` redraws only them (in z-order, so give them the layering they need)."""
+        self._animated = sorted(artists, key=lambda a: a.get_zorder())
+        for a in self._animated:
+            a.set_animated(True)
+        if not hasattr(self, "_draw_cid"):
+            self._draw_cid = self.canvas.mpl_connect("draw_event", self._on_full_draw)
+        self._background = None
+
+    def _on_full_draw(self, event) -> None:
+        self.full_draws += 1
+        if self.canvas.is_saving():  # an export draws at another size: the saved copy would not match
+            self._background = None
+            return
+        self._background = self.canvas.copy_from_bbox(self.figure.bbox)
+        self._background_bounds = tuple(self.figure.bbox.bounds)
+        self._draw_animated()
+
+    def _draw_animated(self) -> None:
+        for a in self._animated:
+            self.figure.draw_artist(a)
 
     def redraw(self) -> None:
+        """Draw the whole figure at the next event-loop turn (after limits, ticks or titles change)."""
         self.canvas.draw_idle()
+        # A paint runs a pending idle draw too: this one also recovers a request whose idle timer was lost
+        # (seen after an export: the canvas then kept "a draw is pending" and ignored further requests).
+        self.canvas.update()
+
+    def update_artists(self) -> None:
+        """Show new data of the animated artists now, by blitting over the saved background; a full draw
+        (at the next event-loop turn) when there is no usable background."""
+        renderer = getattr(self.canvas, "renderer", None)
+        usable = (
+            self._background is not None
+            and renderer is not None
+            and self._background_bounds == tuple(self.figure.bbox.bounds)
+            and (renderer.width, renderer.height)
+            == (int(self.figure.bbox.width), int(self.figure.bbox.height))
+        )
+        if not usable:
+            self.redraw()
+            return
+        self.canvas.restore_region(self._background)
+        self._draw_animated()
+        self.canvas.blit(self.figure.bbox)
 
     def export(self, path: str | Path) -> Path:
         """Save the figure; the format follows the suffix (``.png`` or ``.svg``)."""
@@ -43,4 +100,6 @@ class FigureView(QWidget):
             self.figure.savefig(path, dpi=150)
         except OSError as exc:
             raise OutputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+        finally:
+            self._background = None  # the canvas renderer may have been replaced by the export's
         return path

@@ -96,7 +96,7 @@ class SamplingView(QWidget):
         self.leaf_edges = LineCollection([], colors="white", linewidths=0.3, alpha=0.5)
         ax.add_collection(self.leaf_edges)
         self._samples = ax.scatter([], [], s=1.5, c="cyan", alpha=0.7, linewidths=0)
-        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
+        self._tree_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         (self._wo_mark,) = ax.plot([], [], marker="x", color="red", ms=8, ls="none")
         self._tree_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
         ax.set_title("leaves: trial density M/V on the disk (log); samples", fontsize=9)
@@ -115,13 +115,20 @@ class SamplingView(QWidget):
         )
         self._colorbar = self.figure_view.figure.colorbar(self._ratio_img, ax=ax, fraction=0.046, pad=0.04)
         self._colorbar.set_label("log2(pdf / (f cos / I))")
-        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
+        self._ratio_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         self._ratio_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
         self._ratio_title = ax.set_title("", fontsize=9)
         for a in (self.ax_tree, self.ax_ratio):  # few tick labels: text is most of a redraw's cost
             a.set_xticks([-1, 0, 1])
             a.set_yticks([-1, 0, 1])
         self._colorbar.set_ticks([-2, -1, 0, 1, 2])
+        # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, titles,
+        # colour bar): a full draw of this figure costs ~40 ms, the blit a fraction of it. The rim circles
+        # are redrawn too so that they stay above the images.
+        self.figure_view.set_animated(
+            [self._tree_img, self.leaf_edges, self._samples, self._tree_rim, self._wo_mark, self._tree_msg,
+             self._ratio_img, self._ratio_rim, self._ratio_msg]
+        )  # fmt: skip
         self._artists = True
 
     def show_message(self, text: str) -> None:
@@ -133,7 +140,7 @@ class SamplingView(QWidget):
         self.leaf_edges.set_segments([])
         self._samples.set_offsets(np.zeros((0, 2)))
         self._ratio_img.set_visible(False)
-        self.figure_view.redraw()
+        self.figure_view.update_artists()
 
     def show_snapshot(self, snap: dict) -> None:
         if not getattr(self, "_artists", False):
@@ -149,9 +156,7 @@ class SamplingView(QWidget):
             positive = density[density > 0]
             if positive.size:
                 self._tree_img.set_data(np.ma.masked_less_equal(density, 0.0))
-                self._tree_img.set_norm(
-                    LogNorm(vmin=max(positive.min(), positive.max() * 1e-6), vmax=positive.max())
-                )
+                self._tree_img.set_clim(max(positive.min(), positive.max() * 1e-6), positive.max())
             self._tree_img.set_visible(bool(positive.size))
             keep = leaves[:, 3] > leaves[:, 1]
             x0, y0, x1, y1 = (leaves[keep, k] for k in (1, 2, 3, 4))
@@ -211,12 +216,17 @@ class SamplingView(QWidget):
             self._ratio_img.set_visible(False)
             self._ratio_msg.set_text(snap.get("ratio_error", ""))
             lines.append(f"Ratio map: {snap.get('ratio_error', '')}")
-        self._ratio_title.set_text(f"ratio map: {name} vs ideal (white = 1)")
+        title = f"ratio map: {name} vs ideal (white = 1)"
+        retitled = title != self._ratio_title.get_text()
+        self._ratio_title.set_text(title)
         frame = "rotated so that wo has phi = 0" if snap.get("frame_rotated") else "local frame"
         meaning = "(x, y) = (wi.x, wi.y)" if projection == "orthographic" else "radius = theta_i / 90 deg"
         lines.append(f"Disk: {projection} projection, {meaning}; {frame}.")
         self.stats.setText("<br>".join(lines))
-        self.figure_view.redraw()
+        if retitled:  # the title is part of the saved background
+            self.figure_view.redraw()
+        else:
+            self.figure_view.update_artists()
 
     def export(self, path):
         return self.figure_view.export(path)

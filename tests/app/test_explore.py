@@ -177,3 +177,30 @@ def test_measured_material_from_a_merl_file(window):
     assert np.max(np.abs(np.array(window.lobe_view.mesh.points) - before)) > 1e-3
     window.document.undo()
     assert window.document.material(name).measured is None
+
+
+def test_polar_slice_and_sampler_view_update_by_blitting(window):
+    """A data edit that keeps the scale redraws only the curves (no full figure draw), and the pixels change."""
+    from app.view_data import sampling_snapshot
+    from core.model import make_brdf
+
+    wo = np.array([0.5, 0.0, np.sqrt(0.75)])
+    for view, show, brdfs in (
+        (window.polar_view, lambda b: window.polar_view.show_slice(b, wo), None),
+        (window.sampling_view.figure_view, None, None),
+    ):
+        kd = (0.5, 0.45)  # Lambert: peaks within the kept radial limit, identical titles
+        brdfs = [make_brdf("lambert", {"kd": k}) for k in kd]
+        if show is None:
+            # (Lambert's normalized pictures do not depend on kd: move wo instead)
+            snaps = [sampling_snapshot(brdfs[0], t, 0.0, n_samples=200, grid=32) for t in (30.0, 40.0)]
+            show = lambda b, snaps=snaps, brdfs=brdfs: window.sampling_view.show_snapshot(
+                snaps[brdfs.index(b)]
+            )  # noqa: E731
+        show(brdfs[0])
+        view.canvas.draw()  # a full draw: saves the background
+        before = np.asarray(view.canvas.buffer_rgba()).copy()
+        full = view.full_draws
+        show(brdfs[1])
+        assert view.full_draws == full
+        assert np.any(np.asarray(view.canvas.buffer_rgba()) != before)

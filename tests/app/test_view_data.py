@@ -8,6 +8,8 @@ import numpy as np
 
 from app.view_data import (
     direction_from_disk,
+    grid_normals,
+    grid_quads,
     hemisphere_grid,
     incidence_plane,
     light_from_disk,
@@ -62,3 +64,29 @@ def test_disk_helpers():
     assert abs(direction_from_disk(0.0, -0.5)[1] - 270.0) < 1e-9
     x, y, z = light_from_disk(3.0, 4.0)
     assert abs(x - 0.6) < 1e-12 and abs(y - 0.8) < 1e-12 and z == 0.0
+
+
+def test_grid_normals_of_a_sphere_point_outwards_and_quads_cover_the_grid():
+    dirs = hemisphere_grid(40, 80)
+    # a sphere of radius 2 around the origin: the normal is the direction (central differences: ~2 % off)
+    n = grid_normals(2.0 * dirs, dirs)
+    assert np.allclose(np.linalg.norm(n, axis=-1), 1.0)
+    assert np.min(np.sum(n * dirs, axis=-1)) > 0.999
+    # Lambert's lobe is a sphere of centre c tangent at the origin: the normal is (p - c) / |p - c|
+    brdf = get_model("lambert").bind(kd=0.6)
+    points, _ = lobe(brdf, np.array([0.0, 0.0, 1.0]), dirs)
+    centre = np.array([0.0, 0.0, 0.3 / math.pi])
+    expect = (points - centre) / np.linalg.norm(points - centre, axis=-1, keepdims=True)
+    n = grid_normals(points, dirs)
+    assert np.min(np.sum(n[1:-1] * expect[1:-1], axis=-1)) > 0.99
+    quads = grid_quads(40, 81).reshape(-1, 5)
+    assert len(quads) == 39 * 80 and np.all(quads[:, 0] == 4)
+    assert set(np.unique(quads[:, 1:])) == set(range(40 * 81))
+    # winding: (b - a) x (d - a) points outwards on the unit hemisphere (the pole row's quads are triangles
+    # whose a = d: use c there)
+    flat = dirs.reshape(-1, 3)
+    a, b, c, d = (flat[quads[80:, k]] for k in (1, 2, 3, 4))
+    mid = flat[quads[80:, 1:]].mean(axis=1)
+    assert np.all(np.sum(np.cross(b - a, d - a) * mid, axis=-1) > 0)
+    a, b, c = (flat[quads[:80, k]] for k in (1, 2, 3))
+    assert np.all(np.sum(np.cross(b - a, c - a) * (a + b + c), axis=-1) > 0)
