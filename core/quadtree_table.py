@@ -38,6 +38,24 @@ def _sum_up(mass, first):
             mass[k] = mass[c] + mass[c + 1] + mass[c + 2] + mass[c + 3]
 
 
+COEF_TOL = 1e-13
+"""Chebyshev coefficients of a normalizer table below ``COEF_TOL * sum |c|`` at the end of either axis are
+dropped: the interpolant changes by less than ~1e-10 relative (the builder's interpolation tolerance is
+1e-5), and a grazing anisotropic bin's table (48 x 20 values) shrinks to about half."""
+
+
+def truncated_coefficients(values: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients ``(flattened, shape)`` of the Chebyshev interpolant through ``values`` (the builder's
+    ``m_theta x m_phi`` table at Chebyshev points of the first kind), trailing negligible ones dropped."""
+    mt, mp = int(shape[0]), int(shape[1])
+    c = chebyshev_coefficients(np.asarray(values, dtype=np.float64), mt, mp).reshape(mt, mp)
+    a = np.abs(c)
+    tol = COEF_TOL * float(a.sum())
+    rows = int(np.flatnonzero(a.max(axis=1) > tol).max(initial=0)) + 1
+    cols = int(np.flatnonzero(a.max(axis=0) > tol).max(initial=0)) + 1
+    return np.ascontiguousarray(c[:rows, :cols].ravel()), np.array([rows, cols], dtype=np.int64)
+
+
 def compact_tree(child: np.ndarray, vmass: np.ndarray, leaf: np.ndarray) -> dict[str, Any]:
     """The stored form of a tree from the builder's arrays (``child`` with leaves as ``-(index + 1)``,
     ``vmass`` per node, ``leaf (L, 5)`` rows ``M, x0, y0, x1, y1``): integer masses per node, one bit per node
@@ -92,15 +110,25 @@ class Bin:
         self.cum = np.ascontiguousarray(arrays["cum"], dtype=np.uint32)
         """Internal nodes before each word of :attr:`bits`."""
         self.unit = float(arrays["unit"])
-        self.norm = np.ascontiguousarray(arrays["norm"], dtype=np.float64)
-        self.shape = np.asarray(arrays["shape"], dtype=np.int64)  # (m_theta, m_phi)
+        if "norm_coef" in arrays:  # the stored form
+            self.norm_coef = np.ascontiguousarray(arrays["norm_coef"], dtype=np.float64)
+            self.norm_shape = np.asarray(arrays["norm_shape"], dtype=np.int64)
+            self.scale_coef = np.ascontiguousarray(arrays["scale_coef"], dtype=np.float64)
+            self.scale_shape = np.asarray(arrays["scale_shape"], dtype=np.int64)
+        else:  # the builder's values at Chebyshev points
+            self.norm_coef, self.norm_shape = truncated_coefficients(arrays["norm"], arrays["shape"])
+            self.scale_coef, self.scale_shape = truncated_coefficients(arrays["scale"], arrays["scale_shape"])
+        """Chebyshev coefficients ``[k_theta, k_phi]`` (flattened, ``*_shape`` = counts) of ``I(wo)`` and of
+        the scale ``c(wo)`` over the bin."""
         self.build_seconds = float(arrays["build_seconds"])
         self.interp_error = float(arrays["interp_error"])
         self.projection = int(arrays["projection"])
         """Index into ``PROJECTIONS``."""
-        self.scale = np.ascontiguousarray(arrays["scale"], dtype=np.float64)
-        self.scale_shape = np.asarray(arrays["scale_shape"], dtype=np.int64)
         self.scale_floor = float(arrays["scale_floor"])
+        if self.norm_coef.size != int(np.prod(self.norm_shape)) or self.scale_coef.size != int(
+            np.prod(self.scale_shape)
+        ):
+            raise ValueError("inconsistent normalizer tables")
         if len(self.bits) != (len(self.mass) + 63) // 64 or len(self.cum) != len(self.bits):
             raise ValueError("inconsistent tree arrays")
 
@@ -110,12 +138,12 @@ class Bin:
             "bits": self.bits,
             "cum": self.cum,
             "unit": np.asarray(self.unit),
-            "norm": self.norm,
-            "shape": self.shape,
+            "norm_coef": self.norm_coef,
+            "norm_shape": self.norm_shape,
             "build_seconds": np.asarray(self.build_seconds),
             "interp_error": np.asarray(self.interp_error),
             "projection": np.asarray(self.projection),
-            "scale": self.scale,
+            "scale_coef": self.scale_coef,
             "scale_shape": self.scale_shape,
             "scale_floor": np.asarray(self.scale_floor),
         }
@@ -124,7 +152,11 @@ class Bin:
     def nbytes(self) -> int:
         """Memory of the tree and its normalizer and scale tables (the arrays held; a few scalars aside)."""
         return int(
-            self.mass.nbytes + self.bits.nbytes + self.cum.nbytes + self.norm.nbytes + self.scale.nbytes
+            self.mass.nbytes
+            + self.bits.nbytes
+            + self.cum.nbytes
+            + self.norm_coef.nbytes
+            + self.scale_coef.nbytes
         )
 
     @property
@@ -267,19 +299,19 @@ class QuadtreeTable:
             self.proj_of[b] = t.projection
             self.unit_of[b] = t.unit
             t_lo, t_hi, f_lo, f_hi = self.bin_range(b)
-            self.meta[b] = (n_vals, t.shape[0], t.shape[1], t_lo, t_hi, f_lo, f_hi)
+            self.meta[b] = (n_vals, t.norm_shape[0], t.norm_shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_meta[b] = (n_c, t.scale_shape[0], t.scale_shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_floor[b] = t.scale_floor
-            m_max = max(m_max, int(t.shape.max()), int(t.scale_shape.max()))
+            m_max = max(m_max, int(t.norm_shape.max()), int(t.scale_shape.max()))
             mass.append(t.mass)
             bits.append(t.bits)
             cum.append(t.cum)
-            vals.append(chebyshev_coefficients(t.norm, int(t.shape[0]), int(t.shape[1])))
-            cvals.append(chebyshev_coefficients(t.scale, int(t.scale_shape[0]), int(t.scale_shape[1])))
+            vals.append(t.norm_coef)
+            cvals.append(t.scale_coef)
             n_nodes += t.n_nodes
             n_words += len(t.bits)
-            n_vals += len(t.norm)
-            n_c += len(t.scale)
+            n_vals += len(t.norm_coef)
+            n_c += len(t.scale_coef)
         self.mass = _cat(mass, np.uint32)
         self.bits = _cat(bits, np.uint64)
         self.cum = _cat(cum, np.uint32)

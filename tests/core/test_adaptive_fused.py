@@ -22,7 +22,7 @@ import pytest
 from core.chi2 import chi2_test, two_sample_test
 from core.geometry import degrees_to_dir
 from core.model import BRDF, LUMINANCE, make_brdf
-from core.quadtree import BuildOptions, build_tree
+from core.quadtree import BuildOptions, build_tree, normalizer_values
 from core.quadtree_kernels import LUM_B, LUM_G, LUM_R, model_kernels
 from core.quadtree_table import Bin, QuadtreeTable
 from core.sampler import make_sampler
@@ -99,10 +99,21 @@ def test_recomputed_leaf_boxes_are_the_builders(name, theta, phi):
     # the stored (cached) form gives the same tree, and nbytes is what is held
     again = Bin(tree.arrays())
     np.testing.assert_array_equal(again.leaf_rows(), rows)
-    held = sum(getattr(tree, a).nbytes for a in ("mass", "bits", "cum", "norm", "scale"))
+    held = sum(getattr(tree, a).nbytes for a in ("mass", "bits", "cum", "norm_coef", "scale_coef"))
     assert tree.nbytes == held
     # far below the seed's layout of 5 float64 per leaf + int32 child + float64 mass per node
-    assert tree.nbytes < 0.5 * (40 * len(leaf) + 12 * len(child)) + tree.norm.nbytes + tree.scale.nbytes
+    tables = tree.norm_coef.nbytes + tree.scale_coef.nbytes
+    assert tree.nbytes - tables < 0.2 * (40 * len(leaf) + 12 * len(child))
+    # the stored Chebyshev coefficients give the builder's interpolant of I(wo) (its values at the nodes)
+    t_lo, t_hi, f_lo, f_hi = table.bin_range(b)
+    rng = np.random.default_rng(2)
+    th = rng.uniform(t_lo, t_hi, 200)
+    ph = rng.uniform(f_lo, f_hi, 200) if f_hi > f_lo else np.zeros(200)
+    meta = np.array([[0.0, *raw["shape"], t_lo, t_hi, f_lo, f_hi]])
+    zero = np.zeros(200, dtype=np.int64)
+    reference = normalizer_values(meta, raw["norm"], zero, th, ph)
+    table.ensure(np.array([b]))
+    np.testing.assert_allclose(table.normalizer(np.full(200, b), th, ph), reference, rtol=1e-9)
 
 
 # -------------------------------------------------------------------------------------------- samples
