@@ -198,6 +198,7 @@ def test_polar_slice_and_sampler_view_update_by_blitting(window):
                 snaps[brdfs.index(b)]
             )  # noqa: E731
         show(brdfs[0])
+        view.canvas.repaint()  # runs a pending idle draw, if any
         view.canvas.draw()  # a full draw: saves the background
         before = np.asarray(view.canvas.buffer_rgba()).copy()
         full = view.full_draws
