@@ -58,11 +58,6 @@ def _ctpop(typingctx, x):
     return types.uint64(types.uint64), codegen
 
 
-@njit(nogil=True, cache=True)
-def popcount(x):
-    return _ctpop(np.uint64(x))
-
-
 @njit(nogil=True, cache=True, inline="always")
 def first_child(bits, cum, woff, k):
     """First child of node ``k`` of a tree whose bit words start at ``woff``; -1 for a leaf."""
