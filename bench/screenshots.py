@@ -128,7 +128,7 @@ def main() -> int:
         panel.strategy_b.setCurrentText(args.render_b)
         t0 = time.monotonic()
         window.start_render()
-        settle(0.5, until=lambda: not panel.running, timeout=900)
+        settle(0.5, until=lambda: not panel.running, timeout=3600)
         print(f"render: {panel.status_text} ({time.monotonic() - t0:.0f} s with preparation)")
         if window.errors:
             print("errors: " + "; ".join(window.errors))
