@@ -63,6 +63,8 @@ R_MAX = 1.0 - 1e-12
 """Probes and the search stay inside this radius (g is 0 on and outside the unit circle)."""
 QUAD_ORDER = 6
 GRID = 4
+BOUND_CHUNK = 400_000
+"""Candidate points per vectorized bound evaluation (memory: a few hundred bytes each)."""
 ARC = 8
 PROJECTIONS = ("equidistant", "orthographic")
 
@@ -771,6 +773,25 @@ class _Builder:
         return best
 
     def bound(self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_bound` over chunks of boxes, so that the candidate arrays stay within ~``BOUND_CHUNK``
+        points (a grazing anisotropic bin has thousands of leaves times thousands of ridge points)."""
+        per_box = len(wo_ang) * (GRID * GRID + 2 * ARC) + len(self.ridge_pts)
+        step = max(1, BOUND_CHUNK // max(per_box, 1))
+        if len(boxes) <= step:
+            return self._bound(boxes, wo_ang, qmax)
+        q = getattr(self, "qstart", None)
+        parts = []
+        try:
+            for i in range(0, len(boxes), step):
+                self.qstart = q[i : i + step] if q is not None and len(q) == len(boxes) else None
+                parts.append(self._bound(boxes[i : i + step], wo_ang, qmax[i : i + step]))
+        finally:
+            self.qstart = q
+        return np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
+
+    def _bound(
+        self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
         Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it, at every
