@@ -6,6 +6,7 @@ its docstring and in ``docs/adaptive.md``.
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
@@ -227,6 +228,8 @@ class QuadtreeTable:
             ["adaptive-quadtree", TABLE_VERSION, _source_hash(), model.name, self.params, opts.key_parts()]
         )
         self.bins: dict[int, Bin] = {}
+        self.lock = threading.RLock()
+        """Held while bins are added; readers of ``bins`` take :meth:`trees` (a snapshot)."""
         self.violations = 0
         self.trials = 0
         self.samples = 0
@@ -261,6 +264,12 @@ class QuadtreeTable:
         self._ensure_present(bins_present(wo, *self._where(), self.n_bins))
 
     def _ensure_present(self, present: np.ndarray) -> None:
+        if not np.any(present & (self.node_off < 0)):
+            return
+        with self.lock:  # one builder at a time; the app samples from several threads
+            self._ensure_locked(present)
+
+    def _ensure_locked(self, present: np.ndarray) -> None:
         missing = np.flatnonzero(present & (self.node_off < 0))
         if not len(missing):
             return
@@ -427,11 +436,16 @@ class QuadtreeTable:
         )
         return np.where(bins >= 0, norm / (scale * np.where(bins >= 0, mass, 1.0)), 1.0)
 
+    def trees(self) -> list[Bin]:
+        """A snapshot of the built trees (safe while another thread adds bins)."""
+        with self.lock:
+            return list(self.bins.values())
+
     def memory_bytes(self) -> int:
-        return int(sum(t.nbytes for t in self.bins.values()))
+        return int(sum(t.nbytes for t in self.trees()))
 
     def build_seconds(self) -> float:
-        return float(sum(t.build_seconds for t in self.bins.values()))
+        return float(sum(t.build_seconds for t in self.trees()))
 
 
 def _rows(a: np.ndarray) -> np.ndarray:

@@ -124,8 +124,9 @@ class AdaptiveSampler(Sampler):
 
     def info(self) -> dict[str, Any]:
         t = self.table
-        n_trees = len(t.bins)
-        leaves = [b.n_leaves for b in t.bins.values()]
+        trees = t.trees()
+        n_trees = len(trees)
+        leaves = [b.n_leaves for b in trees]
         return {
             "sampler": self.name,
             "n_max": self.n_max,

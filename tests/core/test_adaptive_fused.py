@@ -301,3 +301,29 @@ def test_measured_brdf_through_the_fused_kernels():
     w = _luminance_weights(sampler, wo, wi, pdf)
     np.testing.assert_allclose(w, sampler.normalizer(wo), rtol=1e-9)
     assert sampler.bound_violations == 0
+
+
+def test_threads_can_build_and_read_one_table_at_once():
+    """The app samples one shared table from several worker threads: bins built concurrently, ``info`` read
+    meanwhile (it once iterated the bins while another thread added one)."""
+    import threading
+
+    sampler = make_sampler("adaptive", make_brdf("phong"), n_max=2.0)
+    errors: list[BaseException] = []
+
+    def work(theta):
+        try:
+            wo = np.repeat(degrees_to_dir(theta, 0.0)[None, :], 64, axis=0)
+            sampler.sample_each(wo, seed=int(theta))
+        except BaseException as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(t,)) for t in (5.0, 25.0, 45.0, 65.0)]
+    for t in threads:
+        t.start()
+    while any(t.is_alive() for t in threads):
+        sampler.info()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert sampler.info()["trees"] == 4
