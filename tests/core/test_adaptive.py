@@ -38,12 +38,8 @@ FAST_CASES = [c for c in FAST_CASES if c[0] in {m.name for m in MODELS}]
 
 
 @pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    """Every test gets its own table cache folder and an empty in-memory cache."""
-    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
-    clear_memory_cache()
-    yield
-    clear_memory_cache()
+def _private_cache(private_tables):
+    """Every test gets its own table cache folder and an empty in-memory cache (tests/core/conftest.py)."""
 
 
 def _adaptive(name, n_max=2.0, **kw) -> AdaptiveSampler:

@@ -29,17 +29,13 @@ from core.quadtree import (
     theta_edges,
 )
 from core.sampler import make_sampler
-from core.samplers.adaptive import clear_memory_cache
 
 MODEL_NAMES = {m.name for m in all_models()}
 
 
 @pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
-    clear_memory_cache()
-    yield
-    clear_memory_cache()
+def _private_cache(private_tables):
+    """Every test gets its own table cache folder and an empty in-memory cache (tests/core/conftest.py)."""
 
 
 def _bin(model, theta_deg: float, phi_deg: float, opts: BuildOptions) -> tuple[float, float, float, float]:

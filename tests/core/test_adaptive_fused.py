@@ -33,11 +33,8 @@ CHI2_TESTS = 3
 
 
 @pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
-    clear_memory_cache()
-    yield
-    clear_memory_cache()
+def _private_cache(private_tables):
+    """Every test gets its own table cache folder and an empty in-memory cache (tests/core/conftest.py)."""
 
 
 def _adaptive(name, n_max=2.0, params=None, **kw):

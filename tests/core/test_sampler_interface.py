@@ -10,17 +10,13 @@ from core.errors import ParameterError, UnknownNameError
 from core.geometry import degrees_to_dir
 from core.model import make_brdf
 from core.sampler import applicable_samplers, make_sampler, sampler_names
-from core.samplers.adaptive import clear_memory_cache
 
 BRDFS = [("lambert", None), ("phong", {"n": 30})]
 
 
 @pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
-    clear_memory_cache()
-    yield
-    clear_memory_cache()
+def _private_cache(private_tables):
+    """Every test gets its own table cache folder and an empty in-memory cache (tests/core/conftest.py)."""
 
 
 def _cases():

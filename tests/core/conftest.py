@@ -1,0 +1,17 @@
+"""Fixtures of the core tests."""
+
+from __future__ import annotations
+
+import pytest
+
+from core.samplers.adaptive import clear_memory_cache
+
+
+@pytest.fixture
+def private_tables(tmp_path, monkeypatch):
+    """The adaptive sampler's tables in a folder of this test only, and none in memory before or after: a test
+    sees its own builds (and cache hits), never another test's."""
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "cache"))
+    clear_memory_cache()
+    yield
+    clear_memory_cache()
