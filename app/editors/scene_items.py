@@ -42,7 +42,22 @@ COORDINATE_LIMIT = 1e6
 EMISSION_LIMIT = 1e6
 
 
-class Vec3Row(QWidget):
+class _TripleSpins:
+    """``value()`` / ``set_value()`` over three spin boxes ``self.spins`` (setting emits nothing)."""
+
+    spins: list[QDoubleSpinBox]
+
+    def value(self) -> tuple[float, float, float]:
+        return tuple(float(s.value()) for s in self.spins)  # type: ignore[return-value]
+
+    def set_value(self, value: Any) -> None:
+        for s, v in zip(self.spins, value, strict=True):
+            s.blockSignals(True)
+            s.setValue(float(v))
+            s.blockSignals(False)
+
+
+class Vec3Row(_TripleSpins, QWidget):
     """Three spin boxes (x, y, z). Emits ``edited(field, (x, y, z))``."""
 
     edited = Signal(str, object)
@@ -67,17 +82,8 @@ class Vec3Row(QWidget):
             layout.addWidget(s, 1)
             self.spins.append(s)
 
-    def value(self) -> tuple[float, float, float]:
-        return tuple(float(s.value()) for s in self.spins)  # type: ignore[return-value]
 
-    def set_value(self, value: Any) -> None:
-        for s, v in zip(self.spins, value, strict=True):
-            s.blockSignals(True)
-            s.setValue(float(v))
-            s.blockSignals(False)
-
-
-class EmissionRow(QWidget):
+class EmissionRow(_TripleSpins, QWidget):
     """An emitted linear-RGB value (radiance or intensity, unbounded): a swatch showing its colour (the value
     divided by its largest channel), three spin boxes, and a log *strength* slider (the largest channel).
     Picking a colour keeps the strength; moving the strength keeps the colour. Emits
@@ -117,14 +123,8 @@ class EmissionRow(QWidget):
         layout.addLayout(top)
         layout.addWidget(self.strength)
 
-    def value(self) -> tuple[float, float, float]:
-        return tuple(float(s.value()) for s in self.spins)  # type: ignore[return-value]
-
     def set_value(self, value: Any) -> None:
-        for s, v in zip(self.spins, value, strict=True):
-            s.blockSignals(True)
-            s.setValue(float(v))
-            s.blockSignals(False)
+        super().set_value(value)
         self.strength.set_value(max(self.value()))
         self._paint()
 
