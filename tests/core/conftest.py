@@ -15,3 +15,13 @@ def private_tables(tmp_path, monkeypatch):
     clear_memory_cache()
     yield
     clear_memory_cache()
+
+
+@pytest.fixture
+def bundled_merl_brdf():
+    """The measured BRDF of the synthetic MERL file shipped in ``resources/materials`` (it must be there)."""
+    from importlib import resources
+
+    from core.merl import measured_brdf
+
+    return measured_brdf(str(resources.files("resources.materials") / "red_plastic_ct.binary"))

@@ -10,7 +10,6 @@ over the tests of its group (the group size is written next to it). The full swe
 from __future__ import annotations
 
 import math
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -257,20 +256,8 @@ def test_laziness_and_info():
     assert sampler.info()["trees"] == 2
 
 
-def _merl_path():
-    try:
-        import core.merl  # noqa: F401
-    except ImportError:
-        return None
-    path = resources.files("resources.materials") / "red_plastic_ct.binary"
-    return path if path.is_file() else None
-
-
-@pytest.mark.skipif(_merl_path() is None, reason="core.merl or the bundled synthetic MERL file is missing")
-def test_measured_brdf_passes_the_same_tests():
-    from core.merl import measured_brdf
-
-    brdf = measured_brdf(str(_merl_path()))
+def test_measured_brdf_passes_the_same_tests(bundled_merl_brdf):
+    brdf = bundled_merl_brdf
     sampler = make_sampler("adaptive", brdf, n_max=2.0)
     for theta, domain in ((30.0, "sphere"), (75.0, None)):
         if domain is not None:

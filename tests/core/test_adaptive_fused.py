@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -278,20 +277,8 @@ def test_a_kernel_that_cannot_be_specialized_gives_the_same_samples():
 # ------------------------------------------------------------------------------------------ measured data
 
 
-def _merl_path():
-    try:
-        import core.merl  # noqa: F401
-    except ImportError:
-        return None
-    path = resources.files("resources.materials") / "red_plastic_ct.binary"
-    return path if path.is_file() else None
-
-
-@pytest.mark.skipif(_merl_path() is None, reason="core.merl or the bundled synthetic MERL file is missing")
-def test_measured_brdf_through_the_fused_kernels():
-    from core.merl import measured_brdf
-
-    sampler = make_sampler("adaptive", measured_brdf(str(_merl_path())), n_max=2.0, cache=False)
+def test_measured_brdf_through_the_fused_kernels(bundled_merl_brdf):
+    sampler = make_sampler("adaptive", bundled_merl_brdf, n_max=2.0, cache=False)
     wo = np.repeat(_directions([20.0, 65.0], [0.0, 140.0]), 3000, axis=0)
     wi, pdf = sampler.sample_each(wo, seed=6)
     np.testing.assert_array_equal(sampler.pdf(wo, wi), pdf)
