@@ -377,6 +377,21 @@ from core.quadtree_kernels import (
 from core.rng import next_u01, stream
 
 
+@njit(nogil=True, cache=True, inline="always")
+def luminance_f(ix, iy, iz, wx, wy, wz, p):
+    """The luminance of ``f_r(wo, wi)``."""
+    r, g, b = _eval((ix, iy, iz), (wx, wy, wz), p)
+    return LUM_R * r + LUM_G * g + LUM_B * b
+
+
+@njit(nogil=True, cache=True, inline="always")
+def trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p):
+    """A trial at disk point ``(X, Y)``: its direction ``wi``, the luminance ``f`` there and ``g = f cos J``."""
+    ix, iy, iz, factor = trial_direction(X, Y, proj, cr, sr, iso)
+    f = luminance_f(ix, iy, iz, wx, wy, wz, p) if factor > 0.0 else 0.0
+    return ix, iy, iz, f, f * factor
+
+
 @njit(nogil=True, cache=True)
 def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing):
     """One sample per row ``lo <= i < hi``, sample ``i`` from stream ``(seed, i)``. Returns
@@ -421,12 +436,7 @@ def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
             c0, d0, c1, d1, area, m = leaf_box(mass, moff, k, unit, x0, y0, size)
             X = c0 + (c1 - c0) * a
             Y = d0 + (d1 - d0) * c
-            ix, iy, iz, factor = trial_direction(X, Y, proj, cr, sr, iso)
-            f = 0.0
-            if factor > 0.0:
-                r, gg, bb = _eval((ix, iy, iz), (wx, wy, wz), p)
-                f = LUM_R * r + LUM_G * gg + LUM_B * bb
-            g = f * factor
+            ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p)
             bound = m * scale
             if g > bound:
                 viol += 1
@@ -546,12 +556,7 @@ def sample_batch(wo, p, seed, n, tab, wi_out, pdf_out):
                     trials += 1
                     X = c0 + (c1 - c0) * a
                     Y = d0 + (d1 - d0) * c
-                    ix, iy, iz, factor = trial_direction(X, Y, proj, cr, sr, iso)
-                    f = 0.0
-                    if factor > 0.0:
-                        r, gg, bb = _eval((ix, iy, iz), (wx, wy, wz), p)
-                        f = LUM_R * r + LUM_G * gg + LUM_B * bb
-                    g = f * factor
+                    ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p)
                     if g > bound:
                         viol += 1
                     if u3 * bound < g and filled < n:
@@ -582,9 +587,7 @@ def pdf_rows(wo, wi, p, tab, out, missing):
         elif b < 0:
             out[i] = iz * INV_PI
         else:
-            r, g, bl = _eval((wi[i, 0], wi[i, 1], iz), (wx, wy, wz), p)
-            f = LUM_R * r + LUM_G * g + LUM_B * bl
-            out[i] = f * iz / norm
+            out[i] = luminance_f(wi[i, 0], wi[i, 1], iz, wx, wy, wz, p) * iz / norm
     return skipped
 '''
 """The fused per-sample loops: the source of the generated module per model kernel
