@@ -150,7 +150,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--rotations", type=int, default=64, help="random rotations of the sky to average")
     ap.add_argument("--out", type=Path, default=Path("results/bench"))
     a = ap.parse_args(argv)
-    run([m for m in a.models.split(",") if m] or None, a.n, a.rotations, a.out)
+    models = [m for m in a.models.split(",") if m]
+    unknown = sorted(set(models) - {m.name for m in all_models()})
+    if unknown:
+        ap.error(f"unknown model(s): {', '.join(unknown)}")
+    if a.n <= 0 or a.rotations <= 0:
+        ap.error("--n and --rotations must be positive")
+    run(models or None, a.n, a.rotations, a.out)
 
 
 if __name__ == "__main__":

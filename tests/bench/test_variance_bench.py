@@ -46,3 +46,14 @@ def test_the_script_writes_its_table(bench, tmp_path, monkeypatch):
     assert [r["model"] for r in table] == ["phong"]
     assert rows[0]["furnace_met"]  # f cos / I is exact: zero variance in the furnace
     assert float(table[0]["sky_adaptive"]) > 0.0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [(["--models", "nope"], "unknown model(s): nope"), (["--n", "-5"], "must be positive")],
+)
+def test_bad_arguments_are_usage_errors(bench, argv, message, capsys):
+    with pytest.raises(SystemExit) as exc:
+        bench.main(argv)
+    assert exc.value.code == 2
+    assert message in capsys.readouterr().err
