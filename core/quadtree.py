@@ -25,12 +25,12 @@ so an accepted ``X`` has density ``g / I(wo)`` whatever the leaves are, i.e. ``w
 Only the normalizer ``I(wo)`` enters the pdf, and the luminance weight ``f cos / pdf = I(wo)`` is the same for
 every sample (zero variance).
 
-**Construction** (vectorized over the nodes being refined; ``f`` is evaluated through the model's batch
-kernel, so nothing is compiled per model beyond :func:`core.kernels.eval_batch`). Per bin, first the *ridge*:
+**Construction** (the per-node work runs in compiled loops specialized per model,
+:mod:`core.quadtree_build_kernels`; the refinement's bookkeeping is vectorized numpy). Per bin, first the *ridge*:
 the peak of ``g`` over the disk at a 3 x 3 grid of ``wo`` of the bin (compass search from the mirror,
 retro-reflection and normal points), its offset from the mirror point, and the lobe's half-width. A node at
 depth >= ``min_depth`` gets the integral of ``g`` over its part of the disk at the normalizer nodes
-(Gauss-Legendre on the exact region, :func:`region_rule`) and a bound on ``g / c``: the largest value on the
+(Gauss-Legendre on the exact region, :func:`core.quadtree_build_kernels.box_rule`) and a bound on ``g / c``: the largest value on the
 quadrature points, on a 4 x 4 grid over ``B_L`` at every ``wo`` sample of the bin, and at the box's nearest
 points to the ridge points (mirror, peak, retro) of a set of ``wo`` dense enough that the ridge moves by less
 than a third of the lobe's half-width between neighbours; then a compass search in ``(X, Y, theta_o,
@@ -52,8 +52,9 @@ from numba import njit
 
 from core.kernels import eval_batch
 from core.model import LUMINANCE
+from core.quadtree_build_kernels import build_kernels, scale_tables
 
-TABLE_VERSION = 3
+TABLE_VERSION = 4
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
 
 HALF_PI = 0.5 * math.pi
@@ -63,8 +64,6 @@ R_MAX = 1.0 - 1e-12
 """Probes and the search stay inside this radius (g is 0 on and outside the unit circle)."""
 QUAD_ORDER = 6
 GRID = 4
-BOUND_CHUNK = 400_000
-"""Candidate points per vectorized bound evaluation (memory: a few hundred bytes each)."""
 ARC = 8
 PROJECTIONS = ("equidistant", "orthographic")
 
@@ -154,90 +153,6 @@ def clip_boxes(x0, x1, y0, y1):
         out[i, 3] = d1
         ok[i] = c0 < c1 and d0 < d1
     return out, ok
-
-
-@njit(nogil=True, cache=True)
-def region_rule(boxes, gx, gw):
-    """Quadrature points and weights for the integral over each box ``(x0, y0, x1, y1)`` intersected with the
-    unit disk. Returns ``X, Y, weight, owner`` (owner = box row).
-
-    Iterated Gauss-Legendre: the outer variable is the one along which the circle is far from vertical
-    (``x`` when the box centre has ``|x| < |y|``, else ``y``); the outer interval is split where the circle
-    crosses the box's inner edges, so that on each piece the inner limits are smooth. When an inner limit lies
-    on the circle the inner variable is ``v = s sin(psi)``, ``s = sqrt(1 - u^2)``: the distance to the rim is
-    then smooth in ``psi`` and square-root behaviour of the integrand at the rim does not spoil the rule.
-    """
-    k = gx.shape[0]
-    nb = boxes.shape[0]
-    cap = nb * 5 * k * k
-    X = np.empty(cap)
-    Y = np.empty(cap)
-    W = np.empty(cap)
-    O = np.empty(cap, dtype=np.int64)
-    n = 0
-    cuts = np.empty(6)
-    for bi in range(nb):
-        x0, y0, x1, y1 = boxes[bi, 0], boxes[bi, 1], boxes[bi, 2], boxes[bi, 3]
-        if not (x1 > x0 and y1 > y0):
-            continue
-        swap = abs(0.5 * (x0 + x1)) >= abs(0.5 * (y0 + y1))
-        if swap:
-            u0, u1, v0, v1 = y0, y1, x0, x1
-        else:
-            u0, u1, v0, v1 = x0, x1, y0, y1
-        u0 = max(u0, -1.0)
-        u1 = min(u1, 1.0)
-        if u1 <= u0:
-            continue
-        nc = 0
-        cuts[nc] = u0
-        nc += 1
-        for vb in (v0, v1):
-            if abs(vb) < 1.0:
-                ub = math.sqrt(1.0 - vb * vb)
-                if u0 < -ub < u1:
-                    cuts[nc] = -ub
-                    nc += 1
-                if u0 < ub < u1:
-                    cuts[nc] = ub
-                    nc += 1
-        cuts[nc] = u1
-        nc += 1
-        cs = np.sort(cuts[:nc])
-        for seg in range(nc - 1):
-            a = cs[seg]
-            b = cs[seg + 1]
-            if b <= a:
-                continue
-            for i in range(k):
-                u = a + (b - a) * gx[i]
-                wu = (b - a) * gw[i]
-                s = math.sqrt(max(0.0, 1.0 - u * u))
-                lo = max(v0, -s)
-                hi = min(v1, s)
-                if hi <= lo or s <= 0.0:
-                    continue
-                if lo == -s or hi == s:
-                    plo = math.asin(max(-1.0, min(1.0, lo / s)))
-                    phi_ = math.asin(max(-1.0, min(1.0, hi / s)))
-                    for j in range(k):
-                        psi = plo + (phi_ - plo) * gx[j]
-                        v = s * math.sin(psi)
-                        wt = wu * gw[j] * (phi_ - plo) * s * math.cos(psi)
-                        X[n] = v if swap else u
-                        Y[n] = u if swap else v
-                        W[n] = wt
-                        O[n] = bi
-                        n += 1
-                else:
-                    for j in range(k):
-                        v = lo + (hi - lo) * gx[j]
-                        X[n] = v if swap else u
-                        Y[n] = u if swap else v
-                        W[n] = wu * gw[j] * (hi - lo)
-                        O[n] = bi
-                        n += 1
-    return X[:n], Y[:n], W[:n], O[:n]
 
 
 # --------------------------------------------------------------------------------- normalizer tables
@@ -401,61 +316,9 @@ def theta_edges(step_deg: float = 1.0, z_min: float = 1e-6) -> np.ndarray:
     return np.asarray(edges)
 
 
-@njit(nogil=True, cache=True)
-def _directions(theta, phi, X, Y, projection):
-    """``wo`` from ``(theta_o, phi_o)``, ``wi`` from the disk point and the factor ``cos(theta_i) J`` of
-    :func:`disk_to_direction` (``projection`` = index into ``PROJECTIONS``), per row, in one pass."""
-    n = theta.shape[0]
-    wo = np.empty((n, 3))
-    wi = np.empty((n, 3))
-    factor = np.zeros(n)
-    for i in range(n):
-        st = math.sin(theta[i])
-        wo[i, 0] = st * math.cos(phi[i])
-        wo[i, 1] = st * math.sin(phi[i])
-        wo[i, 2] = math.cos(theta[i])
-        x = X[i]
-        y = Y[i]
-        r2 = x * x + y * y
-        if not r2 < 1.0:
-            wi[i, 0] = 0.0
-            wi[i, 1] = 0.0
-            wi[i, 2] = 1.0
-            continue
-        if projection == 1:  # orthographic
-            wi[i, 0] = x
-            wi[i, 1] = y
-            wi[i, 2] = math.sqrt(max(0.0, 1.0 - r2))
-            factor[i] = 1.0
-        else:  # equidistant
-            rho = math.sqrt(r2)
-            th = HALF_PI * rho
-            s = math.sin(th)
-            sc = s / rho if rho > 0.0 else HALF_PI
-            ct = math.cos(th)
-            wi[i, 0] = x * sc
-            wi[i, 1] = y * sc
-            wi[i, 2] = ct
-            factor[i] = ct * HALF_PI * sc
-    return wo, wi, factor
-
-
 def _tensor(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ta, tb = np.meshgrid(a, b, indexing="ij")
     return np.ascontiguousarray(np.stack([ta.ravel(), tb.ravel()], axis=1))
-
-
-def _clamp_disk(P: np.ndarray) -> np.ndarray:
-    r = np.sqrt((P * P).sum(axis=1))
-    return P * np.where(r > R_MAX, R_MAX / np.where(r > 0, r, 1.0), 1.0)[:, None]
-
-
-def _clamp_to_box(X, Y, box):
-    X = np.clip(X, box[:, 0], box[:, 2])
-    Y = np.clip(Y, box[:, 1], box[:, 3])
-    r = np.sqrt(X * X + Y * Y)
-    s = np.where(r > R_MAX, R_MAX / np.where(r > 0, r, 1.0), 1.0)
-    return X * s, Y * s
 
 
 class _NodeStore:
@@ -563,6 +426,7 @@ class _Builder:
         self.t_lo, self.t_hi, self.f_lo, self.f_hi = rng
         self.gx, self.gw = gauss_legendre(QUAD_ORDER)
         self.proj = opts.projection
+        self.k = build_kernels(model.eval)
 
     def grows_at_rim(self, wo_ang: np.ndarray) -> bool:
         """Whether ``f`` rises toward the horizon of ``wi`` (then the orthographic ``g = f`` has no tight bound
@@ -580,44 +444,26 @@ class _Builder:
         return float(vals[:, rim].max()) > 2.0 * float(vals[:, ~rim].max())
 
     def g(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """``g(wo(theta, phi), X)`` per row (the directions are made in one compiled pass)."""
-        wo, wi, factor = _directions(
-            np.ascontiguousarray(theta, dtype=np.float64), np.ascontiguousarray(phi, dtype=np.float64),
-            np.ascontiguousarray(X, dtype=np.float64), np.ascontiguousarray(Y, dtype=np.float64),
-            PROJECTIONS.index(self.proj),
-        )  # fmt: skip
-        return f_luminance(self.model, self.params, wo, wi) * factor
+        """``g(wo(theta, phi), X)`` per row (one compiled pass)."""
 
-    def integrals(self, boxes: np.ndarray, wo_ang: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        def c(a: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(a, dtype=np.float64)
+
+        return self.k.g_rows(c(theta), c(phi), c(X), c(Y), PROJECTIONS.index(self.proj), self.params)
+
+    def integrals(
+        self, boxes: np.ndarray, wo_ang: np.ndarray, scaled: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Per box and per ``wo``: integral of ``g`` over box-and-disk, and the largest ``g / c`` on the rule
-        (the latter only once the scale ``c`` is set)."""
-        X, Y, W, O = region_rule(np.ascontiguousarray(boxes), self.gx, self.gw)
-        nb, nw = len(boxes), len(wo_ang)
-        P = len(X)
-        # the same disk points for every wo: directions once, then whole rows repeated
-        wi, factor = disk_to_direction(X, Y, self.proj)
-        wo = np.repeat(angles_to_wo(wo_ang[:, 0], wo_ang[:, 1]), P, axis=0)
-        vals = (f_luminance(self.model, self.params, wo, np.tile(wi, (nw, 1))) * np.tile(factor, nw)).reshape(
-            nw, P
-        )
-        out = np.zeros((nb, nw))
-        for w in range(nw):
-            out[:, w] = np.bincount(O, weights=W * vals[w], minlength=nb)
-        if not hasattr(self, "c_vals"):
-            return out, np.zeros(nb)
-        # the largest g / c on the rule per box, and where (a start for the bound's search)
-        scaled = vals / self.scale(wo_ang[:, 0], wo_ang[:, 1])[:, None]
-        wbest = np.argmax(scaled, axis=0)
-        pbest = scaled[wbest, np.arange(P)]
-        vmax = np.zeros(nb)
-        np.maximum.at(vmax, O, pbest)
-        hit = np.flatnonzero(pbest >= vmax[O])
-        owner, first = np.unique(O[hit], return_index=True)
-        k = hit[first]
-        self.qstart = np.zeros((nb, 4))
-        self.qstart[:, 2] = wo_ang[0, 0]
-        self.qstart[:, 3] = wo_ang[0, 1]
-        self.qstart[owner] = np.column_stack([X[k], Y[k], wo_ang[wbest[k], 0], wo_ang[wbest[k], 1]])
+        (once the scale ``c`` is set and with ``scaled``; where it lies is kept as a start for the bound's
+        search)."""
+        scaled = scaled and hasattr(self, "c_tables")
+        tables = self.c_tables if scaled else scale_tables(np.ones(1), 1, 1, (0.0, 1.0, 0.0, 1.0), 1.0)
+        out, vmax, self.qstart = self.k.node_integrals(
+            np.ascontiguousarray(boxes, dtype=np.float64), self.gx, self.gw,
+            np.ascontiguousarray(wo_ang[:, 0]), np.ascontiguousarray(wo_ang[:, 1]),
+            PROJECTIONS.index(self.proj), self.params, scaled, *tables,
+        )  # fmt: skip
         return out, vmax
 
     # -- the lobe's ridge: where the peak of g sits for each wo of the bin
@@ -681,6 +527,7 @@ class _Builder:
             [self.mirror(d[:, 0], d[:, 1]), self.peak(d[:, 0], d[:, 1]), self.retro(d[:, 0], d[:, 1])]
         )
         self.ridge_ang = np.concatenate([d, d, d])
+        self.ridge = np.ascontiguousarray(np.column_stack([self.ridge_pts, self.ridge_ang]))
 
     def mirror(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
         return direction_to_disk(angles_to_wo(theta, phi + math.pi), self.proj)
@@ -708,149 +555,39 @@ class _Builder:
 
     def peak_search(self, ang: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Compass search for the largest ``g(wo, X)`` over the disk for fixed ``wo`` (rows), from ``start``."""
-        dirs = np.array([[1, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [-1, -1]], float)
-        dirs[4:] /= math.sqrt(2.0)
-        cur = _clamp_disk(start)
-        n = len(cur)
-        best = self.g(ang[:, 0], ang[:, 1], cur[:, 0], cur[:, 1])
-        step = np.full(n, 0.05)
-        for _ in range(48):
-            cand = _clamp_disk((cur[:, None, :] + step[:, None, None] * dirs[None]).reshape(-1, 2))
-            v = self.g(np.repeat(ang[:, 0], 8), np.repeat(ang[:, 1], 8), cand[:, 0], cand[:, 1]).reshape(n, 8)
-            j = np.argmax(v, axis=1)
-            vj = v[np.arange(n), j]
-            better = vj > best
-            cur[better] = cand.reshape(n, 8, 2)[better, j[better]]
-            best[better] = vj[better]
-            step[~better] *= 0.5
-            if np.all(step < 1e-6):
-                break
-        return cur, best
 
-    def search(self, start: np.ndarray, best: np.ndarray, box: np.ndarray) -> np.ndarray:
-        """Compass search for a larger ``g / c`` in ``(X, Y, theta_o, phi_o)`` over each box x the bin.
+        def c(a: np.ndarray) -> np.ndarray:
+            return np.ascontiguousarray(a, dtype=np.float64)
 
-        Besides the coordinate moves, moves in ``wo`` drag ``X`` along with the mirror point (the ridge of a
-        sharp lobe runs diagonally in these coordinates; plain coordinate moves fall off it)."""
-        c = len(start)
-        if c == 0:
-            return best
-        lo = np.column_stack([box[:, 0], box[:, 1], np.full(c, self.t_lo), np.full(c, self.f_lo)])
-        hi = np.column_stack([box[:, 2], box[:, 3], np.full(c, self.t_hi), np.full(c, self.f_hi)])
-        sx = 0.25 * (box[:, 2] - box[:, 0])
-        sy = 0.25 * (box[:, 3] - box[:, 1])
-        dirs = [(1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0)]
-        scales = [sx, sy]
-        jt = self.j_theta
-        dirs += [(0.0, 0.0, 1.0, 0.0), (jt[0], jt[1], 1.0, 0.0)]
-        scales += [np.full(c, self.step_theta * 0.5)] * 2
-        if not self.iso:
-            jp = self.j_phi
-            dirs += [(0.0, 0.0, 0.0, 1.0), (jp[0], jp[1], 0.0, 1.0)]
-            scales += [np.full(c, self.step_phi * 0.5)] * 2
-        D = np.array(dirs)  # (m, 4)
-        S = np.stack(scales, axis=1)  # (c, m)
-        m = len(D)
-        moves = np.concatenate([D, -D])  # (2m, 4)
-        cur = start.copy()
-        best = best.copy()
-        rows = np.arange(c)
-        for _ in range(self.opts.search_iters):
-            S2 = np.concatenate([S, S], axis=1)  # (c, 2m)
-            cand = cur[:, None, :] + S2[:, :, None] * moves[None, :, :]
-            cand = np.clip(cand, lo[:, None, :], hi[:, None, :])
-            flat = cand.reshape(-1, 4)
-            bx = np.repeat(box, 2 * m, axis=0)
-            X, Y = _clamp_to_box(flat[:, 0], flat[:, 1], bx)
-            flat[:, 0], flat[:, 1] = X, Y
-            vals = self.h(flat[:, 2], flat[:, 3], X, Y).reshape(c, 2 * m)
-            j = np.argmax(vals, axis=1)
-            v = vals[rows, j]
-            better = v > best
-            cur[better] = cand[better, j[better]]
-            best[better] = v[better]
-            S[~better] *= 0.5
-        return best
+        px, py, pv = self.k.peak_search(
+            c(ang[:, 0]),
+            c(ang[:, 1]),
+            c(start[:, 0]),
+            c(start[:, 1]),
+            PROJECTIONS.index(self.proj),
+            self.params,
+        )
+        return np.column_stack([px, py]), pv
 
     def bound(self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_bound` over chunks of boxes, so that the candidate arrays stay within ~``BOUND_CHUNK``
-        points (a grazing anisotropic bin has thousands of leaves times thousands of ridge points)."""
-        per_box = len(wo_ang) * (GRID * GRID + 2 * ARC) + len(self.ridge_pts)
-        step = max(1, BOUND_CHUNK // max(per_box, 1))
-        if len(boxes) <= step:
-            return self._bound(boxes, wo_ang, qmax)
-        q = getattr(self, "qstart", None)
-        parts = []
-        try:
-            for i in range(0, len(boxes), step):
-                self.qstart = q[i : i + step] if q is not None and len(q) == len(boxes) else None
-                parts.append(self._bound(boxes[i : i + step], wo_ang, qmax[i : i + step]))
-        finally:
-            self.qstart = q
-        return np.concatenate([a for a, _ in parts]), np.concatenate([b for _, b in parts])
-
-    def _bound(
-        self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
         Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it, at every
-        ``wo`` sample of the bin, and the box's nearest points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired with that
-        ``wo``); then a compass search from the best two."""
-        nb, nw = len(boxes), len(wo_ang)
-        t = np.linspace(0.0, 1.0, GRID)
-        gxx, gyy = np.meshgrid(t, t, indexing="ij")
-        gxx, gyy = gxx.ravel(), gyy.ravel()
-        G = len(gxx)
-        X = boxes[:, 0:1] + (boxes[:, 2:3] - boxes[:, 0:1]) * gxx[None, :]  # (nb, G)
-        Y = boxes[:, 1:2] + (boxes[:, 3:4] - boxes[:, 1:2]) * gyy[None, :]
-        # points on the unit circle inside the box (where f grows toward the horizon, the sup of a rim leaf
-        # lies on its arc): x on a grid, y on the circle on the box's side, and the other way round
-        s = np.linspace(0.0, 1.0, ARC)
-        ax = boxes[:, 0:1] + (boxes[:, 2:3] - boxes[:, 0:1]) * s[None, :]
-        ay = np.sign(boxes[:, 1:2] + boxes[:, 3:4]) * np.sqrt(np.maximum(0.0, 1.0 - ax * ax))
-        by = boxes[:, 1:2] + (boxes[:, 3:4] - boxes[:, 1:2]) * s[None, :]
-        bx = np.sign(boxes[:, 0:1] + boxes[:, 2:3]) * np.sqrt(np.maximum(0.0, 1.0 - by * by))
-        X = np.concatenate([X, ax, bx], axis=1)
-        Y = np.concatenate([Y, ay, by], axis=1)
-        G = X.shape[1]
-        X = np.repeat(X[:, None, :], nw, axis=1).reshape(nb, -1)  # (nb, nw*G)
-        Y = np.repeat(Y[:, None, :], nw, axis=1).reshape(nb, -1)
-        TH = np.broadcast_to(np.repeat(wo_ang[:, 0], G)[None, :], X.shape)
-        PH = np.broadcast_to(np.repeat(wo_ang[:, 1], G)[None, :], X.shape)
-        # ridge points of the dense wo set, clamped into each box
-        R = len(self.ridge_pts)
-        RX = np.broadcast_to(self.ridge_pts[None, :, 0], (nb, R))
-        RY = np.broadcast_to(self.ridge_pts[None, :, 1], (nb, R))
-        RT = np.broadcast_to(self.ridge_ang[None, :, 0], (nb, R))
-        RP = np.broadcast_to(self.ridge_ang[None, :, 1], (nb, R))
-        AX = np.concatenate([X, RX], axis=1)
-        AY = np.concatenate([Y, RY], axis=1)
-        AT = np.ascontiguousarray(np.concatenate([TH, RT], axis=1))
-        AP = np.ascontiguousarray(np.concatenate([PH, RP], axis=1))
-        K = AX.shape[1]
-        bxr = np.repeat(boxes, K, axis=0)
-        AXf, AYf = _clamp_to_box(AX.ravel(), AY.ravel(), bxr)
-        vals = self.h(AT.ravel(), AP.ravel(), AXf, AYf).reshape(nb, K)
-        AXf, AYf = AXf.reshape(nb, K), AYf.reshape(nb, K)
-        rows = np.arange(nb)
-        i1 = np.argmax(vals, axis=1)
-        before = np.maximum(vals[rows, i1], qmax)
-        best = before.copy()
-        v2 = vals.copy()
-        v2[rows, i1] = -np.inf
-        i2 = np.argmax(v2, axis=1)
-        idx = np.concatenate([i1, i2])
-        r2 = np.concatenate([rows, rows])
-        start = np.column_stack([AXf[r2, idx], AYf[r2, idx], AT[r2, idx], AP[r2, idx]])
-        v0 = vals[r2, idx]
+        ``wo`` sample of the bin, and the box's nearest points to the ridge points (mirror, peak,
+        retro-reflection) of a dense set of ``wo`` (paired with that ``wo``); then a compass search from the
+        best two and from the best quadrature point of :meth:`integrals`
+        (:func:`core.quadtree_build_kernels.BUILD_TEMPLATE`'s ``node_bounds``)."""
         q = getattr(self, "qstart", None)
-        if q is not None and len(q) == nb:  # and from the best quadrature point
-            start = np.concatenate([start, q])
-            v0 = np.concatenate([v0, qmax])
-        found = self.search(start, v0, np.concatenate([boxes] * (len(start) // nb)))  # all at once
-        best = np.maximum(best, found.reshape(-1, nb).max(axis=0))
-        return before, best
+        use_q = q is not None and len(q) == len(boxes)
+        srch = np.array([self.t_lo, self.t_hi, self.f_lo, self.f_hi, *self.j_theta, *self.j_phi,
+                         self.step_theta, self.step_phi])  # fmt: skip
+        return self.k.node_bounds(
+            np.ascontiguousarray(boxes, dtype=np.float64),
+            np.ascontiguousarray(wo_ang[:, 0]), np.ascontiguousarray(wo_ang[:, 1]), self.ridge,
+            np.ascontiguousarray(qmax, dtype=np.float64), q if use_q else np.zeros((len(boxes), 4)), use_q,
+            srch, self.iso, self.opts.search_iters, GRID, ARC, PROJECTIONS.index(self.proj), self.params,
+            *self.c_tables,
+        )  # fmt: skip
 
     def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:
         """Estimates of ``I`` at each ``wo`` (polar Gauss-Legendre) and the largest ``g`` seen."""
@@ -877,10 +614,6 @@ class _Builder:
         v = _scale_values(self.c_vals, mt, mp, self.t_lo, self.t_hi, self.f_lo, self.f_hi, theta, phi)
         return np.maximum(v, self.c_floor)
 
-    def h(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """The scaled target ``g / c(wo)`` the leaf bounds hold for."""
-        return self.g(theta, phi, X, Y) / self.scale(theta, phi)
-
     def build(self) -> dict[str, np.ndarray]:
         t0 = time.perf_counter()
         o = self.opts
@@ -904,6 +637,7 @@ class _Builder:
         self.c_vals = np.ascontiguousarray(np.maximum(est, 0.0) if top > 0.0 else np.ones(len(est)))
         self.c_floor = 0.05 * float(self.c_vals.max())
         self.c_meta = np.array([[0.0, mt, mp, t_lo, t_hi, f_lo, f_hi]])
+        self.c_tables = scale_tables(self.c_vals, mt, mp, (t_lo, t_hi, f_lo, f_hi), self.c_floor)
         c_norm = self.scale(wo_norm[:, 0], wo_norm[:, 1])
         i_ref = float(np.min(est / c_norm)) if top > 0.0 else 1.0
         floor = 1e-9 * g_max / float(c_norm.min()) if g_max > 0.0 else 1e-300
@@ -1043,7 +777,7 @@ class _Builder:
                 fine = chebyshev_points(t_lo, t_hi, 3 * mt)
                 old = np.arange(3 * mt) % 3 == 1  # the m coarse points sit at every third fine point
                 pts = _tensor(fine[~old], np.zeros(1))
-                new_vals = self.integrals(leaf_boxes, pts)[0].sum(axis=0)
+                new_vals = self.integrals(leaf_boxes, pts, scaled=False)[0].sum(axis=0)
                 err = rel(interp(norm, mt, 1, pts), new_vals)
                 vals = np.empty(3 * mt)
                 vals[old] = norm
@@ -1060,7 +794,7 @@ class _Builder:
             xp = np.cos(np.arange(1, mp) * np.pi / mp)
             ff = 0.5 * (f_lo + f_hi) + 0.5 * (f_hi - f_lo) * xp
             pts = _tensor(tt[[0, len(tt) // 2, -1]], ff[[0, len(ff) // 2, -1]])
-            truth = self.integrals(leaf_boxes, pts)[0].sum(axis=0)
+            truth = self.integrals(leaf_boxes, pts, scaled=False)[0].sum(axis=0)
             return rel(interp(vals, mt, mp, pts), truth)
 
         err = error(mt, mp, norm)
@@ -1068,7 +802,7 @@ class _Builder:
             mt *= 2
             mp = min(2 * mp, 20)
             nodes = _tensor(chebyshev_points(t_lo, t_hi, mt), chebyshev_points(f_lo, f_hi, mp))
-            norm = self.integrals(leaf_boxes, nodes)[0].sum(axis=0)
+            norm = self.integrals(leaf_boxes, nodes, scaled=False)[0].sum(axis=0)
             err = error(mt, mp, norm)
         return norm, mt, mp, err
 

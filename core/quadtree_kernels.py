@@ -594,26 +594,31 @@ def pdf_rows(wo, wi, p, tab, out, missing):
 (:func:`core.specialize.specialize` binds ``_eval`` to ``model.eval`` as a global, so numba caches the module
 on disk). A kernel passed as an argument instead would keep numba from caching the loops."""
 
-_GENERIC: dict[int, Any] = {}
+_GENERIC: dict[tuple[int, int], Any] = {}
 
 
-def model_kernels(kernel: Any) -> Any:
-    """The fused entry points ``sample_rows, sample_batch, pdf_rows`` for a model's ``eval`` kernel: its
-    generated module, or, for a kernel that cannot be imported by name (a closure), the same source compiled
-    with the kernel in its namespace (once per process, not cached on disk)."""
+def specialized(template: str, kernel: Any) -> Any:
+    """The module of ``template`` with ``_eval`` bound to a model's ``eval`` kernel: its generated,
+    disk-cached module (:func:`core.specialize.specialize`), or, for a kernel that cannot be imported by name
+    (a closure), the same source compiled with the kernel in its namespace (once per process, not cached)."""
     from core.specialize import specialize
 
-    mod = specialize(TEMPLATE, _eval=kernel)
+    mod = specialize(template, _eval=kernel)
     if mod is not None:
         return mod
-    key = id(kernel)
+    key = (id(template), id(kernel))
     if key not in _GENERIC:
-        namespace: dict[str, Any] = {"_eval": kernel, "__name__": f"{__name__}._generic_{key:x}"}
+        namespace: dict[str, Any] = {"_eval": kernel, "__name__": f"{__name__}._generic_{key[1]:x}"}
         exec(
-            compile(TEMPLATE.replace("cache=True", "cache=False"), f"<{__name__} generic>", "exec"), namespace
+            compile(template.replace("cache=True", "cache=False"), f"<{__name__} generic>", "exec"), namespace
         )
         _GENERIC[key] = SimpleNamespace(**namespace, kernel=kernel)
     return _GENERIC[key]
+
+
+def model_kernels(kernel: Any) -> Any:
+    """The fused entry points ``sample_rows, sample_batch, pdf_rows`` for a model's ``eval`` kernel."""
+    return specialized(TEMPLATE, kernel)
 
 
 def chebyshev_coefficients(vals: np.ndarray, mt: int, mp: int) -> np.ndarray:
