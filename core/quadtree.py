@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -68,10 +69,44 @@ ARC = 8
 PROJECTIONS = ("equidistant", "orthographic")
 
 
+@lru_cache(maxsize=8)
 def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes and weights on [0, 1]."""
+    """Nodes and weights on [0, 1] (shared, read-only)."""
     x, w = np.polynomial.legendre.leggauss(order)
-    return 0.5 * (x + 1.0), 0.5 * w
+    return _frozen(0.5 * (x + 1.0)), _frozen(0.5 * w)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    a.flags.writeable = False
+    return a
+
+
+@lru_cache(maxsize=1)
+def _rim_probes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Directions ``wi`` for :meth:`_Builder.grows_at_rim` as orthographic disk points ``(X, Y)`` (``g = f``
+    there), and which of them lie on the rings near the horizon: rings at theta_i = 0..89 degrees (40) and at
+    89.99 and 89.9999 degrees, 48 points each."""
+    th_i = np.radians(np.concatenate([np.linspace(0.0, 89.0, 40), [89.99, 89.9999]]))
+    ph_i = np.linspace(0.0, TWO_PI, 48, endpoint=False)
+    T, P = np.meshgrid(th_i, ph_i, indexing="ij")
+    s = np.sin(T.ravel())
+    return _frozen(s * np.cos(P.ravel())), _frozen(s * np.sin(P.ravel())), T.ravel() > np.radians(89.5)
+
+
+@lru_cache(maxsize=1)
+def _polar_rule() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points ``X, Y`` and weights of the polar Gauss-Legendre rule over the disk of
+    :meth:`_Builder.polar_estimate` (6 radial panels of the 6-point rule x 48 angles)."""
+    gx, gw = gauss_legendre(QUAD_ORDER)
+    nr = 6
+    r = ((np.arange(nr)[:, None] + gx[None, :]) / nr).ravel()
+    wr = np.tile(gw, nr) / nr
+    nphi = 48
+    phis = TWO_PI * (np.arange(nphi) + 0.5) / nphi
+    R, P = np.meshgrid(r, phis, indexing="ij")
+    WR = np.repeat(wr, nphi) * R.ravel() * (TWO_PI / nphi)
+    return _frozen((R * np.cos(P)).ravel()), _frozen((R * np.sin(P)).ravel()), _frozen(WR)
 
 
 # ---------------------------------------------------------------------------------------- projections
@@ -431,16 +466,13 @@ class _Builder:
     def grows_at_rim(self, wo_ang: np.ndarray) -> bool:
         """Whether ``f`` rises toward the horizon of ``wi`` (then the orthographic ``g = f`` has no tight bound
         near the rim): the largest ``f`` on rings at theta_i = 89.99 and 89.9999 degrees against the largest
-        ``f`` for theta_i <= 89 degrees."""
-        th_i = np.radians(np.concatenate([np.linspace(0.0, 89.0, 40), [89.99, 89.9999]]))
-        ph_i = np.linspace(0.0, TWO_PI, 48, endpoint=False)
-        T, P = np.meshgrid(th_i, ph_i, indexing="ij")
-        wi = angles_to_wo(T.ravel(), P.ravel())
-        rim = T.ravel() > np.radians(89.5)
-        wo = np.repeat(angles_to_wo(wo_ang[:, 0], wo_ang[:, 1]), len(wi), axis=0)
-        vals = f_luminance(self.model, self.params, wo, np.tile(wi, (len(wo_ang), 1))).reshape(
-            len(wo_ang), -1
-        )
+        ``f`` for theta_i <= 89 degrees, at the given ``wo``."""
+        X, Y, rim = _rim_probes()
+        n, nw = len(X), len(wo_ang)
+        vals = self.k.g_rows(
+            np.repeat(wo_ang[:, 0], n), np.repeat(wo_ang[:, 1], n), np.tile(X, nw), np.tile(Y, nw),
+            PROJECTIONS.index("orthographic"), self.params,
+        ).reshape(nw, n)  # fmt: skip
         return float(vals[:, rim].max()) > 2.0 * float(vals[:, ~rim].max())
 
     def g(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -591,16 +623,7 @@ class _Builder:
 
     def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:
         """Estimates of ``I`` at each ``wo`` (polar Gauss-Legendre) and the largest ``g`` seen."""
-        gx, gw = self.gx, self.gw
-        nr = 6
-        r = ((np.arange(nr)[:, None] + gx[None, :]) / nr).ravel()
-        wr = np.tile(gw, nr) / nr
-        nphi = 48
-        phis = TWO_PI * (np.arange(nphi) + 0.5) / nphi
-        R, P = np.meshgrid(r, phis, indexing="ij")
-        WR = np.repeat(wr, nphi) * R.ravel() * (TWO_PI / nphi)
-        X = (R * np.cos(P)).ravel()
-        Y = (R * np.sin(P)).ravel()
+        X, Y, WR = _polar_rule()
         nw, P = len(wo_ang), len(X)
         vals = self.g(np.repeat(wo_ang[:, 0], P), np.repeat(wo_ang[:, 1], P), np.tile(X, nw), np.tile(Y, nw))
         vals = vals.reshape(nw, P)
@@ -628,7 +651,7 @@ class _Builder:
         )
         wo_all = np.concatenate([wo_norm, wo_bound])
         if self.proj == "auto":
-            self.proj = "equidistant" if self.grows_at_rim(wo_all) else "orthographic"
+            self.proj = "equidistant" if self.grows_at_rim(wo_bound) else "orthographic"
         est, g_max = self.polar_estimate(wo_norm)
         self.ridge_setup(wo_all)
         # c(wo): the Chebyshev interpolant of the estimates, floored; bounds hold for g / c (exactness needs

@@ -176,12 +176,18 @@ from core.quadtree_kernels import LUM_B, LUM_G, LUM_R, project
 
 
 @njit(nogil=True, cache=True)
+def f_at(wx, wy, wz, ix, iy, iz, p):
+    """The luminance of ``f_r(wo, wi)``."""
+    r, g, b = _eval((ix, iy, iz), (wx, wy, wz), p)
+    return LUM_R * r + LUM_G * g + LUM_B * b
+
+
+@njit(nogil=True, cache=True)
 def g_at(wx, wy, wz, X, Y, proj, p):
     """``g = f cos(theta_i) J`` at disk point ``(X, Y)`` for ``wo = (wx, wy, wz)`` (0 outside the disk)."""
     ix, iy, iz, factor = project(X, Y, proj)
     if factor > 0.0:
-        r, g, b = _eval((ix, iy, iz), (wx, wy, wz), p)
-        return (LUM_R * r + LUM_G * g + LUM_B * b) * factor
+        return f_at(wx, wy, wz, ix, iy, iz, p) * factor
     return 0.0
 
 
@@ -267,8 +273,9 @@ def node_integrals(boxes, gx, gw, theta, phi, proj, p, scaled, s_meta, s_vals, s
         n = box_rule(boxes[b, 0], boxes[b, 1], boxes[b, 2], boxes[b, 3], gx, gw, X, Y, W)
         best = -1.0
         for q in range(n):
+            ix, iy, iz, factor = project(X[q], Y[q], proj)
             for w in range(nw):
-                v = g_at(wv[w, 0], wv[w, 1], wv[w, 2], X[q], Y[q], proj, p)
+                v = f_at(wv[w, 0], wv[w, 1], wv[w, 2], ix, iy, iz, p) * factor if factor > 0.0 else 0.0
                 out[b, w] += W[q] * v
                 if scaled:
                     s = v / c[w]
@@ -356,6 +363,7 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, use_q, srch, iso, iters,
     npts = grid * grid + 2 * arc
     px = np.empty(npts)
     py = np.empty(npts)
+    pi = np.empty((npts, 4))
     before = np.empty(nb)
     after = np.empty(nb)
     for b in range(nb):
@@ -383,10 +391,15 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, use_q, srch, iso, iters,
         v2 = -np.inf
         s1 = np.zeros(4)
         s2 = np.zeros(4)
+        for q in range(npts):
+            px[q], py[q] = clamp_to_box(px[q], py[q], x0, y0, x1, y1)
+            pi[q, 0], pi[q, 1], pi[q, 2], pi[q, 3] = project(px[q], py[q], proj)
         for w in range(nw):
             for q in range(npts):
-                x, y = clamp_to_box(px[q], py[q], x0, y0, x1, y1)
-                v = g_at(wv[w, 0], wv[w, 1], wv[w, 2], x, y, proj, p) / cw[w]
+                x, y = px[q], py[q]
+                fac = pi[q, 3]
+                v = f_at(wv[w, 0], wv[w, 1], wv[w, 2], pi[q, 0], pi[q, 1], pi[q, 2], p) * fac if fac > 0.0 else 0.0
+                v /= cw[w]
                 if v > v1:
                     v2 = v1
                     s2[:] = s1
