@@ -196,7 +196,7 @@ def _source_hash() -> str:
 
     here = Path(__file__).resolve().parent
     h = hashlib.sha256()
-    for name in ("quadtree.py", "quadtree_table.py", "quadtree_kernels.py"):
+    for name in ("quadtree.py", "quadtree_build_kernels.py", "quadtree_table.py", "quadtree_kernels.py"):
         h.update((here / name).read_bytes())
     return h.hexdigest()[:16]
 
