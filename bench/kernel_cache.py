@@ -1,11 +1,17 @@
-"""Compilation cost of the per-model kernel drivers in a new process: cold (empty kernel cache) vs warm.
+"""Compilation cost of the per-model kernels in a new process: cold (empty kernel cache) vs warm.
 
     .venv/bin/python bench/kernel_cache.py [--out results/bench]
 
-Each measurement is a fresh Python process that imports the library and runs the batch ``eval`` drivers
-(serial and threaded) of every registered model once on 1000 direction pairs; the first uses an empty
-``$BRDF_STUDIO_KERNEL_CACHE`` folder (everything compiled), the second the folder the first one filled
-(``core.specialize`` modules loaded from numba's disk cache). Prints a table, writes ``kernel_cache.csv``.
+Two cases, each measured in a fresh Python process twice: first with an empty ``$BRDF_STUDIO_KERNEL_CACHE``
+folder (everything compiled), then with the folder the first one filled (``core.specialize`` modules loaded
+from numba's disk cache):
+
+- ``eval``: the batch ``eval`` drivers (serial and threaded) of every registered model, once on 1000
+  direction pairs;
+- ``adaptive``: the first adaptive tree of one model (Phong; construction kernels) and 1000 samples from it
+  (sampling kernels), with a private table cache so the tree is really built.
+
+Prints a table, writes ``kernel_cache.csv``.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = """
+SCRIPT_EVAL = """
 import time
 import numpy as np
 from core import kernels
@@ -35,10 +41,26 @@ for m in all_models():
 print(time.perf_counter() - t, len(all_models()))
 """
 
+SCRIPT_ADAPTIVE = """
+import tempfile
+import time
+import numpy as np
+from core.model import make_brdf
+from core.sampler import make_sampler
+t = time.perf_counter()
+s = make_sampler("adaptive", make_brdf("phong"), cache=tempfile.mkdtemp())
+s.sample(np.array([0.5, 0.0, 0.75 ** 0.5]), 1000, 1)
+print(time.perf_counter() - t, 1)
+"""
+CASES = {
+    "eval": ("eval drivers of every model (serial + threaded)", SCRIPT_EVAL),
+    "adaptive": ("first adaptive tree and 1000 samples (Phong)", SCRIPT_ADAPTIVE),
+}
 
-def measure(folder: str) -> tuple[float, int]:
+
+def measure(folder: str, script: str) -> tuple[float, int]:
     env = {**os.environ, "BRDF_STUDIO_KERNEL_CACHE": folder}
-    out = subprocess.run([sys.executable, "-c", SCRIPT], env=env, cwd=ROOT, capture_output=True, text=True)
+    out = subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT, capture_output=True, text=True)
     if out.returncode != 0:
         raise SystemExit(f"the measurement process failed:\n{out.stderr}")
     seconds, models = out.stdout.split()
@@ -49,17 +71,19 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, default=Path("results/bench"))
     a = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory(prefix="bench-kernels-") as folder:
-        cold, models = measure(folder)
-        warm, _ = measure(folder)
-    print(f"eval drivers of {models} models (serial + threaded), new process:")
-    print(f"  cold (empty kernel cache): {cold:6.2f} s")
-    print(f"  warm (cache from the run before): {warm:6.2f} s")
+    rows = []
+    print("new process, seconds: cold (empty kernel cache) / warm (the cache the cold run filled)")
+    for key, (label, script) in CASES.items():
+        with tempfile.TemporaryDirectory(prefix="bench-kernels-") as folder:
+            cold, models = measure(folder, script)
+            warm, _ = measure(folder, script)
+        rows.append([key, models, f"{cold:.3f}", f"{warm:.3f}"])
+        print(f"  {label:<50} {cold:7.2f} / {warm:6.2f}")
     a.out.mkdir(parents=True, exist_ok=True)
     with open(a.out / "kernel_cache.csv", "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["models", "cold_s", "warm_s"])
-        w.writerow([models, f"{cold:.3f}", f"{warm:.3f}"])
+        w.writerow(["case", "models", "cold_s", "warm_s"])
+        w.writerows(rows)
     print(f"wrote {a.out / 'kernel_cache.csv'}")
 
 
