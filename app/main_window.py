@@ -28,14 +28,14 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import settings
+from app import settings, snapshot_process
 from app.capabilities import albedo_available, directional_albedo, renderer_available
 from app.editors.material import MaterialEditor
 from app.editors.scene_items import PropertiesStack, SceneItemEditor
 from app.editors.scene_tree import SceneTree
 from app.project import document_to_scene, load_project, objects_from_mesh, save_project
 from app.state import Document, default_document
-from app.view_data import adaptive_line, albedo_line, sampling_snapshot
+from app.view_data import adaptive_line, albedo_line
 from app.views.albedo import ALBEDO_THETAS_DEG, AlbedoView
 from app.views.direction import DirectionEditor
 from app.views.lobe import LobeView
@@ -161,6 +161,7 @@ class MainWindow(QMainWindow):
         self._update_title()
         self.schedule("brdf")
         if warm_up:
+            snapshot_process.prewarm()
             w = GeneratorWorker(_warm_up_kernels)
             w.yielded.connect(lambda label: self.statusBar().showMessage(f"Compiled kernels: {label}", 1500))
             self.warm_up_worker = self.workers.start(w)
@@ -306,7 +307,9 @@ class MainWindow(QMainWindow):
             opts = self.sampling_view.options()
             key = (brdf.key(), d.theta_deg, d.phi_deg, tuple(sorted(opts.items())))
             self._sampling_requested = time.perf_counter()
-            self._start_job("sampling", sampling_snapshot, (brdf, d.theta_deg, d.phi_deg), key, opts)
+            mat = d.material()
+            spec = snapshot_process.spec_of(mat.model, mat.measured, mat.params)
+            self._start_job("sampling", snapshot_process.snapshot, (spec, d.theta_deg, d.phi_deg), key, opts)
         if pending & {"brdf", "direction"}:
             self._timed("lobe", self.lobe_view.show_lobe, brdf, wo)
             self._timed("polar", self.polar_view.show_slice, brdf, wo)

@@ -1,0 +1,54 @@
+"""The sampler view's snapshot process (:mod:`app.snapshot_process`): a real spawned process, compared with
+the same snapshot computed here; errors come back as themselves; a killed process is replaced."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from app import snapshot_process
+from app.view_data import sampling_snapshot
+from core.errors import BrdfStudioError
+from core.model import get_model
+
+OPTIONS = {"n_samples": 300, "grid": 24, "seed": 3}
+
+
+@pytest.fixture(autouse=True)
+def _fresh_process():
+    snapshot_process.shutdown()
+    yield
+    snapshot_process.shutdown()
+
+
+def test_snapshot_in_the_process_equals_the_one_computed_here():
+    params = {"n": 40.0}
+    spec = snapshot_process.spec_of("phong", None, params)
+    remote = snapshot_process.snapshot(spec, 35.0, 10.0, **OPTIONS)
+    local = sampling_snapshot(get_model("phong").bind(params), 35.0, 10.0, **OPTIONS)
+    np.testing.assert_array_equal(remote["tree"]["leaves"], local["tree"]["leaves"])
+    assert remote["tree"]["integral"] == local["tree"]["integral"]
+    np.testing.assert_array_equal(remote["samples"], local["samples"])
+    np.testing.assert_array_equal(remote["ratio"], local["ratio"])
+
+
+def test_an_error_in_the_process_comes_back_as_itself():
+    with pytest.raises(BrdfStudioError, match="unknown model 'no_such_model'"):
+        snapshot_process.snapshot(snapshot_process.spec_of("no_such_model", None, {}), 30.0, 0.0, **OPTIONS)
+    # and the process still serves the next request
+    ok = snapshot_process.snapshot(snapshot_process.spec_of("lambert", None, {}), 30.0, 0.0, **OPTIONS)
+    assert ok["tree"] is not None
+
+
+def test_a_killed_process_is_replaced():
+    spec = snapshot_process.spec_of("lambert", None, {})
+    snapshot_process.snapshot(spec, 30.0, 0.0, **OPTIONS)
+    pool = snapshot_process._pool()
+    (pid,) = list(pool._processes)  # one worker process
+    os.kill(pid, signal.SIGKILL)
+    again = snapshot_process.snapshot(spec, 40.0, 0.0, **OPTIONS)
+    assert again["tree"] is not None
+    assert pid not in snapshot_process._pool()._processes
