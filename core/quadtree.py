@@ -53,7 +53,7 @@ from numba import njit
 
 from core.kernels import eval_batch
 from core.model import LUMINANCE
-from core.quadtree_build_kernels import build_kernels, scale_tables
+from core.quadtree_build_kernels import build_kernels, scale_rows, scale_tables
 
 TABLE_VERSION = 4
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
@@ -243,52 +243,6 @@ def normalizer_values(meta, vals, bins, theta, phi):
                 tmp[a] = _cheb_interp(vals, off + a * mp, mp, xp)
             out[i] = _cheb_interp(tmp, 0, mt, xt)
     return out
-
-
-@njit(nogil=True, cache=True)
-def _scale_values(vals, mt, mp, t_lo, t_hi, f_lo, f_hi, theta, phi):
-    """One bin's Chebyshev interpolant (as :func:`normalizer_values`) at many points, with the node tables
-    computed once (the construction evaluates the scale ``c(wo)`` at every candidate point)."""
-    ct = np.empty(mt)
-    wt = np.empty(mt)
-    for j in range(mt):
-        a = (2 * j + 1) * math.pi / (2 * mt)
-        ct[j] = math.cos(a)
-        wt[j] = math.sin(a) * (-1.0 if j & 1 else 1.0)
-    cp = np.empty(max(mp, 1))
-    wp = np.empty(max(mp, 1))
-    for j in range(mp):
-        a = (2 * j + 1) * math.pi / (2 * mp)
-        cp[j] = math.cos(a)
-        wp[j] = math.sin(a) * (-1.0 if j & 1 else 1.0)
-    n = theta.shape[0]
-    out = np.empty(n)
-    tmp = np.empty(mt)
-    for i in range(n):
-        if mp > 1:
-            xp = (2.0 * phi[i] - f_lo - f_hi) / (f_hi - f_lo)
-            for a in range(mt):
-                tmp[a] = _bary(vals, a * mp, mp, xp, cp, wp)
-        else:
-            for a in range(mt):
-                tmp[a] = vals[a]
-        xt = (2.0 * theta[i] - t_lo - t_hi) / (t_hi - t_lo)
-        out[i] = _bary(tmp, 0, mt, xt, ct, wt)
-    return out
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _bary(vals, off, m, x, nodes, weights):
-    num = 0.0
-    den = 0.0
-    for j in range(m):
-        d = x - nodes[j]
-        if d == 0.0:
-            return vals[off + j]
-        t = weights[j] / d
-        num += t * vals[off + j]
-        den += t
-    return num / den
 
 
 # ------------------------------------------------------------------------------------------ construction
@@ -630,12 +584,11 @@ class _Builder:
         return vals @ WR, float(vals.max())
 
     def scale(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """The per-``wo`` scale ``c(wo)`` (see :meth:`QuadtreeTable.scales`)."""
-        theta = np.ascontiguousarray(theta, dtype=np.float64)
-        phi = np.ascontiguousarray(phi, dtype=np.float64)
-        mt, mp = int(self.c_meta[0, 1]), int(self.c_meta[0, 2])
-        v = _scale_values(self.c_vals, mt, mp, self.t_lo, self.t_hi, self.f_lo, self.f_hi, theta, phi)
-        return np.maximum(v, self.c_floor)
+        """The per-``wo`` scale ``c(wo)``, floored (see :meth:`QuadtreeTable.scales`)."""
+        return scale_rows(
+            np.ascontiguousarray(theta, dtype=np.float64), np.ascontiguousarray(phi, dtype=np.float64),
+            *self.c_tables,
+        )  # fmt: skip
 
     def build(self) -> dict[str, np.ndarray]:
         t0 = time.perf_counter()
@@ -659,7 +612,6 @@ class _Builder:
         top = float(est.max())
         self.c_vals = np.ascontiguousarray(np.maximum(est, 0.0) if top > 0.0 else np.ones(len(est)))
         self.c_floor = 0.05 * float(self.c_vals.max())
-        self.c_meta = np.array([[0.0, mt, mp, t_lo, t_hi, f_lo, f_hi]])
         self.c_tables = scale_tables(self.c_vals, mt, mp, (t_lo, t_hi, f_lo, f_hi), self.c_floor)
         c_norm = self.scale(wo_norm[:, 0], wo_norm[:, 1])
         i_ref = float(np.min(est / c_norm)) if top > 0.0 else 1.0

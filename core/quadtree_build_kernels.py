@@ -146,6 +146,15 @@ def scale_at(theta, phi, meta, vals, nodes, tmp):
 
 
 @njit(nogil=True, cache=True)
+def scale_rows(theta, phi, meta, vals, nodes, tmp):
+    """:func:`scale_at` per row."""
+    out = np.empty(theta.shape[0])
+    for i in range(theta.shape[0]):
+        out[i] = scale_at(theta[i], phi[i], meta, vals, nodes, tmp)
+    return out
+
+
+@njit(nogil=True, cache=True)
 def clamp_disk(x, y):
     r = math.sqrt(x * x + y * y)
     if r > R_MAX:
