@@ -12,14 +12,16 @@ lifetime, so kernels and trees built in it stay in its memory (and on disk, in t
 share). It receives a *spec* of the material (model name and parameter values, or the measured file's path),
 not the BRDF object: measured tables are large, and the child rebuilds and keeps the few BRDFs it was asked
 about. Errors raised in it (:class:`core.errors.BrdfStudioError`) come back as themselves; if the process
-dies, the next request starts a new one (once per request).
+dies, the next request starts a new one (once per request); if the app dies, the process ends by itself.
 """
 
 from __future__ import annotations
 
 import atexit
 import multiprocessing
+import os
 import threading
+import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
@@ -34,6 +36,7 @@ _LOCK = threading.Lock()
 _BRDFS: dict[Spec, Any] = {}
 """In the child: the BRDFs asked about, by spec (a few; their samplers' trees are cached by the library)."""
 _KEEP = 8
+PARENT_POLL_S = 0.5
 
 
 def spec_of(model: str, measured: str | None, params: dict) -> Spec:
@@ -44,7 +47,12 @@ def _pool() -> ProcessPoolExecutor:
     global _POOL
     with _LOCK:
         if _POOL is None:
-            _POOL = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"))
+            _POOL = ProcessPoolExecutor(
+                max_workers=1,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_watch_parent,
+                initargs=(os.getpid(),),
+            )
         return _POOL
 
 
@@ -58,6 +66,18 @@ def shutdown() -> None:
 
 
 atexit.register(shutdown)
+
+
+def _watch_parent(parent: int) -> None:
+    """In the child: end when the app has gone away, even if it was killed (an idle worker would otherwise
+    wait on its queue forever)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="watch-parent", daemon=True).start()
 
 
 def _brdf(spec: Spec) -> Any:

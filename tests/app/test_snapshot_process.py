@@ -1,10 +1,15 @@
 """The sampler view's snapshot process (:mod:`app.snapshot_process`): a real spawned process, compared with
-the same snapshot computed here; errors come back as themselves; a killed process is replaced."""
+the same snapshot computed here; errors come back as themselves; a killed process is replaced; a killed app
+leaves no process behind."""
 
 from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -52,3 +57,30 @@ def test_a_killed_process_is_replaced():
     again = snapshot_process.snapshot(spec, 40.0, 0.0, **OPTIONS)
     assert again["tree"] is not None
     assert pid not in snapshot_process._pool()._processes
+
+
+def test_the_process_ends_when_the_app_is_killed():
+    """An app killed without cleanup (SIGKILL) must not leave its snapshot process behind."""
+    code = (
+        "import os\n"
+        "from app import snapshot_process as sp\n"
+        "sp.snapshot(sp.spec_of('lambert', None, {}), 30.0, 0.0, n_samples=50, grid=8)\n"
+        "print(list(sp._pool()._processes)[0], flush=True)\n"
+        "os.kill(os.getpid(), 9)\n"
+    )
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=300)
+    assert out.returncode == -signal.SIGKILL
+    child = int(out.stdout.split()[0])
+    deadline = time.monotonic() + 20.0
+    while time.monotonic() < deadline and _alive(child):
+        time.sleep(0.1)
+    assert not _alive(child)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] != "Z"  # a zombie has ended (its parent is gone, init reaps it)
+    except FileNotFoundError:
+        return False
