@@ -53,7 +53,7 @@ from numba import njit
 
 from core.kernels import eval_batch
 from core.model import LUMINANCE
-from core.quadtree_build_kernels import build_kernels, scale_rows, scale_tables
+from core.quadtree_build_kernels import R_MAX, build_kernels, scale_rows, scale_tables
 
 TABLE_VERSION = 4
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
@@ -61,8 +61,6 @@ TABLE_VERSION = 4
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
 INV_PI = 1.0 / math.pi
-R_MAX = 1.0 - 1e-12
-"""Probes and the search stay inside this radius (g is 0 on and outside the unit circle)."""
 QUAD_ORDER = 6
 GRID = 4
 ARC = 8
