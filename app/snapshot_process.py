@@ -40,7 +40,9 @@ PARENT_POLL_S = 0.5
 
 
 def spec_of(model: str, measured: str | None, params: dict) -> Spec:
-    return (model, measured, tuple(sorted(params.items())))
+    """The spec of a material; colours read from a project file are lists, made tuples (a spec is a key)."""
+    items = ((k, tuple(v) if isinstance(v, list | tuple) else v) for k, v in params.items())
+    return (model, measured, tuple(sorted(items)))
 
 
 def _pool() -> ProcessPoolExecutor:

@@ -40,6 +40,14 @@ def test_snapshot_in_the_process_equals_the_one_computed_here():
     np.testing.assert_array_equal(remote["ratio"], local["ratio"])
 
 
+def test_colours_read_from_a_project_file_as_lists_work():
+    """A project loaded from JSON holds colours as lists; the spec must still be usable (hashable)."""
+    spec = snapshot_process.spec_of("lambert", None, {"kd": [0.2, 0.5, 0.1]})
+    snap = snapshot_process.snapshot(spec, 30.0, 0.0, **OPTIONS)
+    local = sampling_snapshot(get_model("lambert").bind({"kd": (0.2, 0.5, 0.1)}), 30.0, 0.0, **OPTIONS)
+    assert snap["tree"]["integral"] == pytest.approx(local["tree"]["integral"])
+
+
 def test_an_error_in_the_process_comes_back_as_itself():
     with pytest.raises(BrdfStudioError, match="unknown model 'no_such_model'"):
         snapshot_process.snapshot(snapshot_process.spec_of("no_such_model", None, {}), 30.0, 0.0, **OPTIONS)
