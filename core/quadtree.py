@@ -74,8 +74,13 @@ def gauss_legendre(order: int) -> tuple[np.ndarray, np.ndarray]:
     return _frozen(0.5 * (x + 1.0)), _frozen(0.5 * w)
 
 
+def _f64(a: np.ndarray) -> np.ndarray:
+    """Contiguous float64 (what the compiled loops take)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def _frozen(a: np.ndarray) -> np.ndarray:
-    a = np.ascontiguousarray(a, dtype=np.float64)
+    a = _f64(a)
     a.flags.writeable = False
     return a
 
@@ -105,6 +110,12 @@ def _polar_rule() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     R, P = np.meshgrid(r, phis, indexing="ij")
     WR = np.repeat(wr, nphi) * R.ravel() * (TWO_PI / nphi)
     return _frozen((R * np.cos(P)).ravel()), _frozen((R * np.sin(P)).ravel()), _frozen(WR)
+
+
+@lru_cache(maxsize=1)
+def _no_scale() -> tuple:
+    """Scale tables for :meth:`_Builder.integrals` calls that need no ``g / c`` (never evaluated there)."""
+    return scale_tables(np.ones(1), 1, 1, (0.0, 1.0, 0.0, 1.0), 1.0)
 
 
 # ---------------------------------------------------------------------------------------- projections
@@ -429,26 +440,21 @@ class _Builder:
 
     def g(self, theta: np.ndarray, phi: np.ndarray, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
         """``g(wo(theta, phi), X)`` per row (one compiled pass)."""
-
-        def c(a: np.ndarray) -> np.ndarray:
-            return np.ascontiguousarray(a, dtype=np.float64)
-
-        return self.k.g_rows(c(theta), c(phi), c(X), c(Y), PROJECTIONS.index(self.proj), self.params)
+        return self.k.g_rows(
+            _f64(theta), _f64(phi), _f64(X), _f64(Y), PROJECTIONS.index(self.proj), self.params
+        )
 
     def integrals(
         self, boxes: np.ndarray, wo_ang: np.ndarray, scaled: bool = True
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Per box and per ``wo``: integral of ``g`` over box-and-disk, and the largest ``g / c`` on the rule
-        (once the scale ``c`` is set and with ``scaled``; where it lies is kept as a start for the bound's
-        search)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per box and per ``wo``: integral of ``g`` over box-and-disk; with ``scaled`` (once the scale ``c`` is
+        set), also the largest ``g / c`` on the rule per box and where it lies (rows ``X, Y, theta, phi``: a
+        start for the bound's search)."""
         scaled = scaled and hasattr(self, "c_tables")
-        tables = self.c_tables if scaled else scale_tables(np.ones(1), 1, 1, (0.0, 1.0, 0.0, 1.0), 1.0)
-        out, vmax, self.qstart = self.k.node_integrals(
-            np.ascontiguousarray(boxes, dtype=np.float64), self.gx, self.gw,
-            np.ascontiguousarray(wo_ang[:, 0]), np.ascontiguousarray(wo_ang[:, 1]),
-            PROJECTIONS.index(self.proj), self.params, scaled, *tables,
+        return self.k.node_integrals(
+            _f64(boxes), self.gx, self.gw, _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]),
+            PROJECTIONS.index(self.proj), self.params, scaled, *(self.c_tables if scaled else _no_scale()),
         )  # fmt: skip
-        return out, vmax
 
     # -- the lobe's ridge: where the peak of g sits for each wo of the bin
     def ridge_setup(self, wo_all: np.ndarray) -> None:
@@ -539,36 +545,26 @@ class _Builder:
 
     def peak_search(self, ang: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Compass search for the largest ``g(wo, X)`` over the disk for fixed ``wo`` (rows), from ``start``."""
-
-        def c(a: np.ndarray) -> np.ndarray:
-            return np.ascontiguousarray(a, dtype=np.float64)
-
         px, py, pv = self.k.peak_search(
-            c(ang[:, 0]),
-            c(ang[:, 1]),
-            c(start[:, 0]),
-            c(start[:, 1]),
-            PROJECTIONS.index(self.proj),
-            self.params,
-        )
+            _f64(ang[:, 0]), _f64(ang[:, 1]), _f64(start[:, 0]), _f64(start[:, 1]),
+            PROJECTIONS.index(self.proj), self.params,
+        )  # fmt: skip
         return np.column_stack([px, py]), pv
 
-    def bound(self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def bound(
+        self, boxes: np.ndarray, wo_ang: np.ndarray, qmax: np.ndarray, qstart: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
         Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it, at every
         ``wo`` sample of the bin, and the box's nearest points to the ridge points (mirror, peak,
         retro-reflection) of a dense set of ``wo`` (paired with that ``wo``); then a compass search from the
-        best two and from the best quadrature point of :meth:`integrals`
+        best two and from the best quadrature point of :meth:`integrals` (``qstart``, value ``qmax``)
         (:func:`core.quadtree_build_kernels.BUILD_TEMPLATE`'s ``node_bounds``)."""
-        q = getattr(self, "qstart", None)
-        use_q = q is not None and len(q) == len(boxes)
         srch = np.array([self.t_lo, self.t_hi, self.f_lo, self.f_hi, *self.j_theta, *self.j_phi,
                          self.step_theta, self.step_phi])  # fmt: skip
         return self.k.node_bounds(
-            np.ascontiguousarray(boxes, dtype=np.float64),
-            np.ascontiguousarray(wo_ang[:, 0]), np.ascontiguousarray(wo_ang[:, 1]), self.ridge,
-            np.ascontiguousarray(qmax, dtype=np.float64), q if use_q else np.zeros((len(boxes), 4)), use_q,
+            _f64(boxes), _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]), self.ridge, _f64(qmax), _f64(qstart),
             srch, self.iso, self.opts.search_iters, GRID, ARC, PROJECTIONS.index(self.proj), self.params,
             *self.c_tables,
         )  # fmt: skip
@@ -583,10 +579,7 @@ class _Builder:
 
     def scale(self, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """The per-``wo`` scale ``c(wo)``, floored (see :meth:`QuadtreeTable.scales`)."""
-        return scale_rows(
-            np.ascontiguousarray(theta, dtype=np.float64), np.ascontiguousarray(phi, dtype=np.float64),
-            *self.c_tables,
-        )  # fmt: skip
+        return scale_rows(_f64(theta), _f64(phi), *self.c_tables)
 
     def build(self) -> dict[str, np.ndarray]:
         t0 = time.perf_counter()
@@ -628,8 +621,8 @@ class _Builder:
             ev = np.flatnonzero(ok)
             if len(ev):
                 b = boxes[ev]
-                Ie, qmax = self.integrals(b, wo_norm)
-                before, after = self.bound(b, wo_all, qmax)
+                Ie, qmax, qstart = self.integrals(b, wo_norm)
+                before, after = self.bound(b, wo_all, qmax, qstart)
                 un = after > 1.02 * before
                 Me = np.maximum((1.0 + o.safety) * after, floor)
                 area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])

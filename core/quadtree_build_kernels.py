@@ -339,7 +339,7 @@ def _search(cx, cy, ct, cp, best, x0, y0, x1, y1, srch, iso, iters, proj, p, s_m
 
 
 @njit(nogil=True, cache=True)
-def node_bounds(boxes, theta, phi, ridge, qmax, qstart, use_q, srch, iso, iters, grid, arc, proj, p,
+def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, arc, proj, p,
                 s_meta, s_vals, s_nodes, s_tmp):
     """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
@@ -347,7 +347,7 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, use_q, srch, iso, iters,
     points of the unit circle clamped into it (where ``f`` grows toward the horizon the sup of a rim leaf lies
     on its arc); then the box's nearest points to the ridge points (rows ``X, Y, theta, phi``: mirror, peak and
     retro-reflection points of a dense set of ``wo``, paired with that ``wo``). Then a compass search from
-    the best two and, with ``use_q``, from the best quadrature point ``qstart`` (value ``qmax``)."""
+    the best two and from the best quadrature point ``qstart`` (value ``qmax``, see ``node_integrals``)."""
     nb = boxes.shape[0]
     nw = theta.shape[0]
     nr = ridge.shape[0]
@@ -435,9 +435,8 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, use_q, srch, iso, iters,
                                  s_meta, s_vals, s_nodes, s_tmp))
         best = max(best, _search(s2[0], s2[1], s2[2], s2[3], v2, x0, y0, x1, y1, srch, iso, iters, proj, p,
                                  s_meta, s_vals, s_nodes, s_tmp))
-        if use_q:
-            best = max(best, _search(qstart[b, 0], qstart[b, 1], qstart[b, 2], qstart[b, 3], qmax[b], x0, y0,
-                                     x1, y1, srch, iso, iters, proj, p, s_meta, s_vals, s_nodes, s_tmp))
+        best = max(best, _search(qstart[b, 0], qstart[b, 1], qstart[b, 2], qstart[b, 3], qmax[b], x0, y0,
+                                 x1, y1, srch, iso, iters, proj, p, s_meta, s_vals, s_nodes, s_tmp))
         after[b] = best
     return before, after
 '''
