@@ -78,7 +78,8 @@ def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> 
     tree's disk coordinates), ``projection`` (how disk points map to directions, see
     ``core.quadtree.disk_to_direction``), ``total_mass`` V, ``integral`` I(wo) (the tree's normalizer at this
     direction), ``nbytes``, ``build_seconds``, ``bin_deg`` (theta range), ``acceptance``. Isotropic trees are
-    built for phi = 0 (rotated at sampling time); anisotropic ones per phi bin.
+    built for phi = 0 (rotated at sampling time); anisotropic ones per phi bin (mirror-symmetric models: bins
+    of the first quadrant, returned mirrored to the direction's quadrant).
     """
     q = _module("core.quadtree")
     if q is None or not quadtree_available():
@@ -117,6 +118,12 @@ def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: f
     unit = true_mass / tree.total_mass if tree.total_mass > 0 else 1.0
     leaves = np.array(tree.leaf_rows(), dtype=np.float64)[:, :5]
     leaves[:, 0] *= unit
+    # A mirror-symmetric anisotropic table keeps trees for the first quadrant of phi_o: show the tree mirrored
+    # to the direction's quadrant, as sampling uses it.
+    for axis, sign in enumerate(table.mirror_signs(wo)[0]):
+        if sign < 0:
+            lo, hi = leaves[:, 1 + axis].copy(), leaves[:, 3 + axis].copy()
+            leaves[:, 1 + axis], leaves[:, 3 + axis] = -hi, -lo
     return {
         "leaves": leaves,
         "projection": str(projection),

@@ -43,6 +43,10 @@ class Traits(enum.Flag):
     """``f(wi, wo) == f(wo, wi)``."""
     ENERGY_CONSERVING = enum.auto()
     """Directional albedo ``rho(wo) <= 1`` for every ``wo``."""
+    MIRROR_SYMMETRIC = enum.auto()
+    """Invariant under mirroring ``wi`` and ``wo`` together in the x-z plane, and in the y-z plane (the
+    tangent frame's axes are the anisotropy's axes of symmetry). The adaptive sampler then builds trees for
+    one quadrant of ``phi_o`` only."""
 
 
 @dataclass(frozen=True)
@@ -151,6 +155,10 @@ class Model:
     @property
     def energy_conserving(self) -> bool:
         return Traits.ENERGY_CONSERVING in self.traits
+
+    @property
+    def mirror_symmetric(self) -> bool:
+        return Traits.MIRROR_SYMMETRIC in self.traits
 
     def param(self, name: str) -> Param:
         for p in self.params:

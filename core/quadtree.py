@@ -55,7 +55,7 @@ from core.kernels import eval_batch
 from core.model import LUMINANCE
 from core.quadtree_build_kernels import R_MAX, build_kernels, scale_rows, scale_tables
 
-TABLE_VERSION = 4
+TABLE_VERSION = 5
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
 
 HALF_PI = 0.5 * math.pi

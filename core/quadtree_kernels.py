@@ -1,7 +1,9 @@
 """Fused numba kernels of the adaptive sampler: the whole per-sample loop in one compiled pass.
 
 For each row: locate the incident-angle bin, evaluate the normalizer ``I(wo)`` and the scale ``c(wo)`` from
-the bin's Chebyshev tables, rotate (isotropic trees live at ``phi_o = 0``), then rejection trials: a descent
+the bin's Chebyshev tables, map the tree's frame to the row's (isotropic trees live at ``phi_o = 0`` and are
+rotated; mirror-symmetric anisotropic trees cover ``0 <= phi_o <= 90`` degrees and are mirrored), then
+rejection trials: a descent
 by mass from the root (restart on rejection), a point uniform in the leaf's clipped box (recomputed from the
 leaf's position), the projection to a direction, the luminance of ``f`` times ``cos J`` against the bound.
 The pdf ``f cos / I(wo)`` comes from the accepted trial's ``f`` (no second evaluation). The proof that the
@@ -44,6 +46,11 @@ MAX_TRIALS = 100_000
 STACK = 256
 CHUNK = 4096
 """Rows per task of the threaded sampler."""
+FRAME_FULL, FRAME_ISO, FRAME_MIRROR = 0, 1, 2
+"""How a table's trees relate to the row's frame: bins over ``(theta_o, phi_o)`` on the whole circle; bins
+over ``theta_o`` only, trees at ``phi_o = 0`` rotated to the row's ``phi_o`` (isotropic BRDFs); bins over
+``(theta_o, phi_o)`` with ``phi_o`` folded into ``[0, 90]`` degrees, trees mirrored in x and/or y to the row's
+quadrant (anisotropic BRDFs invariant under those mirrors, ``core.model.Traits.MIRROR_SYMMETRIC``)."""
 
 
 @intrinsic
@@ -157,14 +164,19 @@ def tree_leaves(mass, bits, cum, unit, n_nodes):
 
 
 @njit(nogil=True, cache=True, inline="always")
-def locate(wx, wy, wz, t_edges, n_phi, iso, z_min):
+def locate(wx, wy, wz, t_edges, n_phi, frame, z_min):
     """``(bin, theta_o, phi_o)``; bin -1 where ``cos(theta_o) < z_min`` (the cosine fallback). The theta bin
     is ``searchsorted(t_edges, theta, "right") - 1`` clipped to the bins, found from a guess for the
-    uniform part of the edges; ``phi_o`` is only computed for anisotropic tables (0 otherwise)."""
+    uniform part of the edges; ``phi_o`` is 0 for isotropic tables, in ``[0, 2 pi)`` for the whole circle and
+    folded into ``[0, pi / 2]`` (``atan2(|y|, |x|)``) for mirrored tables (``FRAME_*``)."""
     s = math.sqrt(wx * wx + wy * wy)
     theta = math.atan2(s, wz)
     phi = 0.0
-    if not iso:
+    span = TWO_PI
+    if frame == FRAME_MIRROR:
+        phi = math.atan2(abs(wy), abs(wx))
+        span = HALF_PI
+    elif frame == FRAME_FULL:
         phi = math.atan2(wy, wx)
         if phi < 0.0:
             phi += TWO_PI
@@ -178,9 +190,9 @@ def locate(wx, wy, wz, t_edges, n_phi, iso, z_min):
         it += 1
     while it > 0 and t_edges[it] > theta:
         it -= 1
-    if iso:
+    if frame == FRAME_ISO:
         return it, theta, phi
-    ip = min(max(int(phi * (n_phi / TWO_PI)), 0), n_phi - 1)
+    ip = min(max(int(phi * (n_phi / span)), 0), n_phi - 1)
     return it * n_phi + ip, theta, phi
 
 
@@ -247,10 +259,11 @@ def bin_values(meta, coef, c_meta, c_coef, b, theta, phi, wp):
 def row_setup(wx, wy, wz, tab, wp):
     """``(bin, I(wo), c(wo), cos, sin)`` of a row: bin -1 (cosine fallback) beyond the last bin or where
     ``I(wo) <= 0``, -2 - bin where the row's bin is not built yet; ``cos, sin`` rotate the isotropic tree's
-    frame (``phi_o = 0``) to the row's."""
-    (t_edges, n_phi, iso, z_min, node_off, word_off, proj_of, unit_of,
+    frame (``phi_o = 0``) to the row's, and for a mirrored table they are the signs of the row's ``x`` and
+    ``y`` (the mirrors from the tree's quadrant to the row's)."""
+    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
-    b, theta, phi = locate(wx, wy, wz, t_edges, n_phi, iso, z_min)
+    b, theta, phi = locate(wx, wy, wz, t_edges, n_phi, frame, z_min)
     if b < 0:
         return -1, 0.0, 1.0, 1.0, 0.0
     if node_off[b] < 0:
@@ -261,11 +274,14 @@ def row_setup(wx, wy, wz, tab, wp):
     scale = max(scale, c_floor[b])
     cr = 1.0
     sr = 0.0
-    if iso:
+    if frame == FRAME_ISO:
         s = math.sqrt(wx * wx + wy * wy)
         if s > 0.0:
             cr = wx / s
             sr = wy / s
+    elif frame == FRAME_MIRROR:
+        cr = -1.0 if wx < 0.0 else 1.0
+        sr = -1.0 if wy < 0.0 else 1.0
     return b, norm, scale, cr, sr
 
 
@@ -286,22 +302,22 @@ def setup_rows(wo, tab):
 
 
 @njit(nogil=True, cache=True)
-def locate_rows(wo, t_edges, n_phi, iso, z_min):
+def locate_rows(wo, t_edges, n_phi, frame, z_min):
     n = wo.shape[0]
     bins = np.empty(n, dtype=np.int64)
     theta = np.empty(n)
     phi = np.empty(n)
     for i in range(n):
-        bins[i], theta[i], phi[i] = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, iso, z_min)
+        bins[i], theta[i], phi[i] = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min)
     return bins, theta, phi
 
 
 @njit(nogil=True, cache=True)
-def bins_present(wo, t_edges, n_phi, iso, z_min, n_bins):
+def bins_present(wo, t_edges, n_phi, frame, z_min, n_bins):
     """Which bins the rows fall in (a pass before the tables are built: no sort, no bin array)."""
     out = np.zeros(n_bins, dtype=np.bool_)
     for i in range(wo.shape[0]):
-        b, _, _ = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, iso, z_min)
+        b, _, _ = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min)
         if b >= 0:
             out[b] = True
     return out
@@ -341,12 +357,15 @@ def project(X, Y, proj):
 
 
 @njit(nogil=True, cache=True, inline="always")
-def trial_direction(X, Y, proj, cr, sr, iso):
+def trial_direction(X, Y, proj, cr, sr, frame):
     """World direction of disk point ``(X, Y)`` and the factor ``cos J`` (the eval stays in the callers:
-    a kernel passed on between compiled functions would keep numba from caching them)."""
+    a kernel passed on between compiled functions would keep numba from caching them); ``cr, sr`` from
+    :func:`row_setup` (a rotation, or the mirrors' signs)."""
     ix, iy, iz, factor = project(X, Y, proj)
-    if iso:
+    if frame == FRAME_ISO:
         ix, iy = cr * ix - sr * iy, sr * ix + cr * iy
+    elif frame == FRAME_MIRROR:
+        ix, iy = cr * ix, sr * iy
     return ix, iy, iz, factor
 
 
@@ -385,9 +404,9 @@ def luminance_f(ix, iy, iz, wx, wy, wz, p):
 
 
 @njit(nogil=True, cache=True, inline="always")
-def trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p):
+def trial(X, Y, proj, cr, sr, frame, wx, wy, wz, p):
     """A trial at disk point ``(X, Y)``: its direction ``wi``, the luminance ``f`` there and ``g = f cos J``."""
-    ix, iy, iz, factor = trial_direction(X, Y, proj, cr, sr, iso)
+    ix, iy, iz, factor = trial_direction(X, Y, proj, cr, sr, frame)
     f = luminance_f(ix, iy, iz, wx, wy, wz, p) if factor > 0.0 else 0.0
     return ix, iy, iz, f, f * factor
 
@@ -397,7 +416,7 @@ def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
     """One sample per row ``lo <= i < hi``, sample ``i`` from stream ``(seed, i)``. Returns
     ``(violations, skipped)``: rows whose bin is not built yet are skipped and their bins flagged in
     ``missing`` (the caller builds them and runs again)."""
-    (t_edges, n_phi, iso, z_min, node_off, word_off, proj_of, unit_of,
+    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
     wp = np.empty(m_max)
     viol = 0
@@ -436,7 +455,7 @@ def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
             c0, d0, c1, d1, area, m = leaf_box(mass, moff, k, unit, x0, y0, size)
             X = c0 + (c1 - c0) * a
             Y = d0 + (d1 - d0) * c
-            ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p)
+            ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, frame, wx, wy, wz, p)
             bound = m * scale
             if g > bound:
                 viol += 1
@@ -482,7 +501,7 @@ def sample_batch(wo, p, seed, n, tab, wi_out, pdf_out):
     the counts sum to ``k``), runs the leaves' trials, and the rejected ones make the next round (round
     ``r`` draws from stream ``(seed, r)``). Accepted samples are written in order; returns
     ``(filled, trials, violations)``. The caller checks that the row's bin is not the fallback."""
-    (t_edges, n_phi, iso, z_min, node_off, word_off, proj_of, unit_of,
+    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
     wp = np.empty(m_max)
     wx, wy, wz = wo[0], wo[1], wo[2]
@@ -556,7 +575,7 @@ def sample_batch(wo, p, seed, n, tab, wi_out, pdf_out):
                     trials += 1
                     X = c0 + (c1 - c0) * a
                     Y = d0 + (d1 - d0) * c
-                    ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, iso, wx, wy, wz, p)
+                    ix, iy, iz, f, g = trial(X, Y, proj, cr, sr, frame, wx, wy, wz, p)
                     if g > bound:
                         viol += 1
                     if u3 * bound < g and filled < n:

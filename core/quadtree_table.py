@@ -16,6 +16,10 @@ from core.errors import BrdfStudioError
 from core.quadtree import TABLE_VERSION, TWO_PI, BuildOptions, build_tree, theta_edges
 from core.quadtree_kernels import (
     CHUNK,
+    FRAME_FULL,
+    FRAME_ISO,
+    FRAME_MIRROR,
+    HALF_PI,
     bins_present,
     chebyshev_coefficients,
     locate_rows,
@@ -206,8 +210,10 @@ class QuadtreeTable:
     (with a :class:`core.cache.TableCache`) on disk.
 
     Isotropic BRDFs have bins over ``theta_o`` only and work in the frame rotated so that ``phi_o = 0``;
-    anisotropic ones have bins over ``(theta_o, phi_o)``. ``sample`` and ``pdf`` use the same bin for a given
-    ``wo``. Where ``cos(theta_o) < z_min`` or ``I(wo) = 0`` (``f`` vanishes) both use the cosine density.
+    anisotropic ones have bins over ``(theta_o, phi_o)``: over the quadrant ``0 <= phi_o <= 90`` degrees
+    (``phi_bins / 4`` bins, mirrored to the row's quadrant) when the model is mirror-symmetric, over the whole
+    circle otherwise. ``sample`` and ``pdf`` use the same bin for a given ``wo``. Where
+    ``cos(theta_o) < z_min`` or ``I(wo) = 0`` (``f`` vanishes) both use the cosine density.
     Sampling and the pdf run in fused numba kernels specialized to the model's ``eval``
     (:mod:`core.quadtree_kernels`); the trees are built in Python before a kernel runs.
     """
@@ -219,13 +225,20 @@ class QuadtreeTable:
         self.params = np.ascontiguousarray(params, dtype=np.float64)
         self.opts = opts
         self.iso = bool(model.isotropic)
+        self.mirror = not self.iso and bool(model.mirror_symmetric)
+        """Trees over one quadrant of ``phi_o``, mirrored to the others (``FRAME_MIRROR``)."""
+        self.frame = FRAME_ISO if self.iso else (FRAME_MIRROR if self.mirror else FRAME_FULL)
+        self.phi_span = HALF_PI if self.mirror else TWO_PI
         self.t_edges = np.ascontiguousarray(theta_edges(opts.theta_step, opts.z_min), dtype=np.float64)
         self.n_theta = len(self.t_edges) - 1
-        self.n_phi = 1 if self.iso else opts.phi_bins
+        self.n_phi = 1 if self.iso else (-(-opts.phi_bins // 4) if self.mirror else opts.phi_bins)
         self.n_bins = self.n_theta * self.n_phi
         self.cache = cache
         self.key = table_key(
-            ["adaptive-quadtree", TABLE_VERSION, _source_hash(), model.name, self.params, opts.key_parts()]
+            [
+                "adaptive-quadtree", TABLE_VERSION, _source_hash(), model.name, self.frame, self.params,
+                opts.key_parts(),
+            ]
         )
         self.bins: dict[int, Bin] = {}
         self.lock = threading.RLock()
@@ -242,11 +255,19 @@ class QuadtreeTable:
         it, ip = divmod(b, self.n_phi)
         if self.iso:
             return float(self.t_edges[it]), float(self.t_edges[it + 1]), 0.0, 0.0
-        step = TWO_PI / self.n_phi
+        step = self.phi_span / self.n_phi
         return float(self.t_edges[it]), float(self.t_edges[it + 1]), ip * step, (ip + 1) * step
 
+    def mirror_signs(self, wo: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` signs that take each row's tree (built for the first quadrant of ``phi_o``) to the row's
+        frame: ``x`` and ``y`` are multiplied by them (all ones unless the table is mirrored)."""
+        wo = _rows(wo)
+        if not self.mirror:
+            return np.ones((len(wo), 2))
+        return np.where(wo[:, :2] < 0.0, -1.0, 1.0)
+
     def _where(self) -> tuple:
-        return self.t_edges, self.n_phi, self.iso, float(self.opts.z_min)
+        return self.t_edges, self.n_phi, self.frame, float(self.opts.z_min)
 
     def locate(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(bin, theta_o, phi_o)`` per row; bin -1 where ``cos(theta_o) < z_min`` (the cosine fallback)."""

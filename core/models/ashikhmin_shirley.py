@@ -150,7 +150,7 @@ ASHIKHMIN_SHIRLEY = register(
             ),
             Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse reflectance", kind="color"),
         ),
-        traits=Traits.RECIPROCAL,
+        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_ashikhmin_shirley,
         sample=sample_ashikhmin_shirley,
         pdf=pdf_ashikhmin_shirley,

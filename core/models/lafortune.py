@@ -101,7 +101,7 @@ LAFORTUNE = register(
             Param("kp", (0.96, 0.96, 0.96), 0.0, 1.0, label="Lobe coefficient", kind="color"),
             Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
         ),
-        traits=Traits.RECIPROCAL,
+        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_lafortune,
         sample=sample_lafortune,
         pdf=pdf_lafortune,

@@ -278,7 +278,7 @@ POULIN_FOURNIER = register(
                 doc="Cut the cylinders into the plane (grooves of depth h) instead of raising them.",
             ),
         ),
-        traits=Traits.RECIPROCAL,
+        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_poulin_fournier,
         derive=derive_poulin_fournier,
         doc=__doc__ or "",

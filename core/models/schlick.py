@@ -264,7 +264,7 @@ def _schlick_model(name: str, label: str, double: bool) -> Model:
         label=label,
         citation=_CITATION,
         params=_params(double=double),
-        traits=Traits.RECIPROCAL,
+        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_schlick,
         sample=sample_schlick,
         pdf=pdf_schlick,

@@ -90,3 +90,29 @@ def test_grid_normals_of_a_sphere_point_outwards_and_quads_cover_the_grid():
     assert np.all(np.sum(np.cross(b - a, d - a) * mid, axis=-1) > 0)
     a, b, c = (flat[quads[:80, k]] for k in (1, 2, 3))
     assert np.all(np.sum(np.cross(b - a, c - a) * (a + b + c), axis=-1) > 0)
+
+
+def test_an_anisotropic_tree_is_shown_where_its_samples_fall_in_every_quadrant(tmp_path, monkeypatch):
+    """Mirror-symmetric anisotropic BRDFs keep trees for the first quadrant of phi_o; the sampler view shows
+    the tree mirrored to the direction's quadrant, so every drawn sample lies in a drawn leaf of the lobe
+    (a tree left unmirrored would put the other quadrants' samples in leaves where ``f`` is ~0)."""
+    from app.view_data import sampling_snapshot
+    from core.model import make_brdf
+
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path))
+    brdf = make_brdf("ward", {"sx": 0.05, "sy": 0.25, "kd": (0.0, 0.0, 0.0)})  # f is ~0 away from the lobe
+    for phi in (30.0, 150.0, 210.0, 330.0):
+        snap = sampling_snapshot(brdf, 50.0, phi, n_samples=400)
+        leaves, pts = snap["tree"]["leaves"], snap["samples"]
+        assert len(pts) == 400
+        inside = (
+            (pts[:, None, 0] >= leaves[None, :, 1])
+            & (pts[:, None, 0] <= leaves[None, :, 3])
+            & (pts[:, None, 1] >= leaves[None, :, 2])
+            & (pts[:, None, 1] <= leaves[None, :, 4])
+            & (leaves[None, :, 0] > 1e-3 * leaves[:, 0].max())
+        )
+        assert inside.any(axis=1).all(), f"phi={phi}: {np.sum(~inside.any(axis=1))} samples outside the leaves"
+        # the lobe sits on the mirror side of the normal: opposite quadrant to wo
+        c = math.radians(phi)
+        assert np.mean(pts @ np.array([math.cos(c), math.sin(c)])) < 0.0

@@ -40,13 +40,19 @@ def _private_cache(private_tables):
 
 def _bin(model, theta_deg: float, phi_deg: float, opts: BuildOptions) -> tuple[float, float, float, float]:
     """The bin range ``(theta_lo, theta_hi, phi_lo, phi_hi)`` holding ``wo(theta, phi)``, as the table lays
-    the bins out (theta edges from :func:`theta_edges`, ``phi_bins`` equal phi bins when anisotropic)."""
+    the bins out (theta edges from :func:`theta_edges`; when anisotropic, ``phi_bins`` equal phi bins over the
+    circle, or a quarter as many over the first quadrant, with phi folded into it, for mirror-symmetric
+    models)."""
     edges = theta_edges(opts.theta_step, opts.z_min)
     it = int(np.clip(np.searchsorted(edges, math.radians(theta_deg), side="right") - 1, 0, len(edges) - 2))
     if model.isotropic:
         return float(edges[it]), float(edges[it + 1]), 0.0, 0.0
+    phi = math.radians(phi_deg)
     step = 2.0 * math.pi / opts.phi_bins
-    ip = int(math.radians(phi_deg) // step)
+    if model.mirror_symmetric:
+        phi = math.atan2(abs(math.sin(phi)), abs(math.cos(phi)))
+        step = 0.5 * math.pi / -(-opts.phi_bins // 4)
+    ip = int(phi // step)
     return float(edges[it]), float(edges[it + 1]), ip * step, (ip + 1) * step
 
 
