@@ -726,7 +726,10 @@ class _Builder:
         those of ``3m``, so every value is reused, and the ``2m`` new values measure the error of the
         ``m``-point interpolant. The coarsest passing set is stored; if none passes below 54 nodes, the 54
         are stored and the error of the 18-point interpolant is reported (an upper bound in practice).
-        Anisotropic bins check half-way between the nodes and double them (up to 48 x 20)."""
+        Anisotropic bins check half-way between the nodes; on failure they double the nodes of the
+        dimension(s) whose error alone fails (up to 48 x 20), and stop when a doubling does not halve the
+        error: near the horizon the measured error is the leaf quadrature's wobble in ``wo``, not the
+        interpolant's (the smaller error's set is kept, and reported)."""
         t_lo, t_hi, f_lo, f_hi = self.t_lo, self.t_hi, self.f_lo, self.f_hi
 
         def interp(vals: np.ndarray, m_t: int, m_p: int, pts: np.ndarray) -> np.ndarray:
@@ -754,22 +757,34 @@ class _Builder:
                 if mt >= 54:
                     return norm, mt, mp, err
 
-        def error(mt: int, mp: int, vals: np.ndarray) -> float:
-            xt = np.cos(np.arange(1, mt) * np.pi / mt)
-            tt = 0.5 * (t_lo + t_hi) + 0.5 * (t_hi - t_lo) * xt
-            xp = np.cos(np.arange(1, mp) * np.pi / mp)
-            ff = 0.5 * (f_lo + f_hi) + 0.5 * (f_hi - f_lo) * xp
-            pts = _tensor(tt[[0, len(tt) // 2, -1]], ff[[0, len(ff) // 2, -1]])
+        def error(mt: int, mp: int, vals: np.ndarray, along: str = "tp") -> float:
+            """Relative error of the interpolant at 3 x 3 points: half-way between the nodes in the
+            dimensions of ``along``, at nodes in the others (where it measures the other dimension only)."""
+            pts = []
+            for lo, hi, m, dim in ((t_lo, t_hi, mt, "t"), (f_lo, f_hi, mp, "p")):
+                x = np.cos(np.arange(1, m) * np.pi / m) if dim in along else np.cos((np.arange(m) + 0.5) * np.pi / m)
+                v = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
+                pts.append(v[[0, len(v) // 2, -1]])
+            pts = _tensor(*pts)
             truth = self.integrals(leaf_boxes, pts, scaled=False)[0].sum(axis=0)
             return rel(interp(vals, mt, mp, pts), truth)
 
         err = error(mt, mp, norm)
-        while err > self.opts.interp_tol and mt < 48:
-            mt *= 2
-            mp = min(2 * mp, 20)
-            nodes = _tensor(chebyshev_points(t_lo, t_hi, mt), chebyshev_points(f_lo, f_hi, mp))
-            norm = self.integrals(leaf_boxes, nodes, scaled=False)[0].sum(axis=0)
-            err = error(mt, mp, norm)
+        while err > self.opts.interp_tol and (mt < 48 or mp < 20):
+            # double the dimension(s) that fail on their own
+            grow_t = mt < 48 and error(mt, mp, norm, "t") > 0.5 * self.opts.interp_tol
+            grow_p = mp < 20 and error(mt, mp, norm, "p") > 0.5 * self.opts.interp_tol
+            if not (grow_t or grow_p):
+                grow_t, grow_p = mt < 48, mp < 20
+            mt2, mp2 = (2 * mt if grow_t else mt), (min(2 * mp, 20) if grow_p else mp)
+            nodes = _tensor(chebyshev_points(t_lo, t_hi, mt2), chebyshev_points(f_lo, f_hi, mp2))
+            norm2 = self.integrals(leaf_boxes, nodes, scaled=False)[0].sum(axis=0)
+            err2 = error(mt2, mp2, norm2)
+            if err2 > 0.5 * err:
+                # Doubling the nodes did not halve the error: what is measured is the leaf quadrature's own
+                # wobble in wo (a sharp lobe crossing leaf edges), which more nodes cannot fix.
+                return (norm2, mt2, mp2, err2) if err2 < err else (norm, mt, mp, err)
+            norm, mt, mp, err = norm2, mt2, mp2, err2
         return norm, mt, mp, err
 
 

@@ -6,7 +6,9 @@ its docstring and in ``docs/adaptive.md``.
 
 from __future__ import annotations
 
+import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -28,6 +30,9 @@ from core.quadtree_kernels import (
     tree_leaves,
     values_rows,
 )
+
+BUILD_THREADS = max(1, min(4, os.cpu_count() or 1))
+"""Threads that build the trees of several missing bins at once (a render's warm-up asks for hundreds)."""
 
 MASS_UNITS = float(2**30)
 """A tree's total mass in integer units: leaf masses are rounded up to multiples of ``V / 2^30`` (the bound
@@ -294,6 +299,7 @@ class QuadtreeTable:
         missing = np.flatnonzero(present & (self.node_off < 0))
         if not len(missing):
             return
+        to_build = []
         for b in (int(v) for v in missing):
             entry = self.cache.load(self.key, f"bin{b}") if self.cache is not None else None
             table = None
@@ -304,11 +310,27 @@ class QuadtreeTable:
                 except (KeyError, ValueError, TypeError):
                     table = None
             if table is None:
-                table = build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
-                if self.cache is not None:
-                    self.cache.save(self.key, f"bin{b}", table.arrays())
+                to_build.append(b)
+            else:
+                self.bins[b] = table
+        for b, table in zip(to_build, self._build(to_build), strict=True):
+            if self.cache is not None:
+                self.cache.save(self.key, f"bin{b}", table.arrays())
             self.bins[b] = table
         self._pack()
+
+    def _build(self, bins: list[int]) -> list[Bin]:
+        """Build the trees of ``bins``: the first here (it compiles or loads the model's construction
+        kernels), the others on ``BUILD_THREADS`` threads (the kernels release the GIL; a tree does not depend
+        on which thread builds it)."""
+        build = lambda b: build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)  # noqa: E731
+        if not bins:
+            return []
+        first = [build(bins[0])]
+        if len(bins) == 1 or BUILD_THREADS <= 1:
+            return first + [build(b) for b in bins[1:]]
+        with ThreadPoolExecutor(max_workers=min(BUILD_THREADS, len(bins) - 1)) as pool:
+            return first + list(pool.map(build, bins[1:]))
 
     def _pack(self) -> None:
         """Concatenate the bins' arrays into the tuple the kernels read (``tab``)."""

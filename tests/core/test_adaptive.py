@@ -291,6 +291,29 @@ def test_tables_are_cached_on_disk_and_corruption_is_detected(tmp_path):
     assert _adaptive("phong", params={"n": 50}, cache=folder).table.key != first.table.key
 
 
+def test_bins_built_together_on_threads_equal_bins_built_one_by_one(monkeypatch):
+    """A table asked for several missing bins at once builds them on threads: the same trees, bit for bit, as
+    building them one at a time."""
+    import core.quadtree_table as qt
+    from core.quadtree import BuildOptions
+
+    brdf = make_brdf("ward", BRUSHED)
+    wo = np.stack([degrees_to_dir(t, p) for t, p in ((10, 5), (40, 33), (70, 61), (85, 80), (89.2, 44))])
+    together = qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions())
+    monkeypatch.setattr(qt, "BUILD_THREADS", 4)
+    together.ensure_rows(wo)
+    monkeypatch.setattr(qt, "BUILD_THREADS", 1)
+    alone = qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions())
+    for row in wo:
+        alone.ensure_rows(row[None])
+    assert sorted(together.bins) == sorted(alone.bins) and len(alone.bins) == len(wo)
+    for b, tree in alone.bins.items():
+        mine, theirs = tree.arrays(), together.bins[b].arrays()
+        for name in mine:
+            if name != "build_seconds":
+                np.testing.assert_array_equal(mine[name], theirs[name], err_msg=f"bin {b}: {name}")
+
+
 def test_laziness_and_info():
     sampler = _adaptive("lewis")
     assert sampler.info()["trees"] == 0
