@@ -268,7 +268,7 @@ class BuildOptions:
         phi_bins: int = 72,
         min_depth: int = 2,
         max_depth: int = 11,
-        max_nodes: int = 200_000,
+        max_nodes: int = 16_384,
         safety: float = 0.05,
         excess_tol: float = 3e-3,
         m_theta: int = 6,
@@ -762,7 +762,11 @@ class _Builder:
             dimensions of ``along``, at nodes in the others (where it measures the other dimension only)."""
             pts = []
             for lo, hi, m, dim in ((t_lo, t_hi, mt, "t"), (f_lo, f_hi, mp, "p")):
-                x = np.cos(np.arange(1, m) * np.pi / m) if dim in along else np.cos((np.arange(m) + 0.5) * np.pi / m)
+                x = (
+                    np.cos(np.arange(1, m) * np.pi / m)
+                    if dim in along
+                    else np.cos((np.arange(m) + 0.5) * np.pi / m)
+                )
                 v = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
                 pts.append(v[[0, len(v) // 2, -1]])
             pts = _tensor(*pts)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -241,7 +242,12 @@ class QuadtreeTable:
         self.cache = cache
         self.key = table_key(
             [
-                "adaptive-quadtree", TABLE_VERSION, _source_hash(), model.name, self.frame, self.params,
+                "adaptive-quadtree",
+                TABLE_VERSION,
+                _source_hash(),
+                model.name,
+                self.frame,
+                self.params,
                 opts.key_parts(),
             ]
         )
@@ -319,18 +325,23 @@ class QuadtreeTable:
             self.bins[b] = table
         self._pack()
 
-    def _build(self, bins: list[int]) -> list[Bin]:
-        """Build the trees of ``bins``: the first here (it compiles or loads the model's construction
-        kernels), the others on ``BUILD_THREADS`` threads (the kernels release the GIL; a tree does not depend
-        on which thread builds it)."""
-        build = lambda b: build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)  # noqa: E731
+    def _build(self, bins: list[int]) -> Iterator[Bin]:
+        """The trees of ``bins`` in order, as they are built (the caller stores each at once, so an
+        interrupted batch keeps what it finished): the first here (it compiles or loads the model's
+        construction kernels), the others on ``BUILD_THREADS`` threads (the kernels release the GIL; a tree
+        does not depend on which thread builds it)."""
+
+        def build(b: int) -> Bin:
+            return build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
+
         if not bins:
-            return []
-        first = [build(bins[0])]
+            return
+        yield build(bins[0])
         if len(bins) == 1 or BUILD_THREADS <= 1:
-            return first + [build(b) for b in bins[1:]]
+            yield from (build(b) for b in bins[1:])
+            return
         with ThreadPoolExecutor(max_workers=min(BUILD_THREADS, len(bins) - 1)) as pool:
-            return first + list(pool.map(build, bins[1:]))
+            yield from pool.map(build, bins[1:])
 
     def _pack(self) -> None:
         """Concatenate the bins' arrays into the tuple the kernels read (``tab``)."""

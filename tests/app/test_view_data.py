@@ -112,7 +112,9 @@ def test_an_anisotropic_tree_is_shown_where_its_samples_fall_in_every_quadrant(t
             & (pts[:, None, 1] <= leaves[None, :, 4])
             & (leaves[None, :, 0] > 1e-3 * leaves[:, 0].max())
         )
-        assert inside.any(axis=1).all(), f"phi={phi}: {np.sum(~inside.any(axis=1))} samples outside the leaves"
+        assert inside.any(axis=1).all(), (
+            f"phi={phi}: {np.sum(~inside.any(axis=1))} samples outside the leaves"
+        )
         # the lobe sits on the mirror side of the normal: opposite quadrant to wo
         c = math.radians(phi)
         assert np.mean(pts @ np.array([math.cos(c), math.sin(c)])) < 0.0
