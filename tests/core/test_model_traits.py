@@ -64,27 +64,35 @@ def test_zero_below_the_horizon(model):
     assert np.all(brdf.eval(np.tile(w, (len(below), 1)), np.repeat(below, len(w), axis=0)) == 0.0)
 
 
-@pytest.mark.parametrize("model", RECIPROCAL, ids=[m.name for m in RECIPROCAL])
-def test_reciprocal(model, rng):
+def _assert_invariant(model, rng, transforms, atol: float) -> None:
+    """``f`` is unchanged, at the defaults and random parameters, by each ``transform(wo, wi) -> (wo, wi)``."""
     wo, wi = all_pairs(direction_grid())
     for values in _settings(model, rng):
         brdf = model.bind(values)
         a = brdf.eval(wo, wi)
-        b = brdf.eval(wi, wo)
-        np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12, err_msg=f"{model.name} {values}")
+        for k, transform in enumerate(transforms):
+            b = brdf.eval(*transform(wo, wi))
+            np.testing.assert_allclose(a, b, rtol=1e-6, atol=atol, err_msg=f"{model.name} {values} #{k}")
+
+
+def _rotation(angle: float):
+    c, s = np.cos(angle), np.sin(angle)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return lambda wo, wi: (wo @ rot.T, wi @ rot.T)
+
+
+def _mirror(sign):
+    return lambda wo, wi: (wo * sign, wi * sign)
+
+
+@pytest.mark.parametrize("model", RECIPROCAL, ids=[m.name for m in RECIPROCAL])
+def test_reciprocal(model, rng):
+    _assert_invariant(model, rng, [lambda wo, wi: (wi, wo)], atol=1e-12)
 
 
 @pytest.mark.parametrize("model", ISOTROPIC, ids=[m.name for m in ISOTROPIC])
 def test_isotropic_under_rotation_about_the_normal(model, rng):
-    wo, wi = all_pairs(direction_grid())
-    for values in _settings(model, rng):
-        brdf = model.bind(values)
-        a = brdf.eval(wo, wi)
-        for angle in (0.3, 2.0, -1.1):
-            c, s = np.cos(angle), np.sin(angle)
-            rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-            b = brdf.eval(wo @ rot.T, wi @ rot.T)
-            np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9, err_msg=f"{model.name} {values}")
+    _assert_invariant(model, rng, [_rotation(angle) for angle in (0.3, 2.0, -1.1)], atol=1e-9)
 
 
 def test_every_anisotropic_model_declares_its_mirror_symmetry():
@@ -94,13 +102,7 @@ def test_every_anisotropic_model_declares_its_mirror_symmetry():
 
 @pytest.mark.parametrize("model", MIRROR, ids=[m.name for m in MIRROR])
 def test_mirror_symmetric_in_both_tangent_axes(model, rng):
-    wo, wi = all_pairs(direction_grid())
-    for values in _settings(model, rng):
-        brdf = model.bind(values)
-        a = brdf.eval(wo, wi)
-        for mirror in ((-1.0, 1.0, 1.0), (1.0, -1.0, 1.0)):
-            b = brdf.eval(wo * mirror, wi * mirror)
-            np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-12, err_msg=f"{model.name} {values} {mirror}")
+    _assert_invariant(model, rng, [_mirror((-1.0, 1.0, 1.0)), _mirror((1.0, -1.0, 1.0))], atol=1e-12)
 
 
 @pytest.mark.parametrize("model", MODELS, ids=IDS)
