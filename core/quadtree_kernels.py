@@ -3,9 +3,9 @@
 For each row: locate the incident-angle bin, evaluate the normalizer ``I(wo)`` and the scale ``c(wo)`` from
 the bin's Chebyshev tables, map the tree's frame to the row's (isotropic trees live at ``phi_o = 0`` and are
 rotated; mirror-symmetric anisotropic trees cover ``0 <= phi_o <= 90`` degrees and are mirrored), then
-rejection trials: a descent
-by mass from the root (restart on rejection), a point uniform in the leaf's clipped box (recomputed from the
-leaf's position), the projection to a direction, the luminance of ``f`` times ``cos J`` against the bound.
+rejection trials: a descent by mass from the root (restart on rejection), a point uniform in the leaf's
+clipped box (recomputed from the leaf's position), the projection to a direction, the luminance of ``f``
+times ``cos J`` against the bound.
 The pdf ``f cos / I(wo)`` comes from the accepted trial's ``f`` (no second evaluation). The proof that the
 density is exact is in :mod:`core.quadtree` and ``docs/adaptive.md``.
 

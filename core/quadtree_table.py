@@ -327,7 +327,7 @@ class QuadtreeTable:
 
     def _build(self, bins: list[int]) -> Iterator[Bin]:
         """The trees of ``bins`` in order, as they are built (the caller stores each at once, so an
-        interrupted batch keeps what it finished): the first here (it compiles or loads the model's
+        interrupted batch keeps the trees already stored): the first here (it compiles or loads the model's
         construction kernels), the others on ``BUILD_THREADS`` threads (the kernels release the GIL; a tree
         does not depend on which thread builds it)."""
 
