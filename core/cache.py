@@ -69,6 +69,14 @@ class TableCache:
     def path(self, key: str, name: str) -> Path:
         return self.folder / key[:32] / f"{name}.npz"
 
+    def names(self, key: str) -> list[str]:
+        """The names of the entries stored under ``key`` (not checked: :meth:`load` checks each)."""
+        folder = self.folder / key[:32]
+        try:
+            return sorted(p.stem for p in folder.glob("*.npz"))
+        except OSError:
+            return []
+
     def load(self, key: str, name: str) -> dict[str, np.ndarray] | None:
         path = self.path(key, name)
         if not path.is_file():

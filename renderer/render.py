@@ -144,7 +144,8 @@ def prepare(
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
     scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
-    ``warm_up`` builds the tables of table-based strategies for the directions a small pre-pass meets.
+    ``warm_up`` loads the trees earlier runs left in the table cache and builds the tables of table-based
+    strategies for the directions a small pre-pass meets.
     ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates.
     ``material_samplers`` maps material names to a strategy used for them instead of ``sampler``.
     ``warm_up_sweep`` also asks for a dense sweep of outgoing directions (every incident-angle bin), so that no
@@ -233,6 +234,9 @@ def _warm_up(
         if on_step:
             on_step(f"tables for '{rt.name}'", k, len(used))
         t1 = time.perf_counter()
+        preload = getattr(rt.sampler, "preload", None)
+        if preload is not None:  # trees earlier runs built: loaded here, not in the timed passes
+            preload()
         wo = wo_by_material[m]
         if sweep:
             wo = np.concatenate([wo, _sweep(rt.brdf.model.isotropic)])

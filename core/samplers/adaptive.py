@@ -106,6 +106,10 @@ class AdaptiveSampler(Sampler):
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         return self.table.pdf(wo, wi)
 
+    def preload(self) -> int:
+        """Load every tree of this material's table that the disk cache holds; returns how many."""
+        return self.table.preload()
+
     # facts
     def normalizer(self, wo: np.ndarray) -> np.ndarray:
         """``I(wo)``: the integral of the luminance of ``f cos`` over the hemisphere (0 for the fallback)."""

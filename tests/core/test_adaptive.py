@@ -314,6 +314,28 @@ def test_bins_built_together_on_threads_equal_bins_built_one_by_one(monkeypatch)
                 np.testing.assert_array_equal(mine[name], theirs[name], err_msg=f"bin {b}: {name}")
 
 
+def test_preload_loads_every_cached_tree_and_builds_none(tmp_path):
+    """A render's preparation loads the trees earlier runs stored (then its passes find them in memory)."""
+    folder = tmp_path / "tables"
+    first = _adaptive("ward", params=BRUSHED, cache=folder)
+    wo = np.stack([degrees_to_dir(t, p) for t, p in ((10, 5), (40, 33), (70, 61), (75, 170))])
+    first.sample_each(wo, seed=1)
+    assert first.info()["trees"] == 4
+    clear_memory_cache()
+    second = _adaptive("ward", params=BRUSHED, cache=folder)
+    assert second.info()["trees"] == 0
+    assert second.preload() == 4
+    info = second.info()
+    assert info["trees"] == 4 and info["cache_hits"] == 4
+    wi, pdf = second.sample_each(wo, seed=1)
+    wi1, pdf1 = first.sample_each(wo, seed=1)
+    np.testing.assert_array_equal(wi, wi1)
+    np.testing.assert_array_equal(pdf, pdf1)
+    assert second.info()["trees"] == 4  # sampling found them all in memory
+    assert second.preload() == 0  # nothing new on disk
+    assert _adaptive("ward", params=BRUSHED, cache=False).preload() == 0  # no disk cache
+
+
 def test_laziness_and_info():
     sampler = _adaptive("lewis")
     assert sampler.info()["trees"] == 0
