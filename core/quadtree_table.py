@@ -10,6 +10,7 @@ import os
 import threading
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -199,8 +200,10 @@ def build_bin(model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: Build
     return Bin(build_tree(model, params, iso, rng, opts))
 
 
+@lru_cache(maxsize=1)
 def _source_hash() -> str:
-    """Hash of the construction and table code (part of the on-disk cache key)."""
+    """Hash of the construction and table code (part of the on-disk cache key; read once per process, not
+    for every table: the app makes a table per edited material)."""
     import hashlib
     from pathlib import Path
 
@@ -234,7 +237,6 @@ class QuadtreeTable:
         self.mirror = not self.iso and bool(model.mirror_symmetric)
         """Trees over one quadrant of ``phi_o``, mirrored to the others (``FRAME_MIRROR``)."""
         self.frame = FRAME_ISO if self.iso else (FRAME_MIRROR if self.mirror else FRAME_FULL)
-        self.phi_span = HALF_PI if self.mirror else TWO_PI
         self.t_edges = np.ascontiguousarray(theta_edges(opts.theta_step, opts.z_min), dtype=np.float64)
         self.n_theta = len(self.t_edges) - 1
         self.n_phi = 1 if self.iso else (-(-opts.phi_bins // 4) if self.mirror else opts.phi_bins)
@@ -266,7 +268,7 @@ class QuadtreeTable:
         it, ip = divmod(b, self.n_phi)
         if self.iso:
             return float(self.t_edges[it]), float(self.t_edges[it + 1]), 0.0, 0.0
-        step = self.phi_span / self.n_phi
+        step = (HALF_PI if self.mirror else TWO_PI) / self.n_phi
         return float(self.t_edges[it]), float(self.t_edges[it + 1]), ip * step, (ip + 1) * step
 
     def mirror_signs(self, wo: np.ndarray) -> np.ndarray:

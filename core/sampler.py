@@ -77,6 +77,11 @@ class Sampler:
         """Precomputation facts (memory in bytes, build seconds, ...) for reports."""
         return {"sampler": self.name, "memory_bytes": 0, "build_seconds": 0.0}
 
+    def preload(self) -> int:
+        """Load precomputed tables a disk cache holds (a render's preparation calls it, so that its timed
+        passes do not); returns how many. Samplers without such tables have nothing to load."""
+        return 0
+
     def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
 

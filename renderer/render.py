@@ -234,9 +234,7 @@ def _warm_up(
         if on_step:
             on_step(f"tables for '{rt.name}'", k, len(used))
         t1 = time.perf_counter()
-        preload = getattr(rt.sampler, "preload", None)
-        if preload is not None:  # trees earlier runs built: loaded here, not in the timed passes
-            preload()
+        rt.sampler.preload()  # tables earlier runs built: loaded here, not in the timed passes
         wo = wo_by_material[m]
         if sweep:
             wo = np.concatenate([wo, _sweep(rt.brdf.model.isotropic)])
