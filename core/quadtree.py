@@ -280,6 +280,9 @@ class BuildOptions:
     ):
         if projection not in (*PROJECTIONS, "auto"):
             raise ValueError(f"projection must be 'auto' or one of {PROJECTIONS}")
+        for name, value in (("phi_bins", phi_bins), ("max_nodes", max_nodes)):
+            if int(value) < 1:
+                raise ValueError(f"{name} must be a positive whole number, got {value!r}")
         self.n_max = float(n_max)
         self.projection = projection
         self.theta_step = float(theta_step)

@@ -88,6 +88,22 @@ def test_mirrored_quadrants_sample_the_mirror_images():
     assert sampler.bound_violations == 0
 
 
+def test_directions_on_the_mirror_planes_and_the_horizon_stay_finite():
+    """``wo`` on the folds of the quadrant layout (x or y exactly 0, signed zeros), the normal, 89.99 degrees
+    and the horizon: finite samples, non-negative pdfs equal to ``pdf(wo, wi)``, no bound violation."""
+    sampler = _adaptive("ward", params=BRUSHED)
+    t = math.radians(89.99)
+    for wo in (
+        (0.0, 0.0, 1.0), (-0.0, -0.0, 1.0), (-0.0, 0.5, math.sqrt(0.75)), (0.5, -0.0, math.sqrt(0.75)),
+        (-math.sin(t), 0.0, math.cos(t)), (0.0, -1.0, 0.0),
+    ):  # fmt: skip
+        wo = np.array(wo)
+        wi, pdf = sampler.sample(wo, 3000, seed=2)
+        assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+        np.testing.assert_array_equal(sampler.pdf(np.broadcast_to(wo, wi.shape), wi), pdf)
+    assert sampler.bound_violations == 0
+
+
 def test_the_whole_circle_layout_gives_the_same_density():
     """Without the trait the table lays 72 phi bins over the whole circle (a model that is not symmetric):
     the same densities, to the normalizers' interpolation tolerance, in every quadrant; its own key."""
@@ -259,6 +275,10 @@ def test_invalid_options_are_user_errors():
             make_sampler("adaptive", brdf, n_max=bad)
     with pytest.raises(ParameterError, match="projection"):
         make_sampler("adaptive", brdf, projection="mercator")
+    for name in ("phi_bins", "max_nodes"):
+        for bad in (0, -4):
+            with pytest.raises(ParameterError, match=name):
+                make_sampler("adaptive", make_brdf("ward"), **{name: bad})
     with pytest.raises(ParameterError, match="positive"):
         make_sampler("adaptive", brdf).sample(degrees_to_dir(0.0), 0)
 
