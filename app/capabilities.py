@@ -96,12 +96,10 @@ def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: f
     t, p = np.radians(theta_deg), np.radians(phi_deg)
     wo = np.array([[np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)]])
     try:
-        bins, theta, phi = table.locate(wo)
-        b = int(bins[0])
-        if b < 0:
+        b, tree = table.tree_at(wo[0])
+        if tree is None:
             raise Unavailable("at this grazing angle the adaptive sampler falls back to the cosine density")
-        table.ensure(bins)
-        tree = table.bins[b]
+        bins, theta, phi = table.locate(wo)
         integral = float(table.normalizer(bins, theta, phi)[0])
         rng = table.bin_range(b)
         projection = getattr(tree, "projection", 0)

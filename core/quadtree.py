@@ -277,12 +277,15 @@ class BuildOptions:
         z_min: float = 1e-6,
         search_iters: int = 12,
         acc_margin: float = 0.05,
+        max_splits: int = 8,
     ):
         if projection not in (*PROJECTIONS, "auto"):
             raise ValueError(f"projection must be 'auto' or one of {PROJECTIONS}")
         for name, value in (("phi_bins", phi_bins), ("max_nodes", max_nodes)):
             if int(value) < 1:
                 raise ValueError(f"{name} must be a positive whole number, got {value!r}")
+        if not 0 <= int(max_splits) <= 16:
+            raise ValueError(f"max_splits must be a whole number from 0 to 16, got {max_splits!r}")
         self.n_max = float(n_max)
         self.projection = projection
         self.theta_step = float(theta_step)
@@ -298,6 +301,9 @@ class BuildOptions:
         self.z_min = float(z_min)
         self.search_iters = int(search_iters)
         self.acc_margin = float(acc_margin)
+        self.max_splits = int(max_splits)
+        """How many times a bin may be halved (in theta_o or phi_o) when its tree cannot reach the
+        acceptance 1/n_max over the whole bin (``core.quadtree_table``)."""
 
     def key_parts(self) -> tuple:
         return tuple(sorted(vars(self).items()))

@@ -164,11 +164,13 @@ def tree_leaves(mass, bits, cum, unit, n_nodes):
 
 
 @njit(nogil=True, cache=True, inline="always")
-def locate(wx, wy, wz, t_edges, n_phi, frame, z_min):
+def locate(wx, wy, wz, t_edges, n_phi, frame, z_min, sub, ranges):
     """``(bin, theta_o, phi_o)``; bin -1 where ``cos(theta_o) < z_min`` (the cosine fallback). The theta bin
     is ``searchsorted(t_edges, theta, "right") - 1`` clipped to the bins, found from a guess for the
     uniform part of the edges; ``phi_o`` is 0 for isotropic tables, in ``[0, 2 pi)`` for the whole circle and
-    folded into ``[0, pi / 2]`` (``atan2(|y|, |x|)``) for mirrored tables (``FRAME_*``)."""
+    folded into ``[0, pi / 2]`` (``atan2(|y|, |x|)``) for mirrored tables (``FRAME_*``). A bin that was split
+    (``sub[b] >= 0``: first child ``sub[b] >> 1``, halved dimension ``sub[b] & 1``, 0 theta, 1 phi) is
+    descended to the sub-bin holding ``(theta_o, phi_o)``: the lower half is ``[lo, mid)``."""
     s = math.sqrt(wx * wx + wy * wy)
     theta = math.atan2(s, wz)
     phi = 0.0
@@ -190,10 +192,15 @@ def locate(wx, wy, wz, t_edges, n_phi, frame, z_min):
         it += 1
     while it > 0 and t_edges[it] > theta:
         it -= 1
-    if frame == FRAME_ISO:
-        return it, theta, phi
-    ip = min(max(int(phi * (n_phi / span)), 0), n_phi - 1)
-    return it * n_phi + ip, theta, phi
+    b = it
+    if frame != FRAME_ISO:
+        ip = min(max(int(phi * (n_phi / span)), 0), n_phi - 1)
+        b = it * n_phi + ip
+    while sub[b] >= 0:
+        dim = sub[b] & 1
+        v = phi if dim == 1 else theta
+        b = (sub[b] >> 1) + (1 if v >= 0.5 * (ranges[b, 2 * dim] + ranges[b, 2 * dim + 1]) else 0)
+    return b, theta, phi
 
 
 @njit(nogil=True, cache=True, inline="always")
@@ -261,9 +268,9 @@ def row_setup(wx, wy, wz, tab, wp):
     ``I(wo) <= 0``, -2 - bin where the row's bin is not built yet; ``cos, sin`` rotate the isotropic tree's
     frame (``phi_o = 0``) to the row's, and for a mirrored table they are the signs of the row's ``x`` and
     ``y`` (the mirrors from the tree's quadrant to the row's)."""
-    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
+    (t_edges, n_phi, frame, z_min, sub, ranges, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
-    b, theta, phi = locate(wx, wy, wz, t_edges, n_phi, frame, z_min)
+    b, theta, phi = locate(wx, wy, wz, t_edges, n_phi, frame, z_min, sub, ranges)
     if b < 0:
         return -1, 0.0, 1.0, 1.0, 0.0
     if node_off[b] < 0:
@@ -292,7 +299,7 @@ def setup_rows(wo, tab):
     bins = np.empty(n, dtype=np.int64)
     norm = np.empty(n)
     scale = np.empty(n)
-    wp = np.empty(tab[16])
+    wp = np.empty(tab[18])
     for i in range(n):
         b, v, c, _, _ = row_setup(wo[i, 0], wo[i, 1], wo[i, 2], tab, wp)
         bins[i] = b
@@ -302,22 +309,24 @@ def setup_rows(wo, tab):
 
 
 @njit(nogil=True, cache=True)
-def locate_rows(wo, t_edges, n_phi, frame, z_min):
+def locate_rows(wo, t_edges, n_phi, frame, z_min, sub, ranges):
     n = wo.shape[0]
     bins = np.empty(n, dtype=np.int64)
     theta = np.empty(n)
     phi = np.empty(n)
     for i in range(n):
-        bins[i], theta[i], phi[i] = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min)
+        bins[i], theta[i], phi[i] = locate(
+            wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min, sub, ranges
+        )
     return bins, theta, phi
 
 
 @njit(nogil=True, cache=True)
-def bins_present(wo, t_edges, n_phi, frame, z_min, n_bins):
+def bins_present(wo, t_edges, n_phi, frame, z_min, sub, ranges):
     """Which bins the rows fall in (a pass before the tables are built: no sort, no bin array)."""
-    out = np.zeros(n_bins, dtype=np.bool_)
+    out = np.zeros(sub.shape[0], dtype=np.bool_)
     for i in range(wo.shape[0]):
-        b, _, _ = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min)
+        b, _, _ = locate(wo[i, 0], wo[i, 1], wo[i, 2], t_edges, n_phi, frame, z_min, sub, ranges)
         if b >= 0:
             out[b] = True
     return out
@@ -416,7 +425,7 @@ def sample_range(lo, hi, wo, p, seed, tab, wi_out, pdf_out, trials_out, missing)
     """One sample per row ``lo <= i < hi``, sample ``i`` from stream ``(seed, i)``. Returns
     ``(violations, skipped)``: rows whose bin is not built yet are skipped and their bins flagged in
     ``missing`` (the caller builds them and runs again)."""
-    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
+    (t_edges, n_phi, frame, z_min, sub, ranges, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
     wp = np.empty(m_max)
     viol = 0
@@ -501,7 +510,7 @@ def sample_batch(wo, p, seed, n, tab, wi_out, pdf_out):
     the counts sum to ``k``), runs the leaves' trials, and the rejected ones make the next round (round
     ``r`` draws from stream ``(seed, r)``). Accepted samples are written in order; returns
     ``(filled, trials, violations)``. The caller checks that the row's bin is not the fallback."""
-    (t_edges, n_phi, frame, z_min, node_off, word_off, proj_of, unit_of,
+    (t_edges, n_phi, frame, z_min, sub, ranges, node_off, word_off, proj_of, unit_of,
      mass, bits, cum, meta, coef, c_meta, c_coef, c_floor, m_max) = tab  # fmt: skip
     wp = np.empty(m_max)
     wx, wy, wz = wo[0], wo[1], wo[2]
@@ -592,7 +601,7 @@ def pdf_rows(wo, wi, p, tab, out, missing):
     """Density per unit solid angle of the samples: ``f cos / I(wo)`` (``cos / pi`` for the fallback rows),
     with the same arithmetic as the samplers, so it equals the pdf returned with a sample bit for bit.
     Returns the number of rows skipped because their bin is not built yet (flagged in ``missing``)."""
-    wp = np.empty(tab[16])
+    wp = np.empty(tab[18])
     skipped = 0
     for i in range(wo.shape[0]):
         wx, wy, wz = wo[i, 0], wo[i, 1], wo[i, 2]

@@ -6,6 +6,7 @@ its docstring and in ``docs/adaptive.md``.
 
 from __future__ import annotations
 
+import copy
 import os
 import threading
 from collections.abc import Iterator
@@ -17,7 +18,16 @@ import numpy as np
 from numba import njit
 
 from core.errors import BrdfStudioError
-from core.quadtree import TABLE_VERSION, TWO_PI, BuildOptions, build_tree, theta_edges
+from core.quadtree import (
+    PROJECTIONS,
+    TABLE_VERSION,
+    TWO_PI,
+    BuildOptions,
+    angles_to_wo,
+    build_tree,
+    target,
+    theta_edges,
+)
 from core.quadtree_kernels import (
     CHUNK,
     FRAME_FULL,
@@ -32,6 +42,18 @@ from core.quadtree_kernels import (
     tree_leaves,
     values_rows,
 )
+
+SPLIT = "split"
+"""The one array of a stored split marker: the bin was halved in this dimension (0 theta, 1 phi)."""
+
+SPLIT_MARGIN = 0.01
+"""A tree whose acceptance on the check grid is below ``(1 + SPLIT_MARGIN) / n_max`` is split (the margin
+covers the dips between the grid's points)."""
+
+SPLIT_GAIN = 1.1
+"""A half is split again only if its acceptance is at least this factor above what its parent's tree had
+over the half: when halving stops paying (the lobe is narrower than the leaves the depth guard allows, not
+moving), more halves would only multiply the trees."""
 
 BUILD_THREADS = max(1, min(4, os.cpu_count() or 1))
 """Threads that build the trees of several missing bins at once (a render's warm-up asks for hundreds)."""
@@ -137,6 +159,13 @@ class Bin:
         self.projection = int(arrays["projection"])
         """Index into ``PROJECTIONS``."""
         self.scale_floor = float(arrays["scale_floor"])
+        self.domain: tuple[float, ...] | None = (
+            tuple(float(v) for v in np.asarray(arrays["domain"]).ravel()) if "domain" in arrays else None
+        )
+        """The bin the tree was built for, when it serves a smaller one (a half whose own tree was worse:
+        :class:`QuadtreeTable`); its tables are functions over this range."""
+        if self.domain is not None and len(self.domain) != 4:
+            raise ValueError("a tree's domain has 4 numbers")
         if self.norm_coef.size != int(np.prod(self.norm_shape)) or self.scale_coef.size != int(
             np.prod(self.scale_shape)
         ):
@@ -144,8 +173,17 @@ class Bin:
         if len(self.bits) != (len(self.mass) + 63) // 64 or len(self.cum) != len(self.bits):
             raise ValueError("inconsistent tree arrays")
 
+    def serving(self, domain: tuple[float, ...]) -> Bin:
+        """This tree (the same arrays) as the tree of a part of ``domain``, the bin it was built for."""
+        other = copy.copy(self)
+        other.domain = tuple(float(v) for v in domain)
+        other.build_seconds = 0.0  # counted where it was built
+        return other
+
     def arrays(self) -> dict[str, np.ndarray]:
+        extra = {} if self.domain is None else {"domain": np.asarray(self.domain)}
         return {
+            **extra,
             "mass": self.mass,
             "bits": self.bits,
             "cum": self.cum,
@@ -200,6 +238,51 @@ def build_bin(model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: Build
     return Bin(build_tree(model, params, iso, rng, opts))
 
 
+def min_acceptance(tree: Bin, rng: tuple, iso: bool, n: int = 9, part: tuple | None = None) -> float:
+    """The smallest per-trial acceptance ``I(wo) / (c(wo) V)`` of the tree of bin ``rng`` on an ``n x n``
+    grid of ``wo`` over the bin, or over ``part`` of it (edges and corners included; ``n`` points in
+    ``theta_o`` when isotropic). Points where ``I(wo) <= 0`` use the cosine density and do not count."""
+    at = rng if part is None else part
+    t = np.linspace(at[0], at[1], n)
+    p = np.zeros(1) if iso else np.linspace(at[2], at[3], n)
+    theta = np.repeat(t, len(p))
+    phi = np.tile(p, len(t))
+    zero = np.zeros(len(theta), dtype=np.int64)
+    m_max = int(max(tree.norm_shape.max(), tree.scale_shape.max()))
+    norm = values_rows(np.array([[0.0, *tree.norm_shape, *rng]]), tree.norm_coef, zero, theta, phi, m_max)
+    scale = values_rows(np.array([[0.0, *tree.scale_shape, *rng]]), tree.scale_coef, zero, theta, phi, m_max)
+    env = np.maximum(scale, tree.scale_floor) * tree.total_mass
+    live = (norm > 0.0) & (env > 0.0)
+    if not live.any():
+        return 1.0
+    return float(np.min(norm[live] / env[live]))
+
+
+def split_dimension(model: Any, params: np.ndarray, tree: Bin, rng: tuple, iso: bool) -> int:
+    """The dimension to halve a bin in (0 theta, 1 phi; always theta when isotropic): the one across which
+    the normalized ``g(wo, .)`` changes more, measured as the total-variation distance between the density
+    at the bin's centre and at the middle of each of its edges, on the tree's leaves (centre value times
+    area: the leaves are finest where the lobes are). A lobe that moves, and a lobe that changes shape (near
+    the horizon), both count."""
+    if iso:
+        return 0
+    leaf = tree.leaf_rows()
+    leaf = leaf[leaf[:, 0] > 0.0]
+    X, Y = 0.5 * (leaf[:, 1] + leaf[:, 3]), 0.5 * (leaf[:, 2] + leaf[:, 4])
+    area = (leaf[:, 3] - leaf[:, 1]) * (leaf[:, 4] - leaf[:, 2])
+    proj = PROJECTIONS[tree.projection]
+    tc, pc = 0.5 * (rng[0] + rng[1]), 0.5 * (rng[2] + rng[3])
+    probes = [(tc, pc), (rng[0], pc), (rng[1], pc), (tc, rng[2]), (tc, rng[3])]
+    dens = []
+    for t, p in probes:
+        wo = np.repeat(angles_to_wo(np.array([t]), np.array([p])), len(X), axis=0)
+        g = np.nan_to_num(target(model, params, wo, X, Y, proj)) * area
+        total = float(g.sum())
+        dens.append(g / total if total > 0.0 else g)
+    tv = [0.5 * float(np.abs(d - dens[0]).sum()) for d in dens[1:]]
+    return 0 if max(tv[0], tv[1]) >= max(tv[2], tv[3]) else 1
+
+
 @lru_cache(maxsize=1)
 def _source_hash() -> str:
     """Hash of the construction and table code (part of the on-disk cache key; read once per process, not
@@ -221,7 +304,11 @@ class QuadtreeTable:
     Isotropic BRDFs have bins over ``theta_o`` only and work in the frame rotated so that ``phi_o = 0``;
     anisotropic ones have bins over ``(theta_o, phi_o)``: over the quadrant ``0 <= phi_o <= 90`` degrees
     (``phi_bins / 4`` bins, mirrored to the row's quadrant) when the model is mirror-symmetric, over the whole
-    circle otherwise. ``sample`` and ``pdf`` use the same bin for a given ``wo``. Where
+    circle otherwise. A bin whose tree cannot reach the acceptance ``1/n_max`` over the whole bin (a lobe that
+    moves across the bin by more than its width) is **split**: halved in ``theta_o`` or ``phi_o``
+    (:func:`split_dimension`), up to ``max_splits`` times, each half built when first needed. Slots
+    ``0 .. n_bins - 1`` are the base bins; halves are appended (``sub``: first child and dimension, -1 for
+    a slot that holds a tree or is not built yet). ``sample`` and ``pdf`` use the same slot for a given ``wo``. Where
     ``cos(theta_o) < z_min`` or ``I(wo) = 0`` (``f`` vanishes) both use the cosine density.
     Sampling and the pdf run in fused numba kernels specialized to the model's ``eval``
     (:mod:`core.quadtree_kernels`); the trees are built in Python before a kernel runs.
@@ -241,6 +328,25 @@ class QuadtreeTable:
         self.n_theta = len(self.t_edges) - 1
         self.n_phi = 1 if self.iso else (-(-opts.phi_bins // 4) if self.mirror else opts.phi_bins)
         self.n_bins = self.n_theta * self.n_phi
+        """Base bins (before any split)."""
+        it, ip = np.divmod(np.arange(self.n_bins), self.n_phi)
+        step = 0.0 if self.iso else (HALF_PI if self.mirror else TWO_PI) / self.n_phi
+        self.ranges = np.ascontiguousarray(
+            np.stack([self.t_edges[it], self.t_edges[it + 1], ip * step, (ip + 1) * step], axis=1)
+        )
+        """``(theta_lo, theta_hi, phi_lo, phi_hi)`` per slot (radians)."""
+        self.sub = np.full(self.n_bins, -1, dtype=np.int64)
+        """Per slot: ``2 * first_child + dim`` if split, else -1 (arrays are replaced, never changed in place:
+        a kernel running on an older ``tab`` keeps a consistent view)."""
+        self.paths = [str(b) for b in range(self.n_bins)]
+        """Per slot its cache name after ``bin``: the base bin, then ``-`` and a 0/1 per halving."""
+        self.parent = [-1] * self.n_bins
+        self.split_trees: dict[int, Bin] = {}
+        """The tree each split slot had: a half whose own tree is worse over it serves it instead."""
+        self.inherited = [0.0] * self.n_bins
+        """Per slot made by a split: the acceptance its parent's tree had over it (``SPLIT_GAIN``)."""
+        self.split_seconds = 0.0
+        """Build time of the trees that were split (discarded)."""
         self.cache = cache
         self.key = table_key(
             [
@@ -265,89 +371,178 @@ class QuadtreeTable:
 
     # -- bins
     def bin_range(self, b: int) -> tuple[float, float, float, float]:
-        it, ip = divmod(b, self.n_phi)
-        if self.iso:
-            return float(self.t_edges[it]), float(self.t_edges[it + 1]), 0.0, 0.0
-        step = (HALF_PI if self.mirror else TWO_PI) / self.n_phi
-        return float(self.t_edges[it]), float(self.t_edges[it + 1]), ip * step, (ip + 1) * step
+        """``(theta_lo, theta_hi, phi_lo, phi_hi)`` of slot ``b`` (a base bin or a half)."""
+        t_lo, t_hi, f_lo, f_hi = (float(v) for v in self.ranges[b])
+        return t_lo, t_hi, f_lo, f_hi
 
-    def mirror_signs(self, wo: np.ndarray) -> np.ndarray:
-        """``(n, 2)`` signs that take each row's tree (built for the first quadrant of ``phi_o``) to the row's
-        frame: ``x`` and ``y`` are multiplied by them (all ones unless the table is mirrored)."""
-        wo = _rows(wo)
-        if not self.mirror:
-            return np.ones((len(wo), 2))
-        return np.where(wo[:, :2] < 0.0, -1.0, 1.0)
+    def depth(self, b: int) -> int:
+        """How many times slot ``b``'s base bin was halved to make it."""
+        return len(self.paths[b].partition("-")[2])
+
+    @property
+    def n_slots(self) -> int:
+        return len(self.sub)
+
+    @property
+    def n_split(self) -> int:
+        """Slots that were split (their halves hold the trees)."""
+        return int(np.count_nonzero(self.sub >= 0))
+
+    def _split(self, b: int, dim: int, acc: tuple[float, float]) -> None:
+        """Halve slot ``b`` in ``dim``: two new slots (lower half first), new arrays (see ``sub``)."""
+        lo, hi = self.ranges[b].copy(), self.ranges[b].copy()
+        mid = 0.5 * (lo[2 * dim] + lo[2 * dim + 1])
+        lo[2 * dim + 1] = mid
+        hi[2 * dim] = mid
+        first = len(self.sub)
+        sub = np.concatenate([self.sub, [-1, -1]])
+        sub[b] = 2 * first + dim
+        self.ranges = np.ascontiguousarray(np.vstack([self.ranges, lo, hi]))
+        self.sub = sub
+        sep = "" if "-" in self.paths[b] else "-"
+        self.paths += [f"{self.paths[b]}{sep}0", f"{self.paths[b]}{sep}1"]
+        self.inherited += [float(acc[0]), float(acc[1])]
+        self.parent += [b, b]
+
+    def _split_dim(self, b: int, tree: Bin) -> tuple[int, tuple[float, float]]:
+        """``(dim, (a0, a1))``: dim -1 to keep slot ``b``'s tree, else the dimension to halve the slot in and
+        the tree's acceptance over each half. Split when the tree's acceptance is below ``1/n_max``
+        somewhere in the slot, the slot may still be halved (``max_splits``), and the halving that made it
+        paid (``SPLIT_GAIN``)."""
+        rng = self.bin_range(b)
+        acc = min_acceptance(tree, rng, self.iso)
+        if (
+            acc >= (1.0 + SPLIT_MARGIN) / self.opts.n_max
+            or self.depth(b) >= self.opts.max_splits
+            or acc < SPLIT_GAIN * self.inherited[b]
+        ):
+            return -1, (acc, acc)
+        dim = split_dimension(self.model, self.params, tree, rng, self.iso)
+        lo, hi = list(rng), list(rng)
+        lo[2 * dim + 1] = hi[2 * dim] = 0.5 * (rng[2 * dim] + rng[2 * dim + 1])
+        halves = (min_acceptance(tree, rng, self.iso, part=tuple(h)) for h in (lo, hi))
+        return dim, tuple(halves)
 
     def _where(self) -> tuple:
-        return self.t_edges, self.n_phi, self.frame, float(self.opts.z_min)
+        return self.t_edges, self.n_phi, self.frame, float(self.opts.z_min), self.sub, self.ranges
 
     def locate(self, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(bin, theta_o, phi_o)`` per row; bin -1 where ``cos(theta_o) < z_min`` (the cosine fallback)."""
-        return locate_rows(_rows(wo), *self._where())
+        """``(slot, theta_o, phi_o)`` per row with the splits known so far (a slot not built yet may still
+        be split: :meth:`tree_at` builds first); slot -1 where ``cos(theta_o) < z_min`` (the cosine
+        fallback)."""
+        return locate_rows(_rows(wo), *self.tab[:6])
+
+    def tree_at(self, wo: np.ndarray) -> tuple[int, Bin | None]:
+        """``(slot, tree)`` that samples the direction ``wo (3,)``, built or loaded (and split) first;
+        ``(-1, None)`` where the cosine density is used."""
+        wo1 = _rows(np.reshape(wo, (1, 3)))
+        self.ensure_rows(wo1)
+        b = int(self.locate(wo1)[0][0])
+        return (b, self.trees_by_slot().get(b)) if b >= 0 else (-1, None)
 
     def ensure(self, bins: np.ndarray) -> None:
-        """Build (or load) the trees of every listed bin that is not in memory yet."""
-        present = np.zeros(self.n_bins, dtype=bool)
+        """Build (or load) the trees of every listed slot that is not in memory yet (a slot whose tree must
+        be split gets its halves' slots, not built until asked for)."""
         bins = np.asarray(bins, dtype=np.int64)
-        present[bins[bins >= 0]] = True
-        self._ensure_present(present)
+        self._ensure_slots(bins[(bins >= 0) & (bins < self.n_slots)])
 
     def ensure_rows(self, wo: np.ndarray) -> None:
-        """Build (or load) the trees of the bins the rows of ``wo`` fall in."""
-        self._ensure_present(bins_present(wo, *self._where(), self.n_bins))
+        """Build (or load) the trees of the slots the rows of ``wo`` fall in, splitting as needed."""
+        wo = _rows(wo)
+        for _ in range(self.opts.max_splits + 2):
+            tab = self.tab
+            present = bins_present(wo, *tab[:6])
+            unbuilt = present & (tab[6] < 0) & (tab[4] < 0)
+            if not unbuilt.any():
+                return
+            self._ensure_slots(np.flatnonzero(unbuilt))
+        raise BrdfStudioError("adaptive sampler: bins still missing after their splits")  # pragma: no cover
 
     def preload(self) -> int:
-        """Load every tree of this table that the disk cache holds (a render's preparation calls it, so that
-        its timed passes do not pay ~1 ms per tree on first use); returns how many were loaded."""
+        """Load every tree of this table that the disk cache holds, and the splits it records (a render's
+        preparation calls it, so that its timed passes do not pay ~1 ms per tree on first use); returns how
+        many trees were loaded."""
         if self.cache is None:
             return 0
-        present = np.zeros(self.n_bins, dtype=bool)
-        for name in self.cache.names(self.key):
-            if name.startswith("bin") and name[3:].isdigit() and int(name[3:]) < self.n_bins:
-                present[int(name[3:])] = True
+        stored = set(self.cache.names(self.key))
         before = len(self.bins)
-        self._ensure_present(present)
-        return len(self.bins) - before
+        while True:
+            slots = [
+                b
+                for b in range(self.n_slots)
+                if self.sub[b] < 0 and b not in self.bins and f"bin{self.paths[b]}" in stored
+            ]
+            if not slots:
+                return len(self.bins) - before
+            self._ensure_slots(np.array(slots, dtype=np.int64))
 
-    def _ensure_present(self, present: np.ndarray) -> None:
-        if not np.any(present & (self.node_off < 0)):
+    def _ensure_slots(self, slots: np.ndarray) -> None:
+        if not len(slots):
             return
         with self.lock:  # one builder at a time; the app samples from several threads
-            self._ensure_locked(present)
+            self._ensure_locked([int(b) for b in slots])
 
-    def _ensure_locked(self, present: np.ndarray) -> None:
-        missing = np.flatnonzero(present & (self.node_off < 0))
-        if not len(missing):
+    def _load(self, b: int) -> tuple[Bin, int, tuple[float, float]] | None:
+        """Slot ``b``'s stored ``(tree, dim, acceptance over the halves)`` (dim -1: the slot keeps the tree;
+        else it was split and this was its tree), or None (missing, stale or corrupt)."""
+        entry = self.cache.load(self.key, f"bin{self.paths[b]}") if self.cache is not None else None
+        if entry is None:
+            return None
+        try:
+            tree = Bin(entry)
+            if SPLIT not in entry:
+                return tree, -1, (1.0, 1.0)
+            dim, acc = int(entry[SPLIT]), np.asarray(entry["acc"], dtype=np.float64)
+            ok = dim in (0, 1) and (dim == 0 or not self.iso) and self.depth(b) < self.opts.max_splits
+            ok = ok and acc.shape == (2,) and bool(np.all(np.isfinite(acc))) and tree.domain is None
+            return (tree, dim, (float(acc[0]), float(acc[1]))) if ok else None
+        except (KeyError, ValueError, TypeError):
+            return None
+
+    def _place(self, b: int, tree: Bin, dim: int, acc: tuple[float, float]) -> None:
+        if dim < 0:
+            self.bins[b] = tree
+        else:
+            self.split_trees[b] = tree
+            self._split(b, dim, acc)
+
+    def _ensure_locked(self, slots: list[int]) -> None:
+        todo = [b for b in slots if self.sub[b] < 0 and b not in self.bins]
+        if not todo:
             return
         to_build = []
-        for b in (int(v) for v in missing):
-            entry = self.cache.load(self.key, f"bin{b}") if self.cache is not None else None
-            table = None
-            if entry is not None:
-                try:
-                    table = Bin(entry)
-                    self.cache_hits += 1
-                except (KeyError, ValueError, TypeError):
-                    table = None
-            if table is None:
+        for b in todo:
+            got = self._load(b)
+            if got is None:
                 to_build.append(b)
             else:
-                self.bins[b] = table
-        for b, table in zip(to_build, self._build(to_build), strict=True):
+                self.cache_hits += 1
+                self._place(b, *got)
+        for b, (tree, dim, acc, wasted) in zip(to_build, self._build(to_build), strict=True):
+            self.split_seconds += wasted
             if self.cache is not None:
-                self.cache.save(self.key, f"bin{b}", table.arrays())
-            self.bins[b] = table
+                extra = {SPLIT: np.asarray(dim), "acc": np.asarray(acc)} if dim >= 0 else {}
+                self.cache.save(self.key, f"bin{self.paths[b]}", {**tree.arrays(), **extra})
+            self._place(b, tree, dim, acc)
         self._pack()
 
-    def _build(self, bins: list[int]) -> Iterator[Bin]:
-        """The trees of ``bins`` in order, as they are built (the caller stores each at once, so an
-        interrupted batch keeps the trees already stored): the first here (it compiles or loads the model's
-        construction kernels), the others on ``BUILD_THREADS`` threads (the kernels release the GIL; a tree
-        does not depend on which thread builds it)."""
+    def _build(self, bins: list[int]) -> Iterator[tuple[Bin, int, tuple[float, float], float]]:
+        """Per slot of ``bins``, in order, as they are built: ``(tree, dim, acceptance over the halves,
+        seconds spent on trees not used)`` (:meth:`_split_dim`; the caller stores each at once, so an
+        interrupted batch keeps the trees already stored). A half whose own tree is worse over it than its
+        parent's tree was gets the parent's tree (exact for any ``wo`` of the parent's bin) and is not split
+        again: a split never lowers the acceptance anywhere. The first slot is built here (it compiles or
+        loads the model's construction kernels), the others on ``BUILD_THREADS`` threads (the kernels
+        release the GIL; a tree does not depend on which thread builds it)."""
 
-        def build(b: int) -> Bin:
-            return build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
+        def build(b: int) -> tuple[Bin, int, tuple[float, float], float]:
+            tree = build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
+            p = self.parent[b]
+            if p >= 0 and min_acceptance(tree, self.bin_range(b), self.iso) < self.inherited[b]:
+                kept = self.split_trees[p].serving(self.bin_range(p))
+                return kept, -1, (1.0, 1.0), tree.build_seconds
+            dim, acc = self._split_dim(b, tree)
+            return tree, dim, acc, (tree.build_seconds if dim >= 0 else 0.0)
 
         if not bins:
             return
@@ -360,7 +555,7 @@ class QuadtreeTable:
 
     def _pack(self) -> None:
         """Concatenate the bins' arrays into the tuple the kernels read (``tab``)."""
-        nb = self.n_bins
+        nb = self.n_slots
         self.node_off = np.full(nb, -1, dtype=np.int64)
         self.word_off = np.zeros(nb, dtype=np.int64)
         self.proj_of = np.zeros(nb, dtype=np.int64)
@@ -376,7 +571,7 @@ class QuadtreeTable:
             self.word_off[b] = n_words
             self.proj_of[b] = t.projection
             self.unit_of[b] = t.unit
-            t_lo, t_hi, f_lo, f_hi = self.bin_range(b)
+            t_lo, t_hi, f_lo, f_hi = t.domain if t.domain is not None else self.bin_range(b)
             self.meta[b] = (n_vals, t.norm_shape[0], t.norm_shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_meta[b] = (n_c, t.scale_shape[0], t.scale_shape[1], t_lo, t_hi, f_lo, f_hi)
             self.c_floor[b] = t.scale_floor
@@ -438,21 +633,22 @@ class QuadtreeTable:
     def pdf(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         wo, wi = _rows(wo), _rows(wi)
         out = np.empty(len(wo))
-        self._run(lambda missing: self.kernels.pdf_rows(wo, wi, self.params, self.tab, out, missing))
+        self._run(lambda tab, missing: self.kernels.pdf_rows(wo, wi, self.params, tab, out, missing))
         return out
 
     def _run(self, kernel: Any) -> Any:
-        """Run a fused kernel; if it met rows whose bins are not built yet (it skips them and flags the
-        bins), build those bins and run it again (the bins are located inside the kernel: no extra pass)."""
-        missing = np.zeros(self.n_bins, dtype=bool)
-        result = kernel(missing)
-        if missing.any():
-            self._ensure_present(missing)
-            missing[:] = False
-            result = kernel(missing)
-            if missing.any():  # pragma: no cover - the bins were just built
-                raise BrdfStudioError("adaptive sampler: tables missing after the build")
-        return result
+        """Run a fused kernel ``kernel(tab, missing)``; if it met rows whose slots are not built yet (it
+        skips them and flags the slots), build those and run it again, until none is missing (a built slot
+        may have been split: its halves are met on the next run). The slots are located inside the kernel:
+        no extra pass."""
+        for _ in range(self.opts.max_splits + 2):
+            tab = self.tab  # one snapshot: ``missing`` has its slots
+            missing = np.zeros(len(tab[4]), dtype=bool)
+            result = kernel(tab, missing)
+            if not missing.any():
+                return result
+            self._ensure_slots(np.flatnonzero(missing))
+        raise BrdfStudioError("adaptive sampler: tables missing after the build")  # pragma: no cover
 
     # -- sampling
     def sample_each(
@@ -467,7 +663,7 @@ class QuadtreeTable:
         trials = np.empty(n, dtype=np.int64)
         run = self.kernels.sample_rows_parallel if threads and n >= 2 * CHUNK else self.kernels.sample_rows
         viol, _ = self._run(
-            lambda missing: run(wo, self.params, np.uint64(seed), self.tab, wi, pdf, trials, missing)
+            lambda tab, missing: run(wo, self.params, np.uint64(seed), tab, wi, pdf, trials, missing)
         )
         self.violations += int(viol)
         self.trials += int(trials.sum())
@@ -497,12 +693,14 @@ class QuadtreeTable:
     # -- facts
     def acceptance(self, wo: np.ndarray) -> np.ndarray:
         """Exact per-trial acceptance ``I(wo) / (c V)`` per row (1 for the cosine fallback)."""
-        bins, norm, scale = self._prepare_scaled(wo)
+        wo = _rows(wo)
+        self.ensure_rows(wo)
+        tab = self.tab  # offsets and masses from the same packing
+        bins, norm, scale = setup_rows(wo, tab)
+        node_off, unit_of, all_mass = tab[6], tab[9], tab[10]
         safe = np.maximum(bins, 0)
-        off = np.maximum(self.node_off[safe], 0)
-        mass = (
-            self.mass[off].astype(np.float64) * self.unit_of[safe] if len(self.mass) else np.ones(len(bins))
-        )
+        off = np.maximum(node_off[safe], 0)
+        mass = all_mass[off].astype(np.float64) * unit_of[safe] if len(all_mass) else np.ones(len(bins))
         return np.where(bins >= 0, norm / (scale * np.where(bins >= 0, mass, 1.0)), 1.0)
 
     def trees(self) -> list[Bin]:
@@ -513,8 +711,14 @@ class QuadtreeTable:
     def memory_bytes(self) -> int:
         return int(sum(t.nbytes for t in self.trees()))
 
+    def trees_by_slot(self) -> dict[int, Bin]:
+        """A snapshot of the built trees by slot."""
+        with self.lock:
+            return dict(self.bins)
+
     def build_seconds(self) -> float:
-        return float(sum(t.build_seconds for t in self.trees()))
+        """Build time of every tree made, the split ones included."""
+        return float(sum(t.build_seconds for t in self.trees())) + self.split_seconds
 
 
 def _rows(a: np.ndarray) -> np.ndarray:

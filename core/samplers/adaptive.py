@@ -138,6 +138,7 @@ class AdaptiveSampler(Sampler):
             "build_seconds": t.build_seconds(),
             "trees": n_trees,
             "bins_total": t.n_bins,
+            "bins_split": t.n_split,
             "memory_per_tree_bytes": t.memory_bytes() / n_trees if n_trees else 0.0,
             "leaves_mean": float(np.mean(leaves)) if leaves else 0.0,
             "bound_violations": t.violations,

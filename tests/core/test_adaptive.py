@@ -279,6 +279,9 @@ def test_invalid_options_are_user_errors():
         for bad in (0, -4):
             with pytest.raises(ParameterError, match=name):
                 make_sampler("adaptive", make_brdf("ward"), **{name: bad})
+    for bad in (-1, 17):
+        with pytest.raises(ParameterError, match="max_splits"):
+            make_sampler("adaptive", brdf, max_splits=bad)
     with pytest.raises(ParameterError, match="positive"):
         make_sampler("adaptive", brdf).sample(degrees_to_dir(0.0), 0)
 
@@ -382,3 +385,121 @@ def test_measured_brdf_passes_the_same_tests(bundled_merl_brdf):
         w = _weights(sampler, wo, wi, pdf)
         assert np.std(w) / np.mean(w) < 1e-9
     assert sampler.bound_violations == 0
+
+
+# ------------------------------------------------------------------------------------------- split bins
+
+SPLIT_CASE = ("lafortune", 89.5, 25.0)
+"""Lafortune's default lobe in the bin theta_o 89.5-89.75, phi_o 25-30 degrees: its lobe changes across the
+bin faster than one tree can follow (acceptance 0.48 < 1/2); halved in phi_o, each half reaches 1/2."""
+
+
+def _rows_in_base_bin(table, theta, phi, n=400, seed=5):
+    """``n`` directions spread over the base bin holding ``wo(theta, phi)`` (its edges included, upper edges
+    just inside) and the bin's range."""
+    from core.quadtree import angles_to_wo
+
+    base = int(table.locate(degrees_to_dir(theta, phi)[None])[0][0])
+    while table.parent[base] >= 0:
+        base = table.parent[base]
+    t_lo, t_hi, f_lo, f_hi = table.bin_range(base)
+    r = np.random.default_rng(seed)
+    t = np.r_[t_lo, np.nextafter(t_hi, t_lo), r.uniform(t_lo, t_hi, n - 2)]
+    p = np.r_[f_lo, np.nextafter(f_hi, f_lo), r.uniform(f_lo, f_hi, n - 2)]
+    return angles_to_wo(t, p), (t_lo, t_hi, f_lo, f_hi)
+
+
+def test_a_bin_whose_tree_misses_the_acceptance_is_split():
+    """One tree for the whole bin misses 1/n_max somewhere; the table halves the bin, and every direction of
+    the bin then accepts with probability >= 1/n_max, with exact pdfs and no bound violation. The halves tile
+    their parent, and ``max_splits=0`` keeps the single tree (and its lower acceptance)."""
+    from core.quadtree_table import QuadtreeTable, min_acceptance
+
+    name, theta, phi = SPLIT_CASE
+    brdf = make_brdf(name)
+    sampler = make_sampler("adaptive", brdf, n_max=2.0)
+    table = sampler.table
+    wo, rng = _rows_in_base_bin(table, theta, phi)
+    acc = sampler.acceptance(wo)
+    assert table.n_split >= 1
+    assert acc.min() >= 0.5, acc.min()
+    slots = np.unique(table.locate(wo)[0])
+    assert len(slots) >= 2 and all(table.depth(int(b)) >= 1 for b in slots)
+    for b in np.flatnonzero(table.sub >= 0):  # halves tile their parent
+        first, dim = divmod(int(table.sub[b]), 2)
+        lo, hi, whole = table.ranges[first], table.ranges[first + 1], table.ranges[b]
+        assert lo[2 * dim] == whole[2 * dim] and hi[2 * dim + 1] == whole[2 * dim + 1]
+        assert lo[2 * dim + 1] == hi[2 * dim]
+        np.testing.assert_array_equal(
+            np.delete(lo, [2 * dim, 2 * dim + 1]), np.delete(whole, [2 * dim, 2 * dim + 1])
+        )
+    wi, pdf = sampler.sample_each(wo, seed=4)
+    np.testing.assert_array_equal(sampler.pdf(wo, wi), pdf)
+    assert np.all(np.isfinite(pdf)) and np.all(pdf > 0.0)
+    assert sampler.bound_violations == 0
+    # the same bin without splits: one tree, below 1/n_max somewhere
+    from core.quadtree import BuildOptions
+
+    single = QuadtreeTable(brdf.model, brdf.params, BuildOptions(n_max=2.0, max_splits=0))
+    assert single.acceptance(wo).min() < 0.5 and single.n_split == 0
+    b0, tree = single.tree_at(wo[0])
+    assert min_acceptance(tree, single.bin_range(b0), False) < 0.5
+
+
+def test_a_split_never_lowers_the_acceptance():
+    """Every half's tree accepts, over the half, at least what its parent's tree did there (a half whose own
+    tree is worse is served by the parent's tree, over the parent's range)."""
+    from core.quadtree_table import min_acceptance
+
+    sampler = _adaptive("ward", params=BRUSHED)
+    table = sampler.table
+    wo, _ = _rows_in_base_bin(table, 89.2, 44.0, n=200)
+    sampler.acceptance(wo)
+    halves = [b for b in table.bins if table.parent[b] >= 0]
+    assert halves
+    for b in halves:
+        tree = table.bins[b]
+        domain = tree.domain if tree.domain is not None else table.bin_range(b)
+        mine = min_acceptance(tree, domain, False, part=table.bin_range(b))
+        assert mine >= table.inherited[b] * (1.0 - 1e-12), (table.paths[b], mine, table.inherited[b])
+
+
+def test_splits_are_cached_and_reload_to_the_same_samples(tmp_path):
+    """A second process loads the split markers and the halves' trees from disk (building nothing) and draws
+    the same samples; preload follows the splits; a corrupt split marker is detected and rebuilt."""
+    name, theta, phi = SPLIT_CASE
+    folder = tmp_path / "tables"
+    first = _adaptive(name, cache=folder)
+    wo, _ = _rows_in_base_bin(first.table, theta, phi, n=100)
+    wi1, pdf1 = first.sample_each(wo, seed=2)
+    n_trees, n_split = first.info()["trees"], first.table.n_split
+    assert n_split >= 1
+    for load in ("sample", "preload"):
+        clear_memory_cache()
+        second = _adaptive(name, cache=folder)
+        if load == "preload":
+            assert second.preload() == n_trees
+        wi2, pdf2 = second.sample_each(wo, seed=2)
+        np.testing.assert_array_equal(wi1, wi2)
+        np.testing.assert_array_equal(pdf1, pdf2)
+        assert second.info()["trees"] == n_trees and second.table.n_split == n_split
+        assert second.info()["cache_hits"] == n_trees + n_split
+        assert second.table.split_seconds == 0.0  # nothing built
+    # corrupt the base bin's split marker: rebuilt, the same samples
+    base = next(b for b in range(first.table.n_bins) if first.table.sub[b] >= 0)
+    marker = folder / first.table.key[:32] / f"bin{first.table.paths[base]}.npz"
+    marker.write_bytes(marker.read_bytes()[:100])
+    clear_memory_cache()
+    third = _adaptive(name, cache=folder)
+    wi3, pdf3 = third.sample_each(wo, seed=2)
+    np.testing.assert_array_equal(wi1, wi3)
+    np.testing.assert_array_equal(pdf1, pdf3)
+    assert third.table.cache.rejected == 1 and third.table.split_seconds > 0.0
+
+
+def test_samples_in_a_split_bin_follow_the_pdf():
+    """Chi-square (1e6 samples, alpha = 0.01, one test) at a direction whose bin was halved."""
+    name, theta, phi = SPLIT_CASE
+    sampler = _adaptive(name)
+    _check_sampler(sampler, theta, "sphere", n_tests=1, phi=phi + 3.0)
+    assert sampler.table.n_split >= 1
