@@ -10,12 +10,15 @@ sampler, at theta_o = 30 and 60 degrees.
     python bench/adaptive.py [--models a,b] [--n-max 2] [--samples 200000] [--out results/bench]
     python bench/adaptive.py --build-only [--full] [--models a,b] [--n-max 2]
     python bench/adaptive.py --grazing
+    python bench/adaptive.py --splits
 
 Prints a table; writes ``adaptive.csv`` and ``adaptive.png`` to the output folder. ``--build-only`` times the
 construction alone (per tree at theta_o in {0, 30, 60, 80, 89, 88}; ``--full``: every bin of isotropic
 materials) and writes ``adaptive_build.csv``. ``--grazing`` builds the demo scene's brushed steel (Ward
 0.05 x 0.25, the most expensive trees we know) at grazing bins with the default node budget and without one:
-time, nodes and acceptance (``adaptive_grazing.csv``).
+time, nodes and acceptance (``adaptive_grazing.csv``). ``--splits``: at the bins one tree cannot serve
+at 1/n_max, the acceptance over the whole bin without and with split bins, the trees and the build time
+(``adaptive_splits.csv``).
 
 """
 
@@ -71,6 +74,24 @@ def throughput(sampler, wo: np.ndarray, seed: int) -> float:
     return len(wo) / (time.perf_counter() - t)
 
 
+def whole_material(brdf, opts) -> tuple[float, int]:
+    """Seconds to build every tree of a material through its table on one thread (no disk cache), the
+    halves of split bins included; and how many bins were split."""
+    import core.quadtree_table as qt
+
+    threads, qt.BUILD_THREADS = qt.BUILD_THREADS, 1
+    try:
+        table = qt.QuadtreeTable(brdf.model, brdf.params, opts)
+        t0 = time.perf_counter()
+        while True:
+            todo = [b for b in range(table.n_slots) if table.sub[b] < 0 and b not in table.bins]
+            if not todo:
+                return time.perf_counter() - t0, table.n_split
+            table.ensure(np.array(todo))
+    finally:
+        qt.BUILD_THREADS = threads
+
+
 def build_times(models: list[str] | None, n_max: float, full: bool, out: Path) -> list[dict]:
     """Construction only (no disk cache): per-tree time, leaves and acceptance at the bins of THETAS (plus
     88 degrees), and for isotropic models the time to build every bin of the material (``full``).
@@ -110,16 +131,13 @@ def build_times(models: list[str] | None, n_max: float, full: bool, out: Path) -
             row[f"build_ms_{t:g}"] = 1e3 * dt
             row[f"leaves_{t:g}"] = nl
         if full and iso:
-            t0 = time.perf_counter()
-            for b in range(table.n_bins):
-                one(b)
-            row["build_s_material"] = time.perf_counter() - t0
+            row["build_s_material"], row["bins_split"] = whole_material(brdf, opts)
         else:
             row["build_s_material_estimate"] = row["build_ms_mean_tree"] * 1e-3 * table.n_bins
         rows.append(row)
         detail = " ".join(f"{t:g}:{1e3 * dt:.0f}ms/{nl}L" for t, (dt, nl) in per.items())
         mat = (
-            f"material {row['build_s_material']:.2f} s ({table.n_bins} bins)"
+            f"material {row['build_s_material']:.2f} s ({table.n_bins} bins, {row['bins_split']} split)"
             if "build_s_material" in row
             else f"material ~{row['build_s_material_estimate']:.0f} s est. ({table.n_bins} bins)"
         )
@@ -294,6 +312,68 @@ def grazing(out: Path) -> list[dict]:
     return rows
 
 
+SPLIT_CASES = [
+    ("ashikhmin_shirley", None, 88.0, 25.0),
+    ("ashikhmin_shirley", None, 89.5, 25.0),
+    ("lafortune", None, 89.5, 25.0),
+    ("ward", BRUSHED_STEEL, 89.2, 44.0),
+    ("ward", {"sx": 0.005, "sy": 0.005}, 60.0, 12.0),
+    ("ggx", {"alpha": 0.001}, 45.0, 0.0),
+]
+"""Bins whose single tree misses 1/n_max: the known hard cases (docs/adaptive.md, section 9)."""
+
+
+def splits(out: Path, depths: list[int], n_rows: int = 400) -> list[dict]:
+    """Per hard case and ``max_splits`` of ``depths``: the acceptance over the whole base bin (``n_rows``
+    directions spread over it, its edges included), the trees built, the bins split and
+    the build time (split trees included). No disk cache; one warm-up tree per model first."""
+    from core.quadtree import angles_to_wo
+
+    rows = []
+    for name, params, theta, phi in SPLIT_CASES:
+        for max_splits in depths:
+            clear_memory_cache()
+            s = make_sampler(
+                "adaptive", make_brdf(name, params), n_max=2.0, max_splits=max_splits, cache=False
+            )
+            s.acceptance(degrees_to_dir(20.0, phi))  # warm-up: compilation
+            t = s.table
+            base = int(t.locate(degrees_to_dir(theta, phi)[None])[0][0])
+            t_lo, t_hi, f_lo, f_hi = t.bin_range(base)
+            r = np.random.default_rng(5)
+            th = np.r_[t_lo, np.nextafter(t_hi, t_lo), r.uniform(t_lo, t_hi, n_rows - 2)]
+            ph = np.r_[f_lo, np.nextafter(f_hi, f_lo), r.uniform(f_lo, f_hi, n_rows - 2)]
+            wo = angles_to_wo(th, ph)
+            before = (len(t.bins), t.build_seconds())
+            t0 = time.perf_counter()
+            acc = s.acceptance(wo)
+            wall = time.perf_counter() - t0
+            row = {
+                "model": name,
+                "params": params or "defaults",
+                "theta": theta,
+                "phi": phi,
+                "max_splits": max_splits,
+                "acc_min": float(acc.min()),
+                "acc_mean": float(acc.mean()),
+                "trees": len(t.bins) - before[0],
+                "bins_split": t.n_split,
+                "build_s": t.build_seconds() - before[1],
+                "wall_s": wall,
+            }
+            rows.append(row)
+            print(f"{name:<18} {str(params or ''):<28} {theta:5.1f}/{phi:4.1f}  max_splits {max_splits}  "
+                  f"acceptance min {row['acc_min']:.3f} mean {row['acc_mean']:.3f}  trees {row['trees']:>3}  "
+                  f"split {row['bins_split']:>3}  build {row['build_s']:6.2f} s  wall {wall:6.2f} s",
+                  flush=True)  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "adaptive_splits.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--models", help="comma-separated model names (default: all)")
@@ -305,7 +385,19 @@ def main(argv: list[str] | None = None) -> int:
         "--full", action="store_true", help="with --build-only: build every bin of isotropic models"
     )
     ap.add_argument("--grazing", action="store_true", help="node budget at the brushed steel's grazing bins")
+    ap.add_argument("--splits", action="store_true", help="split bins at the known hard cases")
+    ap.add_argument(
+        "--max-splits",
+        type=int,
+        action="append",
+        help="with --splits: the values compared (default: 0 and the default)",
+    )
     a = ap.parse_args(argv)
+    if a.splits:
+        from core.quadtree import BuildOptions
+
+        splits(Path(a.out), a.max_splits or [0, BuildOptions().max_splits])
+        return 0
     if a.grazing:
         grazing(Path(a.out))
         return 0

@@ -277,7 +277,7 @@ class BuildOptions:
         z_min: float = 1e-6,
         search_iters: int = 12,
         acc_margin: float = 0.05,
-        max_splits: int = 8,
+        max_splits: int = 4,
     ):
         if projection not in (*PROJECTIONS, "auto"):
             raise ValueError(f"projection must be 'auto' or one of {PROJECTIONS}")
