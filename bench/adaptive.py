@@ -60,6 +60,15 @@ def estimator_variance(sampler, wo: np.ndarray, n: int, seed: int) -> tuple[floa
     return float(y.mean()), float(y.var())
 
 
+def write_csv(rows: list[dict], path: Path) -> None:
+    """The rows as CSV, the columns of every row (sorted) as the header."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=sorted({k for r in rows for k in r}))
+        w.writeheader()
+        w.writerows(rows)
+
+
 def random_wo(n: int, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     t = np.radians(rng.choice(THETAS, n))
@@ -142,12 +151,7 @@ def build_times(models: list[str] | None, n_max: float, full: bool, out: Path) -
             else f"material ~{row['build_s_material_estimate']:.0f} s est. ({table.n_bins} bins)"
         )
         print(f"{model.name:<16} {detail}  {mat}", flush=True)
-    out.mkdir(parents=True, exist_ok=True)
-    keys = sorted({k for r in rows for k in r})
-    with open(out / "adaptive_build.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(rows, out / "adaptive_build.csv")
     return rows
 
 
@@ -304,11 +308,7 @@ def grazing(out: Path) -> list[dict]:
             )
             print(f"max_nodes {budget:>7}  theta {theta:6.2f}  build {dt:6.2f} s  nodes {tree.n_nodes:>6}  "
                   f"acceptance {acc:.3f}", flush=True)  # fmt: skip
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "adaptive_grazing.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(rows, out / "adaptive_grazing.csv")
     return rows
 
 
@@ -366,11 +366,7 @@ def splits(out: Path, depths: list[int], n_rows: int = 400) -> list[dict]:
                   f"acceptance min {row['acc_min']:.3f} mean {row['acc_mean']:.3f}  trees {row['trees']:>3}  "
                   f"split {row['bins_split']:>3}  build {row['build_s']:6.2f} s  wall {wall:6.2f} s",
                   flush=True)  # fmt: skip
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "adaptive_splits.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(rows, out / "adaptive_splits.csv")
     return rows
 
 

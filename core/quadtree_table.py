@@ -423,6 +423,14 @@ class QuadtreeTable:
         halves = (min_acceptance(tree, rng, self.iso, part=tuple(h)) for h in (lo, hi))
         return dim, tuple(halves)
 
+    def mirror_signs(self, wo: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` signs that take each row's tree (built for the first quadrant of ``phi_o``) to the row's
+        frame: ``x`` and ``y`` are multiplied by them (all ones unless the table is mirrored)."""
+        wo = _rows(wo)
+        if not self.mirror:
+            return np.ones((len(wo), 2))
+        return np.where(wo[:, :2] < 0.0, -1.0, 1.0)
+
     def _where(self) -> tuple:
         return self.t_edges, self.n_phi, self.frame, float(self.opts.z_min), self.sub, self.ranges
 
