@@ -457,7 +457,7 @@ class QuadtreeTable:
     def ensure_rows(self, wo: np.ndarray) -> None:
         """Build (or load) the trees of the slots the rows of ``wo`` fall in, splitting as needed."""
         wo = _rows(wo)
-        for _ in range(self.opts.max_splits + 2):
+        for _ in range(2 * self.opts.max_splits + 4):  # a level per run; another thread may split first
             tab = self.tab
             present = bins_present(wo, *tab[:6])
             unbuilt = present & (tab[6] < 0) & (tab[4] < 0)
@@ -649,7 +649,7 @@ class QuadtreeTable:
         skips them and flags the slots), build those and run it again, until none is missing (a built slot
         may have been split: its halves are met on the next run). The slots are located inside the kernel:
         no extra pass."""
-        for _ in range(self.opts.max_splits + 2):
+        for _ in range(2 * self.opts.max_splits + 4):  # a level per run; another thread may split first
             tab = self.tab  # one snapshot: ``missing`` has its slots
             missing = np.zeros(len(tab[4]), dtype=bool)
             result = kernel(tab, missing)
