@@ -89,12 +89,6 @@ def _scale(arrays: dict, rng: tuple, ang: np.ndarray) -> np.ndarray:
     return np.maximum(v, float(arrays["scale_floor"]))
 
 
-def _normalizer(arrays: dict, rng: tuple, ang: np.ndarray) -> np.ndarray:
-    mt, mp = (int(v) for v in arrays["shape"])
-    meta = np.array([[0.0, mt, mp, *rng]])
-    return normalizer_values(meta, arrays["norm"], np.zeros(len(ang), dtype=np.int64), ang[:, 0], ang[:, 1])
-
-
 def _violations(brdf, rng: tuple, arrays: dict, n_wo: int = 24, per_leaf: int = 24, seed: int = 1) -> int:
     """Points where ``g(wo, X) > c(wo) M_L`` for the leaf ``L`` holding ``X``: random points in every leaf at
     random ``wo`` of the bin, plus points around the mirror direction of each ``wo`` (where sharp lobes
