@@ -258,6 +258,13 @@ def min_acceptance(tree: Bin, rng: tuple, iso: bool, n: int = 9, part: tuple | N
     return float(np.min(norm[live] / env[live]))
 
 
+def halves(rng: tuple, dim: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The lower and upper half of the bin ``rng`` halved in ``dim`` (0 theta, 1 phi)."""
+    lo, hi = list(rng), list(rng)
+    lo[2 * dim + 1] = hi[2 * dim] = 0.5 * (rng[2 * dim] + rng[2 * dim + 1])
+    return tuple(lo), tuple(hi)
+
+
 def split_dimension(model: Any, params: np.ndarray, tree: Bin, rng: tuple, iso: bool) -> int:
     """The dimension to halve a bin in (0 theta, 1 phi; always theta when isotropic): the one across which
     the normalized ``g(wo, .)`` changes more, measured as the total-variation distance between the density
@@ -390,10 +397,7 @@ class QuadtreeTable:
 
     def _split(self, b: int, dim: int, acc: tuple[float, float]) -> None:
         """Halve slot ``b`` in ``dim``: two new slots (lower half first), new arrays (see ``sub``)."""
-        lo, hi = self.ranges[b].copy(), self.ranges[b].copy()
-        mid = 0.5 * (lo[2 * dim] + lo[2 * dim + 1])
-        lo[2 * dim + 1] = mid
-        hi[2 * dim] = mid
+        lo, hi = halves(self.bin_range(b), dim)
         first = len(self.sub)
         sub = np.concatenate([self.sub, [-1, -1]])
         sub[b] = 2 * first + dim
@@ -404,13 +408,12 @@ class QuadtreeTable:
         self.inherited += [float(acc[0]), float(acc[1])]
         self.parent += [b, b]
 
-    def _split_dim(self, b: int, tree: Bin) -> tuple[int, tuple[float, float]]:
+    def _split_dim(self, b: int, tree: Bin, acc: float) -> tuple[int, tuple[float, float]]:
         """``(dim, (a0, a1))``: dim -1 to keep slot ``b``'s tree, else the dimension to halve the slot in and
         the tree's acceptance over each half. Split when the tree's acceptance is below ``1/n_max``
         somewhere in the slot, the slot may still be halved (``max_splits``), and the halving that made it
-        paid (``SPLIT_GAIN``)."""
+        paid (``SPLIT_GAIN``); ``acc`` is the tree's acceptance over the slot (:func:`min_acceptance`)."""
         rng = self.bin_range(b)
-        acc = min_acceptance(tree, rng, self.iso)
         if (
             acc >= (1.0 + SPLIT_MARGIN) / self.opts.n_max
             or self.depth(b) >= self.opts.max_splits
@@ -418,10 +421,8 @@ class QuadtreeTable:
         ):
             return -1, (acc, acc)
         dim = split_dimension(self.model, self.params, tree, rng, self.iso)
-        lo, hi = list(rng), list(rng)
-        lo[2 * dim + 1] = hi[2 * dim] = 0.5 * (rng[2 * dim] + rng[2 * dim + 1])
-        halves = (min_acceptance(tree, rng, self.iso, part=tuple(h)) for h in (lo, hi))
-        return dim, tuple(halves)
+        lo, hi = (min_acceptance(tree, rng, self.iso, part=h) for h in halves(rng, dim))
+        return dim, (lo, hi)
 
     def mirror_signs(self, wo: np.ndarray) -> np.ndarray:
         """``(n, 2)`` signs that take each row's tree (built for the first quadrant of ``phi_o``) to the row's
@@ -446,7 +447,10 @@ class QuadtreeTable:
         wo1 = _rows(np.reshape(wo, (1, 3)))
         self.ensure_rows(wo1)
         b = int(self.locate(wo1)[0][0])
-        return (b, self.trees_by_slot().get(b)) if b >= 0 else (-1, None)
+        if b < 0:
+            return -1, None
+        with self.lock:
+            return b, self.bins.get(b)
 
     def ensure(self, bins: np.ndarray) -> None:
         """Build (or load) the trees of every listed slot that is not in memory yet (a slot whose tree must
@@ -545,11 +549,12 @@ class QuadtreeTable:
 
         def build(b: int) -> tuple[Bin, int, tuple[float, float], float]:
             tree = build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
+            own = min_acceptance(tree, self.bin_range(b), self.iso)
             p = self.parent[b]
-            if p >= 0 and min_acceptance(tree, self.bin_range(b), self.iso) < self.inherited[b]:
+            if p >= 0 and own < self.inherited[b]:
                 kept = self.split_trees[p].serving(self.bin_range(p))
                 return kept, -1, (1.0, 1.0), tree.build_seconds
-            dim, acc = self._split_dim(b, tree)
+            dim, acc = self._split_dim(b, tree, own)
             return tree, dim, acc, (tree.build_seconds if dim >= 0 else 0.0)
 
         if not bins:
@@ -718,11 +723,6 @@ class QuadtreeTable:
 
     def memory_bytes(self) -> int:
         return int(sum(t.nbytes for t in self.trees()))
-
-    def trees_by_slot(self) -> dict[int, Bin]:
-        """A snapshot of the built trees by slot."""
-        with self.lock:
-            return dict(self.bins)
 
     def build_seconds(self) -> float:
         """Build time of every tree made, the split ones included."""
