@@ -257,6 +257,15 @@ def normalizer_values(meta, vals, bins, theta, phi):
 # ------------------------------------------------------------------------------------------ construction
 
 
+def _check_whole(name: str, value: Any, lo: int, hi: int | None) -> None:
+    """``value`` must be a whole number in ``[lo, hi]`` (``hi`` None: no upper limit); a ValueError naming
+    the option otherwise (NaN, text, fractions included)."""
+    whole = isinstance(value, int | np.integer) or (isinstance(value, float) and value.is_integer())
+    if isinstance(value, bool) or not whole or value < lo or (hi is not None and value > hi):
+        what = f"a whole number from {lo} to {hi}" if hi is not None else f"a whole number >= {lo}"
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
 class BuildOptions:
     """Construction settings (all of them are part of the cache key)."""
 
@@ -281,11 +290,12 @@ class BuildOptions:
     ):
         if projection not in (*PROJECTIONS, "auto"):
             raise ValueError(f"projection must be 'auto' or one of {PROJECTIONS}")
-        for name, value in (("phi_bins", phi_bins), ("max_nodes", max_nodes)):
-            if int(value) < 1:
-                raise ValueError(f"{name} must be a positive whole number, got {value!r}")
-        if not 0 <= int(max_splits) <= 16:
-            raise ValueError(f"max_splits must be a whole number from 0 to 16, got {max_splits!r}")
+        for name, value, lo, hi in (
+            ("phi_bins", phi_bins, 1, None),
+            ("max_nodes", max_nodes, 1, None),
+            ("max_splits", max_splits, 0, 16),
+        ):
+            _check_whole(name, value, lo, hi)
         self.n_max = float(n_max)
         self.projection = projection
         self.theta_step = float(theta_step)

@@ -279,9 +279,11 @@ def test_invalid_options_are_user_errors():
         for bad in (0, -4):
             with pytest.raises(ParameterError, match=name):
                 make_sampler("adaptive", make_brdf("ward"), **{name: bad})
-    for bad in (-1, 17):
-        with pytest.raises(ParameterError, match="max_splits"):
+    for bad in (-1, 17, 2.5, float("nan"), "x", True):
+        with pytest.raises(ParameterError, match="max_splits must be a whole number from 0 to 16"):
             make_sampler("adaptive", brdf, max_splits=bad)
+    with pytest.raises(ParameterError, match="phi_bins must be a whole number >= 1"):
+        make_sampler("adaptive", make_brdf("ward"), phi_bins=float("nan"))
     with pytest.raises(ParameterError, match="positive"):
         make_sampler("adaptive", brdf).sample(degrees_to_dir(0.0), 0)
 
@@ -503,3 +505,25 @@ def test_samples_in_a_split_bin_follow_the_pdf():
     sampler = _adaptive(name)
     _check_sampler(sampler, theta, "sphere", n_tests=1, phi=phi + 3.0)
     assert sampler.table.n_split >= 1
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "theta", "phi"),
+    [
+        ("ward", {"ks": (0.0, 0.0, 0.0), "kd": (0.0, 0.0, 0.0)}, 60.0, 12.0),
+        ("ashikhmin_shirley", None, 89.99, 25.0),
+        ("lafortune", None, 89.9, 3.0),
+    ],
+)
+def test_split_decisions_on_hard_cases_stay_finite(name, params, theta, phi):
+    """Zero albedo (nothing to split: the cosine density) and the last fraction of a degree before the horizon
+    (where bins split): finite samples and pdfs, the pdf is the returned one, no bound violation."""
+    sampler = _adaptive(name, params=params)
+    wo = degrees_to_dir(theta, phi)
+    wi, pdf = sampler.sample_each(np.repeat(wo[None], 5000, axis=0), seed=7)
+    assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+    np.testing.assert_array_equal(sampler.pdf(np.repeat(wo[None], 5000, axis=0), wi), pdf)
+    assert np.isfinite(sampler.acceptance(wo)).all() and sampler.bound_violations == 0
+    if params and params.get("ks") == (0.0, 0.0, 0.0):
+        assert sampler.table.n_split == 0
+        np.testing.assert_allclose(pdf, wi[:, 2] / math.pi)
