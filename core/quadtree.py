@@ -30,11 +30,12 @@ every sample (zero variance).
 the peak of ``g`` over the disk at a 3 x 3 grid of ``wo`` of the bin (compass search from the mirror,
 retro-reflection and normal points), its offset from the mirror point, and the lobe's half-width. A node at
 depth >= ``min_depth`` gets the integral of ``g`` over its part of the disk at the normalizer nodes
-(Gauss-Legendre on the exact region, :func:`core.quadtree_build_kernels.box_rule`) and a bound on ``g / c``: the largest value on the
-quadrature points, on a 4 x 4 grid over ``B_L`` at every ``wo`` sample of the bin, and at the box's nearest
-points to the ridge points (mirror, peak, retro) of a set of ``wo`` dense enough that the ridge moves by less
-than a third of the lobe's half-width between neighbours; then a compass search in ``(X, Y, theta_o,
-phi_o)`` whose ``wo`` moves drag ``X`` along with the mirror point. ``M = (1 + safety) max``.
+(Gauss-Legendre on the exact region, :func:`core.quadtree_build_kernels.box_rule`) and a bound on ``g / c``:
+the largest value on the quadrature points, on a 4 x 4 grid over ``B_L`` and on circles near the rim crossing
+it, at every ``wo`` sample of the bin, and at the box's nearest points to the ridge points (mirror, peak,
+retro) of a set of ``wo`` dense enough that the ridge moves by less than a third of the lobe's half-width
+between neighbours; then a compass search in ``(X, Y, theta_o, phi_o)`` whose ``wo`` moves drag ``X`` along
+with the mirror point. ``M = (1 + safety) max``.
 Phase 1, level by level: split while the bound is unsure (the search raised it by more than 2 %) or
 ``V > n_max I_L`` at the bin's best normalizer node (with an excess above ``excess_tol I``). Phase 2: while the
 acceptance ``I / (c V)`` at the worst normalizer node is below ``1/n_max`` (plus a margin), split the leaves
@@ -55,7 +56,7 @@ from core.kernels import eval_batch
 from core.model import LUMINANCE
 from core.quadtree_build_kernels import R_MAX, build_kernels, scale_rows, scale_tables
 
-TABLE_VERSION = 5
+TABLE_VERSION = 6
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
 
 HALF_PI = 0.5 * math.pi
@@ -64,6 +65,9 @@ INV_PI = 1.0 / math.pi
 QUAD_ORDER = 6
 GRID = 4
 ARC = 8
+RIM_RINGS_DEG = (89.2, 89.5, 89.7, 89.85, 89.95, 89.99)
+"""theta_i of the circles on which :meth:`_Builder.bound` also probes the leaves they cross (a band just inside
+the horizon that the lattice and the rim's own arc step over)."""
 PROJECTIONS = ("equidistant", "orthographic")
 
 
@@ -95,6 +99,13 @@ def _rim_probes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     T, P = np.meshgrid(th_i, ph_i, indexing="ij")
     s = np.sin(T.ravel())
     return _frozen(s * np.cos(P.ravel())), _frozen(s * np.sin(P.ravel())), T.ravel() > np.radians(89.5)
+
+
+@lru_cache(maxsize=2)
+def _rim_rings(projection: str) -> np.ndarray:
+    """Radii on the disk of ``projection`` of the circles theta_i = :data:`RIM_RINGS_DEG`."""
+    t = np.radians(RIM_RINGS_DEG)
+    return _frozen(np.sin(t) if projection == "orthographic" else t / HALF_PI)
 
 
 @lru_cache(maxsize=1)
@@ -575,17 +586,17 @@ class _Builder:
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
-        Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it, at every
-        ``wo`` sample of the bin, and the box's nearest points to the ridge points (mirror, peak,
-        retro-reflection) of a dense set of ``wo`` (paired with that ``wo``); then a compass search from the
-        best two and from the best quadrature point of :meth:`integrals` (``qstart``, value ``qmax``)
-        (:func:`core.quadtree_build_kernels.BUILD_TEMPLATE`'s ``node_bounds``)."""
+        Candidates: a 4 x 4 grid over the box, 2 x 8 points of the unit circle clamped into it and 8 on each
+        circle theta_i = :data:`RIM_RINGS_DEG` crossing it, at every ``wo`` sample of the bin, and the box's
+        nearest points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired
+        with that ``wo``); then a compass search from the best two and from the best quadrature point of
+        :meth:`integrals` (``qstart``, value ``qmax``) (:func:`core.quadtree_build_kernels.BUILD_TEMPLATE`'s ``node_bounds``)."""
         srch = np.array([self.t_lo, self.t_hi, self.f_lo, self.f_hi, *self.j_theta, *self.j_phi,
                          self.step_theta, self.step_phi])  # fmt: skip
         return self.k.node_bounds(
             _f64(boxes), _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]), self.ridge, _f64(qmax), _f64(qstart),
-            srch, self.iso, self.opts.search_iters, GRID, ARC, PROJECTIONS.index(self.proj), self.params,
-            *self.c_tables,
+            srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj),
+            PROJECTIONS.index(self.proj), self.params, *self.c_tables,
         )  # fmt: skip
 
     def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:

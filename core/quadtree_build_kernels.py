@@ -339,15 +339,17 @@ def _search(cx, cy, ct, cp, best, x0, y0, x1, y1, srch, iso, iters, proj, p, s_m
 
 
 @njit(nogil=True, cache=True)
-def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, arc, proj, p,
+def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, arc, rings, proj, p,
                 s_meta, s_vals, s_nodes, s_tmp):
     """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
     Candidates, in this order: per ``wo`` of the bin, a ``grid x grid`` lattice over the box and ``2 x arc``
     points of the unit circle clamped into it (where ``f`` grows toward the horizon the sup of a rim leaf lies
-    on its arc); then the box's nearest points to the ridge points (rows ``X, Y, theta, phi``: mirror, peak and
-    retro-reflection points of a dense set of ``wo``, paired with that ``wo``). Then a compass search from
-    the best two and from the best quadrature point ``qstart`` (value ``qmax``, see ``node_integrals``)."""
+    on its arc), and ``arc`` points on each circle of radius ``rings`` that crosses the box (a peak in a thin
+    band just inside the horizon: Poulin-Fournier's at theta_i ~ 89.6 degrees is 1e-4 wide on the
+    orthographic disk, between the lattice and the rim); then the box's nearest points to the ridge points
+    (rows ``X, Y, theta, phi``: mirror, peak and retro-reflection points of a dense set of ``wo``, paired with
+    that ``wo``). Then a compass search from the best two and from the best quadrature point ``qstart`` (value ``qmax``, see ``node_integrals``)."""
     nb = boxes.shape[0]
     nw = theta.shape[0]
     nr = ridge.shape[0]
@@ -369,10 +371,15 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, 
     at = np.empty(arc)
     for i in range(arc):
         at[i] = i / (arc - 1) if arc > 1 else 0.0
-    npts = grid * grid + 2 * arc
-    px = np.empty(npts)
-    py = np.empty(npts)
-    pi = np.empty((npts, 4))
+    nring = rings.shape[0]
+    rarc = max(2, arc // 2)  # a ring's value varies slowly along it: half the rim's points per side
+    ar = np.empty(rarc)
+    for i in range(rarc):
+        ar[i] = i / (rarc - 1)
+    cap = grid * grid + 2 * arc + 2 * rarc * nring
+    px = np.empty(cap)
+    py = np.empty(cap)
+    pi = np.empty((cap, 4))
     before = np.empty(nb)
     after = np.empty(nb)
     for b in range(nb):
@@ -395,6 +402,26 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, 
             px[n] = sx * math.sqrt(max(0.0, 1.0 - by * by))
             py[n] = by
             n += 1
+        # circles just inside the rim that cross the box (nearest and farthest points of the box)
+        dx = 0.0 if x0 <= 0.0 <= x1 else min(abs(x0), abs(x1))
+        dy = 0.0 if y0 <= 0.0 <= y1 else min(abs(y0), abs(y1))
+        near = math.sqrt(dx * dx + dy * dy)
+        far = math.sqrt(max(x0 * x0, x1 * x1) + max(y0 * y0, y1 * y1))
+        for k in range(nring):
+            rho = rings[k]
+            if rho < near or rho > far:
+                continue
+            for i in range(rarc):
+                ax = x0 + (x1 - x0) * ar[i]
+                px[n] = ax
+                py[n] = sy * math.sqrt(max(0.0, rho * rho - ax * ax))
+                n += 1
+            for i in range(rarc):
+                by = y0 + (y1 - y0) * ar[i]
+                px[n] = sx * math.sqrt(max(0.0, rho * rho - by * by))
+                py[n] = by
+                n += 1
+        npts = n
         # the best two candidates (first occurrence on ties, as np.argmax)
         v1 = -np.inf
         v2 = -np.inf

@@ -7,8 +7,8 @@ module instead (``from core.models.phong import eval_phong as _eval``), whose ``
 numba caches like any other.
 
 numba checks a cached function against its own file only, not against the jitted functions it calls, so the
-generated file's name carries a hash of every source file of the ``core`` package, of the template and of the
-numba and Python versions: any change to a kernel, a helper it calls or the template yields a new module and a
+generated file's name carries a hash of every source file of ``core`` and ``renderer``, of the template and of
+the numba and Python versions: any change to a kernel, a helper it calls or the template yields a new module and a
 fresh compile. The files live in ``$BRDF_STUDIO_KERNEL_CACHE`` (default ``~/.cache/brdf-studio/kernels``);
 if that folder cannot be written, a private temporary folder is used (compiled once per process, as before).
 """
@@ -26,7 +26,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-import numba
+from core._numba_cache import source_hash
 
 _MODULES: dict[str, ModuleType] = {}
 _LOCK = threading.Lock()
@@ -48,15 +48,8 @@ def kernel_reference(kernel: Any) -> tuple[str, str] | None:
 
 @lru_cache(maxsize=1)
 def _code_hash() -> str:
-    """Hash of every ``.py`` file of the ``core`` package (kernels, their helpers, the templates' callers)."""
-    root = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for path in sorted(root.rglob("*.py")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
-    h.update(numba.__version__.encode())
-    h.update(sys.version.encode())
-    return h.hexdigest()
+    """Hash of the distribution's compiled packages' sources (:func:`core._numba_cache.source_hash`)."""
+    return source_hash()
 
 
 def kernel_folder() -> Path:

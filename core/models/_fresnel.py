@@ -17,6 +17,7 @@ Because ``Im(eta^2) >= 0`` for ``k >= 0``, the principal root has ``Re(w) >= 0``
 from __future__ import annotations
 
 import cmath
+import math
 
 from numba import njit
 
@@ -47,8 +48,36 @@ def fresnel_conductor(cos_theta, n, k):
     ``cos_theta`` is the cosine between the incident direction and the (micro)surface normal; its absolute
     value is used, so either side of the surface gives the reflectance of the outside face. Returns a value in
     [0, 1]: ``((n-1)^2 + k^2) / ((n+1)^2 + k^2)`` at ``cos_theta = 1`` and exactly 1 at ``cos_theta = 0``.
+
+    The same ``R`` as the complex form above, in real arithmetic (three square roots, no complex division:
+    it is the innermost call of the microfacet conductors, about a third of the cost of the complex form).
+    With ``w = a + i b`` (``a >= 0``), ``A = n^2 - k^2 - s^2``, ``m = |w|^2 = sqrt(A^2 + 4 n^2 k^2)``:
+
+        R_s = (m - 2 a c + c^2) / (m + 2 a c + c^2)
+        R_p = R_s (m c^2 - 2 a c s^2 + s^4) / (m c^2 + 2 a c s^2 + s^4)
+
+    ``a = sqrt((m + A) / 2)``, or ``|n k| / b`` with ``b = sqrt((m - A) / 2)`` when ``A < 0``, where the
+    first form would cancel (``a b = n k``).
     """
-    return _fresnel_complex(abs(cos_theta), complex(n, k))
+    c = min(abs(cos_theta), 1.0)
+    c2 = c * c
+    s2 = max(0.0, 1.0 - c2)
+    A = n * n - k * k - s2
+    B = 2.0 * n * k
+    m = math.sqrt(A * A + B * B)
+    if A >= 0.0:
+        a = math.sqrt(0.5 * (m + A))
+    else:
+        b = math.sqrt(0.5 * (m - A))
+        a = 0.5 * abs(B) / b
+    den_s = m + 2.0 * a * c + c2
+    if den_s <= 0.0:  # n = 1, k = 0 at grazing incidence: no interface, the limit is 0
+        return 0.0
+    rs = (m - 2.0 * a * c + c2) / den_s
+    u = m * c2 + s2 * s2
+    v = 2.0 * a * c * s2
+    rp = rs * (u - v) / (u + v) if u + v > 0.0 else rs
+    return min(max(0.5 * (rs + rp), 0.0), 1.0)
 
 
 @njit(nogil=True, cache=True)

@@ -260,12 +260,7 @@ _GRAZING_GAP = pytest.mark.xfail(
     reason="known gap (docs/adaptive.md, section 9): Ashikhmin-Shirley's lobe in the last half degree before "
     "the horizon; halving its bin does not pay (the halves' own trees accept less than the whole bin's)",
 )
-_BOUND_GAP = pytest.mark.xfail(
-    strict=True,
-    reason="known gap (docs/adaptive.md, section 9): Poulin-Fournier at 87.5-88.5 degrees has a narrow peak at "
-    "the disk's rim that moves with wo; a rim leaf's bound misses it (1 trial in ~9e4 here)",
-)
-_KNOWN_GAPS = {("ashikhmin_shirley", 89.5): _GRAZING_GAP, ("poulin_fournier", 88.0): _BOUND_GAP}
+_KNOWN_GAPS = {("ashikhmin_shirley", 89.5): _GRAZING_GAP}
 
 
 @pytest.mark.slow
@@ -295,6 +290,37 @@ def test_wider_search_finds_what_a_plain_grid_misses():
     g = target(brdf.model, brdf.params, wo, p[:1], p[1:], proj)[0]
     assert g > 0.0
     assert np.all(g <= _scale(arrays, rng, ang)[0] * leaf[holds, 0])
+
+
+def test_a_thin_band_just_inside_the_horizon_is_bounded():
+    """Poulin-Fournier at theta_o ~ 88 degrees peaks in a band at theta_i ~ 89.6 degrees, 1e-4 wide on the
+    orthographic disk, that neither the lattice nor the rim's own points reach; without probes on circles near
+    the rim, a leaf's bound fell 2.2x short of it. Here: dense circles theta_i in [89, 90) through every leaf
+    they cross, at 24 wo of the bin, never exceed c M of the leaf holding them."""
+    if "poulin_fournier" not in MODEL_NAMES:
+        pytest.skip("model poulin_fournier not in the library")
+    brdf, rng, arrays = _build("poulin_fournier", None, 88.0, 25.0)
+    proj = PROJECTIONS[int(arrays["projection"])]
+    t_i = np.radians(np.linspace(89.0, 89.999, 40))
+    rho = np.sin(t_i) if proj == "orthographic" else t_i / (0.5 * math.pi)
+    leaf = arrays["leaf"]
+    far = np.hypot(np.maximum(abs(leaf[:, 1]), abs(leaf[:, 3])), np.maximum(abs(leaf[:, 2]), abs(leaf[:, 4])))
+    M, boxes = leaf[far >= rho[0], 0], leaf[far >= rho[0], 1:]  # the leaves the circles can cross
+    a = np.linspace(0.0, 2.0 * math.pi, 1800, endpoint=False)
+    X = (rho[:, None] * np.cos(a)[None, :]).ravel()
+    Y = (rho[:, None] * np.sin(a)[None, :]).ravel()
+    inside = (boxes[None, :, 0] <= X[:, None]) & (X[:, None] <= boxes[None, :, 2])
+    inside &= (boxes[None, :, 1] <= Y[:, None]) & (Y[:, None] <= boxes[None, :, 3])
+    bound = np.where(inside, M[None, :], np.inf).min(axis=1)  # the leaf holding the point (ties: the lower)
+    assert np.all(np.isfinite(bound))
+    ang = _wo_in_bin(rng, False, 24, 11)
+    c = _scale(arrays, rng, ang)
+    worst = 0.0
+    for k in range(len(ang)):
+        wo = np.repeat(angles_to_wo(ang[k : k + 1, 0], ang[k : k + 1, 1]), len(X), axis=0)
+        g = target(brdf.model, brdf.params, wo, X, Y, proj)
+        worst = max(worst, float(np.max(g / (c[k] * bound))))
+    assert worst <= 1.0, f"g / (c M) reaches {worst:.3f} on the band"
 
 
 def test_degrees_helper_matches_the_table_layout():
