@@ -45,7 +45,10 @@ with the largest excess ``V_L - I_L`` there, as long as a round gains at least 1
 from __future__ import annotations
 
 import math
+import os
 import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 from typing import Any
 
@@ -99,6 +102,16 @@ def _rim_probes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     T, P = np.meshgrid(th_i, ph_i, indexing="ij")
     s = np.sin(T.ravel())
     return _frozen(s * np.cos(P.ravel())), _frozen(s * np.sin(P.ravel())), T.ravel() > np.radians(89.5)
+
+
+MIN_CHUNK = 8
+"""Fewest boxes per thread in :meth:`_Builder.per_box`."""
+
+
+@lru_cache(maxsize=1)
+def _pool() -> ThreadPoolExecutor:
+    """Threads for :meth:`_Builder.per_box` (created on first use, shared by all builders of the process)."""
+    return ThreadPoolExecutor(max_workers=max(2, min(8, os.cpu_count() or 1)), thread_name_prefix="quadtree")
 
 
 @lru_cache(maxsize=2)
@@ -449,12 +462,31 @@ class _NodeStore:
 class _Builder:
     """Vectorized construction of one bin's tree."""
 
-    def __init__(self, model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions):
+    def __init__(
+        self, model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions, threads: int = 1
+    ):
         self.model, self.params, self.iso, self.opts = model, params, iso, opts
         self.t_lo, self.t_hi, self.f_lo, self.f_hi = rng
         self.gx, self.gw = gauss_legendre(QUAD_ORDER)
         self.proj = opts.projection
         self.k = build_kernels(model.eval)
+        self.threads = max(1, int(threads))
+
+    def per_box(self, n: int, work: Callable[[slice], tuple]) -> tuple[np.ndarray, ...]:
+        """``work(rows)`` over the boxes ``0..n`` in contiguous chunks, on up to :attr:`threads` threads (the
+        compiled loops release the GIL and treat every box on its own), concatenated in order: the result
+        is the same whatever the number of threads."""
+        k = min(self.threads, n // MIN_CHUNK)
+        if k <= 1:
+            return work(slice(0, n))
+        edges = np.linspace(0, n, k + 1).astype(int)
+        parts = list(_pool().map(work, [slice(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]))
+        return tuple(np.concatenate(arrays) for arrays in zip(*parts, strict=True))
+
+    def own_tables(self) -> tuple:
+        """The scale tables with a scratch array of their own (one per thread)."""
+        meta, vals, nodes, tmp = self.c_tables
+        return meta, vals, nodes, np.empty_like(tmp)
 
     def grows_at_rim(self, wo_ang: np.ndarray) -> bool:
         """Whether ``f`` rises toward the horizon of ``wi`` (then the orthographic ``g = f`` has no tight bound
@@ -483,8 +515,13 @@ class _Builder:
         scaled = scaled and hasattr(self, "c_tables")
         return self.k.node_integrals(
             _f64(boxes), self.gx, self.gw, _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]),
-            PROJECTIONS.index(self.proj), self.params, scaled, *(self.c_tables if scaled else _no_scale()),
+            PROJECTIONS.index(self.proj), self.params, scaled, *(self.own_tables() if scaled else _no_scale()),
         )  # fmt: skip
+
+    def integral_sums(self, boxes: np.ndarray, wo_ang: np.ndarray) -> np.ndarray:
+        """Per ``wo``: the integral of ``g`` over all the boxes (:meth:`per_box`)."""
+        rows = self.per_box(len(boxes), lambda sl: (self.integrals(boxes[sl], wo_ang, scaled=False)[0],))[0]
+        return rows.sum(axis=0)
 
     # -- the lobe's ridge: where the peak of g sits for each wo of the bin
     def ridge_setup(self, wo_all: np.ndarray) -> None:
@@ -596,7 +633,7 @@ class _Builder:
         return self.k.node_bounds(
             _f64(boxes), _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]), self.ridge, _f64(qmax), _f64(qstart),
             srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj),
-            PROJECTIONS.index(self.proj), self.params, *self.c_tables,
+            PROJECTIONS.index(self.proj), self.params, *self.own_tables(),
         )  # fmt: skip
 
     def polar_estimate(self, wo_ang: np.ndarray) -> tuple[np.ndarray, float]:
@@ -651,8 +688,12 @@ class _Builder:
             ev = np.flatnonzero(ok)
             if len(ev):
                 b = boxes[ev]
-                Ie, qmax, qstart = self.integrals(b, wo_norm)
-                before, after = self.bound(b, wo_all, qmax, qstart)
+
+                def work(sl: slice) -> tuple[np.ndarray, ...]:
+                    Ie, qmax, qstart = self.integrals(b[sl], wo_norm)
+                    return (Ie, *self.bound(b[sl], wo_all, qmax, qstart))
+
+                Ie, before, after = self.per_box(len(b), work)
                 un = after > 1.02 * before
                 Me = np.maximum((1.0 + o.safety) * after, floor)
                 area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
@@ -776,7 +817,7 @@ class _Builder:
                 fine = chebyshev_points(t_lo, t_hi, 3 * mt)
                 old = np.arange(3 * mt) % 3 == 1  # the m coarse points sit at every third fine point
                 pts = _tensor(fine[~old], np.zeros(1))
-                new_vals = self.integrals(leaf_boxes, pts, scaled=False)[0].sum(axis=0)
+                new_vals = self.integral_sums(leaf_boxes, pts)
                 err = rel(interp(norm, mt, 1, pts), new_vals)
                 vals = np.empty(3 * mt)
                 vals[old] = norm
@@ -800,7 +841,7 @@ class _Builder:
                 v = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
                 pts.append(v[[0, len(v) // 2, -1]])
             pts = _tensor(*pts)
-            truth = self.integrals(leaf_boxes, pts, scaled=False)[0].sum(axis=0)
+            truth = self.integral_sums(leaf_boxes, pts)
             return rel(interp(vals, mt, mp, pts), truth)
 
         err = error(mt, mp, norm)
@@ -812,7 +853,7 @@ class _Builder:
                 grow_t, grow_p = mt < 48, mp < 20
             mt2, mp2 = (2 * mt if grow_t else mt), (min(2 * mp, 20) if grow_p else mp)
             nodes = _tensor(chebyshev_points(t_lo, t_hi, mt2), chebyshev_points(f_lo, f_hi, mp2))
-            norm2 = self.integrals(leaf_boxes, nodes, scaled=False)[0].sum(axis=0)
+            norm2 = self.integral_sums(leaf_boxes, nodes)
             err2 = error(mt2, mp2, norm2)
             if err2 > 0.5 * err:
                 # Doubling the nodes did not halve the error: what is measured is the leaf quadrature's own
@@ -823,8 +864,9 @@ class _Builder:
 
 
 def build_tree(
-    model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions
+    model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions, threads: int = 1
 ) -> dict[str, np.ndarray]:
     """Build one bin's tree and normalizer; ``rng = (theta_lo, theta_hi, phi_lo, phi_hi)`` in radians.
-    Returns the arrays :class:`core.quadtree_table.Bin` stores."""
-    return _Builder(model, params, iso, rng, opts).build()
+    Returns the arrays :class:`core.quadtree_table.Bin` stores. ``threads``: how many threads share the
+    per-node work (the tree is the same for any number)."""
+    return _Builder(model, params, iso, rng, opts, threads).build()

@@ -233,9 +233,11 @@ class Bin:
 # ------------------------------------------------------------------------------------------- the table
 
 
-def build_bin(model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions) -> Bin:
+def build_bin(
+    model: Any, params: np.ndarray, iso: bool, rng: tuple, opts: BuildOptions, threads: int = 1
+) -> Bin:
     """Build one bin's tree and normalizer; ``rng = (theta_lo, theta_hi, phi_lo, phi_hi)`` in radians."""
-    return Bin(build_tree(model, params, iso, rng, opts))
+    return Bin(build_tree(model, params, iso, rng, opts, threads))
 
 
 def min_acceptance(tree: Bin, rng: tuple, iso: bool, n: int = 9, part: tuple | None = None) -> float:
@@ -545,10 +547,11 @@ class QuadtreeTable:
         parent's tree was gets the parent's tree (exact for any ``wo`` of the parent's bin) and is not split
         again: a split never lowers the acceptance anywhere. The first slot is built here (it compiles or
         loads the model's construction kernels), the others on ``BUILD_THREADS`` threads (the kernels
-        release the GIL; a tree does not depend on which thread builds it)."""
+        release the GIL; a tree does not depend on which thread builds it). A slot asked for alone (the app's
+        view of one direction) is built with ``BUILD_THREADS`` threads sharing its nodes instead."""
 
-        def build(b: int) -> tuple[Bin, int, tuple[float, float], float]:
-            tree = build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts)
+        def build(b: int, threads: int = 1) -> tuple[Bin, int, tuple[float, float], float]:
+            tree = build_bin(self.model, self.params, self.iso, self.bin_range(b), self.opts, threads)
             own = min_acceptance(tree, self.bin_range(b), self.iso)
             p = self.parent[b]
             if p >= 0 and own < self.inherited[b]:
@@ -559,7 +562,7 @@ class QuadtreeTable:
 
         if not bins:
             return
-        yield build(bins[0])
+        yield build(bins[0], BUILD_THREADS if len(bins) == 1 else 1)  # alone: threads share its nodes
         if len(bins) == 1 or BUILD_THREADS <= 1:
             yield from (build(b) for b in bins[1:])
             return

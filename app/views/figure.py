@@ -18,7 +18,7 @@ class FigureView(QWidget):
 
     Two ways to show a change: :meth:`redraw` draws the whole figure (axes, ticks, text: tens of ms), and
     :meth:`update_artists` redraws only the artists declared with :meth:`set_animated` over a saved copy of
-    the rest (blitting: a few ms), falling back to a full draw when the saved copy is missing or stale.
+    the rest (blitting: a few ms; shown with the window's next paint), falling back to a full draw when the saved copy is missing or stale.
     """
 
     def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None):
@@ -87,7 +87,10 @@ class FigureView(QWidget):
             return
         self.canvas.restore_region(self._background)
         self._draw_animated()
-        self.canvas.blit(self.figure.bbox)
+        # Shown at the next paint, not now: ``canvas.blit`` repaints at once, and a synchronous repaint of a
+        # widget in a window composed through OpenGL (the lobe view's) flushes the whole window, 20-40 ms
+        # under a software renderer, on top of the flush that the lobe's own redraw makes a moment later.
+        self.canvas.update()
 
     def export(self, path: str | Path) -> Path:
         """Save the figure; the format follows the suffix (``.png`` or ``.svg``)."""

@@ -179,8 +179,26 @@ def test_measured_material_from_a_merl_file(window):
     assert window.document.material(name).measured is None
 
 
-def test_polar_slice_and_sampler_view_update_by_blitting(window):
-    """A data edit that keeps the scale redraws only the curves (no full figure draw), and the pixels change."""
+def _count_paints(widget):
+    """An event filter on ``widget`` that counts its paint events (kept alive by the widget)."""
+    from PySide6.QtCore import QEvent, QObject
+
+    class Counter(QObject):
+        count = 0
+
+        def eventFilter(self, obj, event):  # noqa: N802 (Qt name)
+            if obj is widget and event.type() == QEvent.Type.Paint:
+                self.count += 1
+            return False
+
+    counter = Counter(widget)
+    widget.installEventFilter(counter)
+    return counter
+
+
+def test_polar_slice_and_sampler_view_update_by_blitting(window, qtbot):
+    """A data edit that keeps the scale redraws only the curves (no full figure draw), the pixels change, and
+    they reach the screen with the window's next paint rather than a synchronous repaint of their own."""
     from app.view_data import sampling_snapshot
     from core.model import make_brdf
 
@@ -202,6 +220,12 @@ def test_polar_slice_and_sampler_view_update_by_blitting(window):
         view.canvas.draw()  # a full draw: saves the background
         before = np.asarray(view.canvas.buffer_rgba()).copy()
         full = view.full_draws
+        paints = _count_paints(view.canvas)
         show(brdfs[1])
         assert view.full_draws == full
         assert np.any(np.asarray(view.canvas.buffer_rgba()) != before)
+        # shown with the window's next paint, not by a repaint of its own (a flush of the whole window)
+        assert paints.count == 0
+        if view is window.polar_view:  # on the tab shown (the sampler view's tab is hidden: nothing to paint)
+            assert view.canvas.isVisible()
+            qtbot.waitUntil(lambda paints=paints: paints.count > 0, timeout=5000)
