@@ -17,7 +17,7 @@
    By default the edits alternate between two values, so after the first two edits the adaptive trees come
    from the sampler's in-memory cache (the app's case for undo/redo or a slider going back); ``--fresh``
    gives every edit a new value, so every edit builds its tree (the case of a slider drag: the build time is
-   core/quadtree.py's).
+   core/quadtree.py's). The run has a table cache of its own, so trees stored by an earlier run are not reused.
 2. ``stall``: a 10 ms ``QTimer`` probe on the GUI thread while the render panel renders the demo scene (two
    strategies, equal time): the stall is the largest delay of a tick beyond its interval. Target: <= 50 ms.
    ``--render-seconds 0`` skips it (as does leaving it out of ``--parts``).
@@ -226,6 +226,9 @@ def main() -> int:
         parts.discard("stall")
     ensure_display()
     os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-bench-"))
+    # A table cache of this run's own (the snapshot process inherits it): with the shared one, a second run
+    # would load the "fresh" trees the first one stored instead of building them.
+    os.environ["BRDF_STUDIO_CACHE"] = tempfile.mkdtemp(prefix="brdf-studio-bench-tables-")
 
     from PySide6.QtCore import QElapsedTimer, QEventLoop, QTimer
     from PySide6.QtWidgets import QApplication

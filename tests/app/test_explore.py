@@ -179,6 +179,26 @@ def test_measured_material_from_a_merl_file(window):
     assert window.document.material(name).measured is None
 
 
+def test_polar_slice_changes_scale_without_a_full_draw(window):
+    """A peak 100x higher (a sharper lobe) moves the outer ring to a round limit above it, relabels the rings
+    and still draws only the curves and labels; the curves are the values divided by that limit."""
+    from core.model import make_brdf
+
+    view = window.polar_view
+    wo = np.array([0.5, 0.0, np.sqrt(0.75)])
+    view.show_slice(make_brdf("ggx", {"alpha": 0.5}), wo)
+    view.canvas.draw()
+    low, labels = view.r_max, view.ring_labels()
+    full = view.full_draws
+    view.show_slice(make_brdf("ggx", {"alpha": 0.02}), wo)
+    peak = float(view.values.max())
+    assert view.full_draws == full
+    assert view.r_max > 10.0 * low and 0.4 * view.r_max <= 1.05 * peak <= view.r_max
+    assert view.ring_labels() != labels and float(view.ring_labels()[-1]) == pytest.approx(view.r_max)
+    curve = view._rgb[0].get_ydata()
+    np.testing.assert_allclose(curve * view.r_max, view.values[:, 0], rtol=1e-12)
+
+
 def _count_paints(widget):
     """An event filter on ``widget`` that counts its paint events (kept alive by the widget)."""
     from PySide6.QtCore import QEvent, QObject
