@@ -184,12 +184,23 @@ def rotate_z(w: np.ndarray, phi: float) -> np.ndarray:
 
 def leaf_raster(leaves: np.ndarray, size: int) -> np.ndarray:
     """An image ``(size, size)`` over the square [-1, 1]^2 (row 0 at y = -1) holding each pixel's leaf bound
-    ``M`` (0 outside every leaf); ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1``."""
+    ``M`` (0 outside every leaf); ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1``. A leaf covers the pixels
+    between its rounded edges, at least one; where leaves smaller than a pixel share one, the later wins."""
     img = np.zeros((size, size))
-    to_px = lambda v: int(round((v + 1.0) * 0.5 * size))  # noqa: E731
-    for m, x0, y0, x1, y1 in leaves:
-        if x1 > x0 and y1 > y0:
-            img[to_px(y0) : max(to_px(y1), to_px(y0) + 1), to_px(x0) : max(to_px(x1), to_px(x0) + 1)] = m
+    leaves = np.asarray(leaves, dtype=np.float64).reshape(-1, 5)
+    leaves = leaves[(leaves[:, 3] > leaves[:, 1]) & (leaves[:, 4] > leaves[:, 2])]
+    if not len(leaves):
+        return img
+    px = np.rint((leaves[:, 1:] + 1.0) * 0.5 * size).astype(np.int64)  # x0, y0, x1, y1 (round half to even)
+    x0, y0 = px[:, 0], px[:, 1]
+    w = np.maximum(px[:, 2], x0 + 1) - x0
+    h = np.maximum(px[:, 3], y0 + 1) - y0
+    n = w * h
+    leaf = np.repeat(np.arange(len(leaves)), n)  # one entry per covered pixel, leaf by leaf
+    local = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    rows = np.clip(y0[leaf] + local // w[leaf], 0, size - 1)
+    cols = np.clip(x0[leaf] + local % w[leaf], 0, size - 1)
+    img[rows, cols] = leaves[leaf, 0]
     return img
 
 

@@ -155,8 +155,12 @@ class SamplingView(QWidget):
             density = leaf_raster(leaves, RASTER) / v if v > 0 else np.zeros((RASTER, RASTER))
             positive = density[density > 0]
             if positive.size:
-                self._tree_img.set_data(np.ma.masked_less_equal(density, 0.0))
-                self._tree_img.set_clim(max(positive.min(), positive.max() * 1e-6), positive.max())
+                # coloured here (log scale, transparent outside the leaves): an RGBA image skips matplotlib's
+                # masking and normalization on every redraw
+                norm = LogNorm(vmin=max(positive.min(), positive.max() * 1e-6), vmax=positive.max())
+                rgba = self._tree_img.get_cmap()(norm(np.maximum(density, norm.vmin)), bytes=True)
+                rgba[density <= 0.0, 3] = 0
+                self._tree_img.set_data(rgba)
             self._tree_img.set_visible(bool(positive.size))
             keep = leaves[:, 3] > leaves[:, 1]
             x0, y0, x1, y1 = (leaves[keep, k] for k in (1, 2, 3, 4))

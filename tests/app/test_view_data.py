@@ -12,6 +12,7 @@ from app.view_data import (
     grid_quads,
     hemisphere_grid,
     incidence_plane,
+    leaf_raster,
     light_from_disk,
     lit_sphere,
     lobe,
@@ -118,3 +119,30 @@ def test_an_anisotropic_tree_is_shown_where_its_samples_fall_in_every_quadrant(t
         # the lobe sits on the mirror side of the normal: opposite quadrant to wo
         c = math.radians(phi)
         assert np.mean(pts @ np.array([math.cos(c), math.sin(c)])) < 0.0
+
+
+def test_leaf_raster_paints_each_pixel_with_the_leaf_holding_its_centre():
+    """A quadtree of the square [-1, 1]^2 (4 quadrants, one of them split in 4, and a leaf smaller than a
+    pixel): each pixel whose centre lies inside a leaf holds that leaf's M; the tiny leaf covers one pixel."""
+    leaves = np.array(
+        [
+            [1.0, -1.0, -1.0, 0.0, 0.0],
+            [2.0, 0.0, -1.0, 1.0, 0.0],
+            [3.0, -1.0, 0.0, 0.0, 1.0],
+            [4.0, 0.0, 0.0, 0.5, 0.5],
+            [5.0, 0.5, 0.0, 1.0, 0.5],
+            [6.0, 0.0, 0.5, 0.5, 1.0],
+            [7.0, 0.5, 0.5, 1.0, 1.0],
+            [0.0, 0.5, 0.5, 0.5, 0.5],  # empty (mass 0, no area): ignored
+        ]
+    )
+    size = 16
+    img = leaf_raster(leaves, size)
+    c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    for i, y in enumerate(c):
+        for j, x in enumerate(c):
+            holder = [m for m, x0, y0, x1, y1 in leaves if x0 < x < x1 and y0 < y < y1]
+            assert img[i, j] == holder[0]
+    tiny = leaf_raster(np.array([[9.0, 0.01, 0.01, 0.02, 0.02]]), size)
+    assert np.count_nonzero(tiny) == 1 and tiny.max() == 9.0
+    assert not leaf_raster(np.zeros((0, 5)), size).any()
