@@ -7,10 +7,10 @@ cached in ``core/models/__pycache__`` is therefore reused after an edit of a hel
 105 ns once its cache was cleared).
 
 So every ``cache=True`` function of the distribution is cached under a folder named by a hash of all its
-Python sources (``core``, ``renderer``: the packages with compiled code) and of the numba and Python versions: any edit starts a new
-folder, and a stale compile can never be loaded. The folder lives in ``$BRDF_STUDIO_NUMBA_CACHE`` (default
-``~/.cache/brdf-studio/numba``); the four most recently used versions are kept. If the folder cannot be
-written, numba's default (next to the sources) is left in place.
+Python sources (``core``, ``renderer``: the packages with compiled code) and of the numba and Python
+versions: any edit starts a new folder, and a stale compile can never be loaded. The folder lives in
+``$BRDF_STUDIO_NUMBA_CACHE`` (default ``~/.cache/brdf-studio/numba``); the four most recently used versions
+are kept. If the folder cannot be written, numba's default (next to the sources) is left in place.
 """
 
 from __future__ import annotations

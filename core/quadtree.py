@@ -627,7 +627,8 @@ class _Builder:
         circle theta_i = :data:`RIM_RINGS_DEG` crossing it, at every ``wo`` sample of the bin, and the box's
         nearest points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired
         with that ``wo``); then a compass search from the best two and from the best quadrature point of
-        :meth:`integrals` (``qstart``, value ``qmax``) (:func:`core.quadtree_build_kernels.BUILD_TEMPLATE`'s ``node_bounds``)."""
+        :meth:`integrals` (``qstart``, value ``qmax``) (``node_bounds`` in
+        :data:`core.quadtree_build_kernels.BUILD_TEMPLATE`)."""
         srch = np.array([self.t_lo, self.t_hi, self.f_lo, self.f_hi, *self.j_theta, *self.j_phi,
                          self.step_theta, self.step_phi])  # fmt: skip
         return self.k.node_bounds(

@@ -349,7 +349,8 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, 
     band just inside the horizon: Poulin-Fournier's at theta_i ~ 89.6 degrees is 1e-4 wide on the
     orthographic disk, between the lattice and the rim); then the box's nearest points to the ridge points
     (rows ``X, Y, theta, phi``: mirror, peak and retro-reflection points of a dense set of ``wo``, paired with
-    that ``wo``). Then a compass search from the best two and from the best quadrature point ``qstart`` (value ``qmax``, see ``node_integrals``)."""
+    that ``wo``). Then a compass search from the best two and from the best quadrature point ``qstart``
+    (value ``qmax``, see ``node_integrals``)."""
     nb = boxes.shape[0]
     nw = theta.shape[0]
     nr = ridge.shape[0]

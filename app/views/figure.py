@@ -18,7 +18,8 @@ class FigureView(QWidget):
 
     Two ways to show a change: :meth:`redraw` draws the whole figure (axes, ticks, text: tens of ms), and
     :meth:`update_artists` redraws only the artists declared with :meth:`set_animated` over a saved copy of
-    the rest (blitting: a few ms; shown with the window's next paint), falling back to a full draw when the saved copy is missing or stale.
+    the rest (blitting: a few ms; shown with the window's next paint), falling back to a full draw when the
+    saved copy is missing or stale.
     """
 
     def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None):
