@@ -623,9 +623,10 @@ class _Builder:
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
-        Candidates: a 4 x 4 grid over the box, 2 x 8 points of the unit circle clamped into it and 8 on each
-        circle theta_i = :data:`RIM_RINGS_DEG` crossing it, at every ``wo`` sample of the bin, and the box's
-        nearest points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired
+        Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it at every
+        ``wo`` sample of the bin, 8 on each circle theta_i = :data:`RIM_RINGS_DEG` crossing it at the 3 (3 x 3)
+        ``wo`` of the bin's edges and middle (a band's height varies slowly with ``wo``), and the box's nearest
+        points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired
         with that ``wo``); then a compass search from the best two and from the best quadrature point of
         :meth:`integrals` (``qstart``, value ``qmax``) (``node_bounds`` in
         :data:`core.quadtree_build_kernels.BUILD_TEMPLATE`)."""
@@ -633,7 +634,7 @@ class _Builder:
                          self.step_theta, self.step_phi])  # fmt: skip
         return self.k.node_bounds(
             _f64(boxes), _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]), self.ridge, _f64(qmax), _f64(qstart),
-            srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj),
+            srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj), self.ring_from,
             PROJECTIONS.index(self.proj), self.params, *self.own_tables(),
         )  # fmt: skip
 
@@ -662,6 +663,7 @@ class _Builder:
             _tensor(tb, np.zeros(1)) if self.iso else _tensor(tb, np.array([f_lo, 0.5 * (f_lo + f_hi), f_hi]))
         )
         wo_all = np.concatenate([wo_norm, wo_bound])
+        self.ring_from = len(wo_norm)  # the rim's circles are probed at the 3 (3 x 3) wo_bound only
         if self.proj == "auto":
             self.proj = "equidistant" if self.grows_at_rim(wo_bound) else "orthographic"
         est, g_max = self.polar_estimate(wo_norm)
