@@ -106,7 +106,7 @@ class TableCache:
         np.savez(buf, **payload)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_bytes(path, buf.getvalue())
+            atomic_write_bytes(path, buf.getvalue(), durable=False)  # checksummed: a torn entry is rebuilt
         except (OSError, OutputError):  # a cache that cannot be written is not an error
             return False
         return True

@@ -35,3 +35,22 @@ def test_a_failure_midway_keeps_the_old_file(tmp_path):
 def test_missing_folder_is_a_clear_error(tmp_path):
     with pytest.raises(OutputError, match="does not exist"):
         atomic_write_text(tmp_path / "nope" / "x.txt", "x")
+
+
+def test_user_files_are_synced_and_cache_entries_are_not(tmp_path, monkeypatch):
+    """A user's file reaches the disk before it replaces the old one (``fsync``); a cache entry, checksummed
+    and rebuilt when torn, skips the ``fsync`` and is still replaced whole."""
+    import numpy as np
+
+    from core.cache import TableCache
+    from core.io import atomic_write_bytes
+
+    synced = []
+    real = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (synced.append(fd), real(fd)))
+    atomic_write_bytes(tmp_path / "project.json", b"{}")
+    assert len(synced) == 1
+    cache = TableCache(tmp_path / "cache")
+    assert cache.save("k", "bin0", {"a": np.arange(3.0)})
+    assert len(synced) == 1
+    np.testing.assert_array_equal(cache.load("k", "bin0")["a"], np.arange(3.0))
