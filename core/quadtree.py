@@ -31,11 +31,11 @@ the peak of ``g`` over the disk at a 3 x 3 grid of ``wo`` of the bin (compass se
 retro-reflection and normal points), its offset from the mirror point, and the lobe's half-width. A node at
 depth >= ``min_depth`` gets the integral of ``g`` over its part of the disk at the normalizer nodes
 (Gauss-Legendre on the exact region, :func:`core.quadtree_build_kernels.box_rule`) and a bound on ``g / c``:
-the largest value on the quadrature points, on a 4 x 4 grid over ``B_L`` and on circles near the rim crossing
-it, at every ``wo`` sample of the bin, and at the box's nearest points to the ridge points (mirror, peak,
-retro) of a set of ``wo`` dense enough that the ridge moves by less than a third of the lobe's half-width
-between neighbours; then a compass search in ``(X, Y, theta_o, phi_o)`` whose ``wo`` moves drag ``X`` along
-with the mirror point. ``M = (1 + safety) max``.
+the largest value on the quadrature points (at the normalizer nodes), on a 4 x 4 grid over ``B_L`` and on
+circles near the rim crossing it (at the bin's edges and middle), and at the box's nearest points to the
+ridge points (mirror, peak, retro) of a set of ``wo`` dense enough that the ridge moves by less than a third
+of the lobe's half-width between neighbours; then a compass search in ``(X, Y, theta_o, phi_o)`` whose ``wo``
+moves drag ``X`` along with the mirror point. ``M = (1 + safety) max``.
 Phase 1, level by level: split while the bound is unsure (the search raised it by more than 2 %) or
 ``V > n_max I_L`` at the bin's best normalizer node (with an excess above ``excess_tol I``). Phase 2: while the
 acceptance ``I / (c V)`` at the worst normalizer node is below ``1/n_max`` (plus a margin), split the leaves
@@ -623,18 +623,17 @@ class _Builder:
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
-        Candidates: a 4 x 4 grid over the box and 2 x 8 points of the unit circle clamped into it at every
-        ``wo`` sample of the bin, 8 on each circle theta_i = :data:`RIM_RINGS_DEG` crossing it at the 3 (3 x 3)
-        ``wo`` of the bin's edges and middle (a band's height varies slowly with ``wo``), and the box's nearest
-        points to the ridge points (mirror, peak, retro-reflection) of a dense set of ``wo`` (paired
-        with that ``wo``); then a compass search from the best two and from the best quadrature point of
-        :meth:`integrals` (``qstart``, value ``qmax``) (``node_bounds`` in
-        :data:`core.quadtree_build_kernels.BUILD_TEMPLATE`)."""
+        Candidates: at the 3 (3 x 3) ``wo`` of the bin's edges and middle, a 4 x 4 grid over the box, 2 x 8
+        points of the unit circle clamped into it and 8 on each circle theta_i = :data:`RIM_RINGS_DEG` crossing
+        it; the best quadrature point of :meth:`integrals` over the normalizer's ``wo`` (``qstart``, value
+        ``qmax``); the box's nearest points to the ridge points (mirror, peak, retro-reflection) of a dense set
+        of ``wo`` (paired with that ``wo``). Then a compass search from the best two and from ``qstart``
+        (``node_bounds`` in :data:`core.quadtree_build_kernels.BUILD_TEMPLATE`)."""
         srch = np.array([self.t_lo, self.t_hi, self.f_lo, self.f_hi, *self.j_theta, *self.j_phi,
                          self.step_theta, self.step_phi])  # fmt: skip
         return self.k.node_bounds(
             _f64(boxes), _f64(wo_ang[:, 0]), _f64(wo_ang[:, 1]), self.ridge, _f64(qmax), _f64(qstart),
-            srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj), self.ring_from,
+            srch, self.iso, self.opts.search_iters, GRID, ARC, _rim_rings(self.proj), self.probe_from,
             PROJECTIONS.index(self.proj), self.params, *self.own_tables(),
         )  # fmt: skip
 
@@ -663,7 +662,7 @@ class _Builder:
             _tensor(tb, np.zeros(1)) if self.iso else _tensor(tb, np.array([f_lo, 0.5 * (f_lo + f_hi), f_hi]))
         )
         wo_all = np.concatenate([wo_norm, wo_bound])
-        self.ring_from = len(wo_norm)  # the rim's circles are probed at the 3 (3 x 3) wo_bound only
+        self.probe_from = len(wo_norm)  # the bound's candidate points are probed at wo_bound
         if self.proj == "auto":
             self.proj = "equidistant" if self.grows_at_rim(wo_bound) else "orthographic"
         est, g_max = self.polar_estimate(wo_norm)

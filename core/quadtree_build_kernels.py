@@ -339,17 +339,18 @@ def _search(cx, cy, ct, cp, best, x0, y0, x1, y1, srch, iso, iters, proj, p, s_m
 
 
 @njit(nogil=True, cache=True)
-def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, arc, rings, ring_from, proj, p,
+def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, arc, rings, probe_from, proj, p,
                 s_meta, s_vals, s_nodes, s_tmp):
     """``(max before search, max after search)`` of ``g / c`` per box over the bin.
 
-    Candidates, in this order: per ``wo`` of the bin, a ``grid x grid`` lattice over the box and ``2 x arc``
-    points of the unit circle clamped into it (where ``f`` grows toward the horizon the sup of a rim leaf lies
-    on its arc), and, at the ``wo`` from index ``ring_from`` on, ``arc`` points on each circle of radius
+    Candidates, in this order: at each ``wo`` from index ``probe_from`` on (the bin's edges and middle; the
+    others are the normalizer's nodes, whose best quadrature point arrives as ``qmax``, ``qstart``), a
+    ``grid x grid`` lattice over the box, ``2 x arc`` points of the unit circle clamped into it (where ``f``
+    grows toward the horizon the sup of a rim leaf lies on its arc) and ``arc`` points on each circle of radius
     ``rings`` that crosses the box (a peak in a thin band just inside the horizon: Poulin-Fournier's at
-    theta_i ~ 89.6 degrees is 1e-4 wide on the orthographic disk, between the lattice and the rim); then the box's nearest points to the ridge points
-    (rows ``X, Y, theta, phi``: mirror, peak and retro-reflection points of a dense set of ``wo``, paired with
-    that ``wo``). Then a compass search from the best two and from the best quadrature point ``qstart``
+    theta_i ~ 89.6 degrees is 1e-4 wide on the orthographic disk, between the lattice and the rim); then the
+    box's nearest points to the ridge points (rows ``X, Y, theta, phi``: mirror, peak and retro-reflection
+    points of a dense set of ``wo``, paired with that ``wo``). Then a compass search from the best two and from the best quadrature point ``qstart``
     (value ``qmax``, see ``node_integrals``)."""
     nb = boxes.shape[0]
     nw = theta.shape[0]
@@ -423,7 +424,6 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, 
                 py[n] = by
                 n += 1
         npts = n
-        nbase = grid * grid + 2 * arc
         # the best two candidates (first occurrence on ties, as np.argmax)
         v1 = -np.inf
         v2 = -np.inf
@@ -432,8 +432,8 @@ def node_bounds(boxes, theta, phi, ridge, qmax, qstart, srch, iso, iters, grid, 
         for q in range(npts):
             px[q], py[q] = clamp_to_box(px[q], py[q], x0, y0, x1, y1)
             pi[q, 0], pi[q, 1], pi[q, 2], pi[q, 3] = project(px[q], py[q], proj)
-        for w in range(nw):
-            for q in range(npts if w >= ring_from else nbase):
+        for w in range(probe_from, nw):
+            for q in range(npts):
                 x, y = px[q], py[q]
                 fac = pi[q, 3]
                 v = f_at(wv[w, 0], wv[w, 1], wv[w, 2], pi[q, 0], pi[q, 1], pi[q, 2], p) * fac if fac > 0.0 else 0.0
