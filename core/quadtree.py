@@ -59,7 +59,7 @@ from core.kernels import eval_batch
 from core.model import LUMINANCE
 from core.quadtree_build_kernels import R_MAX, build_kernels, scale_rows, scale_tables
 
-TABLE_VERSION = 6
+TABLE_VERSION = 7
 """Bump when the construction changes what a table holds (part of the on-disk cache key)."""
 
 HALF_PI = 0.5 * math.pi
@@ -738,10 +738,11 @@ class _Builder:
         # phase 2: the acceptance I(wo) / (c V) must reach 1/n_max at every normalizer node; split greedily
         # the leaves with the largest excess V_L - I_L(wo)/c at the worst node, while that helps
         # (a lobe that moves across the bin by more than its width cannot reach it: stop when a round gains
-        # less than 1 %, or when phase 2 has added half as many leaves as phase 1 made)
+        # less than 1 %, or at 1.5 times the leaves phase 1 made: 1.5 / (n_max - 1) times, up to 6, for n_max
+        # below 2, whose tighter target needs more leaves; n_max 1.3 missed 1/n_max by 1-2 % at the old cap)
         target_acc = 1.0 / o.n_max
         last = -1.0
-        leaf_cap = int(1.5 * len(store.leaves())) + 64
+        leaf_cap = int(min(6.0, max(1.5, 1.5 / (o.n_max - 1.0))) * len(store.leaves())) + 64
         for _ in range(40):
             leaves = store.leaves()
             live = leaves[store.ok[leaves]]
