@@ -19,6 +19,7 @@ import hashlib
 import os
 import shutil
 import sys
+from functools import lru_cache
 from pathlib import Path
 
 PACKAGES = ("core", "renderer")
@@ -27,12 +28,19 @@ KEEP = 4
 _configured: Path | None = None
 
 
-def source_hash(root: Path | None = None) -> str:
-    """Hash of every ``.py`` file of the distribution's packages (under ``root``, by default the folder
-    holding ``core``) and of the numba and Python versions."""
+@lru_cache(maxsize=1)
+def source_hash() -> str:
+    """:func:`tree_hash` of this installation, read once per process. Also the key of whatever else is derived
+    from the code: the generated kernel modules (:mod:`core.specialize`) and the adaptive sampler's stored
+    trees (:mod:`core.quadtree_table`: a model's ``eval`` or a helper it calls changes them)."""
+    return tree_hash(Path(__file__).resolve().parent.parent)
+
+
+def tree_hash(root: Path) -> str:
+    """Hash of every ``.py`` file of the distribution's packages under ``root`` (the folder holding ``core``)
+    and of the numba and Python versions."""
     import numba
 
-    root = root or Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
     for package in PACKAGES:
         for path in sorted((root / package).rglob("*.py")):

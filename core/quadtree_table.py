@@ -11,12 +11,12 @@ import os
 import threading
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 from numba import njit
 
+from core._numba_cache import source_hash
 from core.errors import BrdfStudioError
 from core.quadtree import (
     PROJECTIONS,
@@ -292,20 +292,6 @@ def split_dimension(model: Any, params: np.ndarray, tree: Bin, rng: tuple, iso: 
     return 0 if max(tv[0], tv[1]) >= max(tv[2], tv[3]) else 1
 
 
-@lru_cache(maxsize=1)
-def _source_hash() -> str:
-    """Hash of the construction and table code (part of the on-disk cache key; read once per process, not
-    for every table: the app makes a table per edited material)."""
-    import hashlib
-    from pathlib import Path
-
-    here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for name in ("quadtree.py", "quadtree_build_kernels.py", "quadtree_table.py", "quadtree_kernels.py"):
-        h.update((here / name).read_bytes())
-    return h.hexdigest()[:16]
-
-
 class QuadtreeTable:
     """The lazily built trees of one BRDF: one per incident-angle bin, built on first use, kept in memory and
     (with a :class:`core.cache.TableCache`) on disk.
@@ -361,7 +347,7 @@ class QuadtreeTable:
             [
                 "adaptive-quadtree",
                 TABLE_VERSION,
-                _source_hash(),
+                source_hash(),  # every core source: a model's eval changes its trees too
                 model.name,
                 self.frame,
                 self.params,

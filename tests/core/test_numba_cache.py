@@ -29,15 +29,15 @@ def test_numba_caches_in_the_folder_of_this_source_version():
 
 def test_an_edit_to_a_helper_in_another_file_changes_the_key(tmp_path):
     _tree(tmp_path)
-    before = nc.source_hash(tmp_path)
-    assert nc.source_hash(tmp_path) == before  # deterministic
+    before = nc.tree_hash(tmp_path)
+    assert nc.tree_hash(tmp_path) == before  # deterministic
     (tmp_path / "core" / "models" / "_helper.py").write_text("def h(x):\n    return 2 * x\n")
-    edited = nc.source_hash(tmp_path)
+    edited = nc.tree_hash(tmp_path)
     assert edited != before
     (tmp_path / "renderer" / "kernels.py").write_text("K = 2\n")
-    assert nc.source_hash(tmp_path) not in (before, edited)
+    assert nc.tree_hash(tmp_path) not in (before, edited)
     (tmp_path / "renderer" / "new.py").write_text("")
-    assert nc.source_hash(tmp_path) != edited
+    assert nc.tree_hash(tmp_path) != edited
 
 
 def test_old_versions_are_pruned_but_the_current_one_kept(tmp_path):
@@ -51,3 +51,16 @@ def test_old_versions_are_pruned_but_the_current_one_kept(tmp_path):
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == ["v0", "v1", "v2", "v6"]
     assert len(left) == nc.KEEP
+
+
+def test_stored_trees_are_keyed_by_every_core_source(monkeypatch):
+    """The adaptive sampler's disk cache key follows the whole source hash (a model's ``eval`` or its
+    Fresnel helper changes the trees), not only the quadtree files."""
+    import core.quadtree_table as qt
+    from core.model import make_brdf
+    from core.quadtree import BuildOptions
+
+    brdf = make_brdf("ggx")
+    key = qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions()).key
+    monkeypatch.setattr(qt, "source_hash", lambda: "an edit of core/models/_fresnel.py")
+    assert qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions()).key != key
