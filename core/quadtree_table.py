@@ -51,9 +51,24 @@ SPLIT_MARGIN = 0.01
 covers the dips between the grid's points)."""
 
 SPLIT_GAIN = 1.1
-"""A half is split again only if its acceptance is at least this factor above what its parent's tree had
-over the half: when halving stops paying (the lobe is narrower than the leaves the depth guard allows, not
-moving), more halves would only multiply the trees."""
+"""A half is split again only if halving paid: its acceptance is at least this factor above what its parent's
+tree had over the half, or it closed at least ``SPLIT_CLOSED`` of the gap to the target. When halving stops
+paying (the lobe is narrower than the leaves the depth guard allows, not moving), more halves would only
+multiply the trees."""
+
+SPLIT_CLOSED = 0.2
+"""The part of the gap between the parent's acceptance and the target ``(1 + SPLIT_MARGIN) / n_max`` that a
+half must close to count as paid when it gained less than ``SPLIT_GAIN`` (near the target, as at
+``n_max`` 1.3, a halving that gains 7 % may be all that is missing)."""
+
+
+def halving_paid(own: float, inherited: float, n_max: float) -> bool:
+    """Whether a half whose tree accepts ``own`` improved enough on ``inherited`` (what its parent's tree
+    accepted over the half) to be halved again: by ``SPLIT_GAIN``, or by ``SPLIT_CLOSED`` of the gap to the
+    target."""
+    target = (1.0 + SPLIT_MARGIN) / n_max
+    return own >= SPLIT_GAIN * inherited or own - inherited >= SPLIT_CLOSED * (target - inherited)
+
 
 BUILD_THREADS = max(1, min(4, os.cpu_count() or 1))
 """Threads that build the trees of several missing bins at once (a render's warm-up asks for hundreds)."""
@@ -405,7 +420,7 @@ class QuadtreeTable:
         if (
             acc >= (1.0 + SPLIT_MARGIN) / self.opts.n_max
             or self.depth(b) >= self.opts.max_splits
-            or acc < SPLIT_GAIN * self.inherited[b]
+            or not halving_paid(acc, self.inherited[b], self.opts.n_max)
         ):
             return -1, (acc, acc)
         dim = split_dimension(self.model, self.params, tree, rng, self.iso)

@@ -126,37 +126,10 @@ def test_the_whole_circle_layout_gives_the_same_density():
     assert a.bound_violations == 0 and b.bound_violations == 0
 
 
-_COARSE_NORMALIZER = pytest.mark.xfail(
-    strict=True,
-    reason="known gap (docs/adaptive.md, section 9): at n_max 3 the leaves of a sharp lobe are large, and the "
-    "normalizer (the sum of the leaves' 6 x 6 Gauss-Legendre integrals) is 0.1-0.16 % off at theta_o = 60: "
-    "the pdf integrates to 1.0011-1.0016",
-)
-_TIGHT_ACCEPTANCE = pytest.mark.xfail(
-    strict=True,
-    reason="known gap (docs/adaptive.md, section 9): at n_max 1.3 these anisotropic or grazing trees stop "
-    "below 1/1.3 (0.69-0.76): phase 2 gains less than 1 % a round before it gets there",
-)
-_CHI2_GAPS = {
-    ("ashikhmin_shirley", 3.0): _COARSE_NORMALIZER,
-    ("cook_torrance", 3.0): _COARSE_NORMALIZER,
-    ("ashikhmin_shirley", 1.3): _TIGHT_ACCEPTANCE,
-    ("lafortune", 1.3): _TIGHT_ACCEPTANCE,
-    ("poulin_fournier", 1.3): _TIGHT_ACCEPTANCE,
-    ("ward", 1.3): _TIGHT_ACCEPTANCE,
-}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "n_max"),
-    [
-        pytest.param(
-            m, n, id=f"{m.name}-{n}", marks=[_CHI2_GAPS[m.name, n]] if (m.name, n) in _CHI2_GAPS else []
-        )
-        for m in MODELS
-        for n in N_MAXES
-    ],
+    [pytest.param(m, n, id=f"{m.name}-{n}") for m in MODELS for n in N_MAXES],
 )
 def test_chi2_full_sweep(model, n_max):
     n_tests = len(MODELS) * len(N_MAXES) * len(THETAS) * 2
@@ -179,6 +152,29 @@ def test_pdf_integrates_to_one(name):
             lambda wi, wo=wo: sampler.pdf(np.broadcast_to(wo, wi.shape), wi), (32, 32), 1e-7
         )
         assert abs(total - 1.0) < 1e-3, f"{name} theta={theta}: integral {total}"
+
+
+def test_the_normalizer_is_accurate_for_a_lobe_held_by_few_leaves(monkeypatch):
+    """At ``n_max`` 3 a few large leaves hold Cook-Torrance's lobe, and their 6 x 6 rule alone puts the
+    normalizer 0.11 % off at theta_o = 60 degrees (the reported pdf integrated to 1.0011); the normalizer's
+    quadrature quarters the boxes whose rule disagrees with their quarters' (``QUAD_TOL`` 5e-5). Checked
+    against the chi-square library's independent self-refining cell rule, with and without the refinement,
+    so the test can fail."""
+    import core.quadtree as quadtree
+
+    if "cook_torrance" not in {m.name for m in MODELS}:
+        pytest.skip("model cook_torrance not in the library")
+    wo = degrees_to_dir(60.0)
+
+    def integral() -> float:
+        sampler = _adaptive("cook_torrance", 3.0, cache=False)
+        return integrate_pdf(lambda wi: sampler.pdf(np.broadcast_to(wo, wi.shape), wi), (32, 32), 1e-7)
+
+    monkeypatch.setattr(quadtree, "QUAD_LEVELS", 0)  # the leaves' own rules only
+    assert abs(integral() - 1.0) > 1e-3
+    clear_memory_cache()
+    monkeypatch.undo()
+    assert abs(integral() - 1.0) < 2e-4
 
 
 FAST_MODELS = [m for m in MODELS if m.name in ("lambert", "phong", "minnaert", "cook_torrance", "lafortune")]
@@ -360,12 +356,16 @@ def test_bins_built_together_on_threads_equal_bins_built_one_by_one(monkeypatch)
     alone = qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions())
     for row in wo:
         alone.ensure_rows(row[None])
-    assert sorted(together.bins) == sorted(alone.bins) and len(alone.bins) == len(wo)
+    # slots are numbered in the order bins were split (threads finish in any order): compare by path
+    by_path = {together.paths[b]: tree for b, tree in together.bins.items()}
+    assert sorted(by_path) == sorted(alone.paths[b] for b in alone.bins) and len(alone.bins) == len(wo)
     for b, tree in alone.bins.items():
-        mine, theirs = tree.arrays(), together.bins[b].arrays()
+        mine, theirs = tree.arrays(), by_path[alone.paths[b]].arrays()
         for name in mine:
             if name != "build_seconds":
-                np.testing.assert_array_equal(mine[name], theirs[name], err_msg=f"bin {b}: {name}")
+                np.testing.assert_array_equal(
+                    mine[name], theirs[name], err_msg=f"bin {alone.paths[b]}: {name}"
+                )
 
 
 def test_preload_loads_every_cached_tree_and_builds_none(tmp_path):
@@ -475,6 +475,26 @@ def test_a_bin_whose_tree_misses_the_acceptance_is_split():
     assert single.acceptance(wo).min() < 0.5 and single.n_split == 0
     b0, tree = single.tree_at(wo[0])
     assert min_acceptance(tree, single.bin_range(b0), False) < 0.5
+
+
+def test_halving_pays_by_a_factor_or_by_closing_the_gap():
+    """A half is halved again when it gained ``SPLIT_GAIN`` over its parent's tree, or closed ``SPLIT_CLOSED``
+    of the gap to the target (near the target a 7 % gain can be all that is missing: Lafortune at 30 degrees,
+    n_max 1.3, went 0.679 -> 0.732 and stopped below 1/1.3 under the factor rule alone); it is not when it
+    gained too little either way. More halvings are allowed for a tighter target."""
+    from core.quadtree import BuildOptions, default_max_splits
+    from core.quadtree_table import SPLIT_CLOSED, SPLIT_GAIN, SPLIT_MARGIN, halving_paid
+
+    target = (1.0 + SPLIT_MARGIN) / 1.3
+    assert halving_paid(0.732, 0.679, 1.3) and 0.732 < SPLIT_GAIN * 0.679
+    assert not halving_paid(0.679 + 0.9 * SPLIT_CLOSED * (target - 0.679), 0.679, 1.3)
+    assert halving_paid(0.111, 0.1, 2.0) and not halving_paid(0.105, 0.1, 2.0)  # far from 0.505: the factor
+    assert halving_paid(0.2, 0.0, 2.0)  # a base bin has inherited nothing
+    assert not halving_paid(0.5, 0.5, 1.3)
+    splits = [default_max_splits(n) for n in (1.05, 1.3, 1.5, 1.9, 2.0, 3.0, 100.0)]
+    assert splits == sorted(splits, reverse=True) and splits[0] == 8 and splits[-1] == 4
+    assert default_max_splits(2.0) == 4 and BuildOptions(n_max=1.3).max_splits == default_max_splits(1.3)
+    assert BuildOptions(n_max=1.3, max_splits=2).max_splits == 2
 
 
 def test_a_split_never_lowers_the_acceptance():
