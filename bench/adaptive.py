@@ -313,28 +313,32 @@ def grazing(out: Path) -> list[dict]:
 
 
 SPLIT_CASES = [
-    ("ashikhmin_shirley", None, 88.0, 25.0),
-    ("ashikhmin_shirley", None, 89.5, 25.0),
-    ("lafortune", None, 89.5, 25.0),
-    ("ward", BRUSHED_STEEL, 89.2, 44.0),
-    ("ward", {"sx": 0.005, "sy": 0.005}, 60.0, 12.0),
-    ("ggx", {"alpha": 0.001}, 45.0, 0.0),
+    ("ashikhmin_shirley", None, 88.0, 25.0, 2.0),
+    ("ashikhmin_shirley", None, 89.5, 25.0, 2.0),
+    ("lafortune", None, 89.5, 25.0, 2.0),
+    ("lafortune", None, 30.0, 2.5, 1.3),
+    ("ward", BRUSHED_STEEL, 89.2, 44.0, 2.0),
+    ("ward", {"sx": 0.005, "sy": 0.005}, 60.0, 12.0, 2.0),
+    ("ggx", {"alpha": 0.001}, 45.0, 0.0, 2.0),
 ]
-"""Bins whose single tree misses 1/n_max: the known hard cases (docs/adaptive.md, section 9)."""
+"""Bins whose single tree misses 1/n_max (model, parameters, theta_o, phi_o, n_max): the known hard cases
+(docs/adaptive.md, section 9), and one near the target (Lafortune at n_max 1.3: a halving gains only 7 %)."""
 
 
-def splits(out: Path, depths: list[int], n_rows: int = 400) -> list[dict]:
-    """Per hard case and ``max_splits`` of ``depths``: the acceptance over the whole base bin (``n_rows``
-    directions spread over it, its edges included), the trees built, the bins split and
-    the build time (split trees included). No disk cache; one warm-up tree per model first."""
-    from core.quadtree import angles_to_wo
+def splits(out: Path, depths: list[int | None], n_rows: int = 400) -> list[dict]:
+    """Per hard case and ``max_splits`` of ``depths`` (None: the default for the case's ``n_max``): the
+    acceptance over the whole base bin (``n_rows`` directions spread over it, its edges included), the trees
+    built, the bins split and the build time (split trees included). No disk cache; one warm-up tree per
+    model first."""
+    from core.quadtree import angles_to_wo, default_max_splits
 
     rows = []
-    for name, params, theta, phi in SPLIT_CASES:
-        for max_splits in depths:
+    for name, params, theta, phi, n_max in SPLIT_CASES:
+        for depth in depths:
+            max_splits = default_max_splits(n_max) if depth is None else depth
             clear_memory_cache()
             s = make_sampler(
-                "adaptive", make_brdf(name, params), n_max=2.0, max_splits=max_splits, cache=False
+                "adaptive", make_brdf(name, params), n_max=n_max, max_splits=max_splits, cache=False
             )
             s.acceptance(degrees_to_dir(20.0, phi))  # warm-up: compilation
             t = s.table
@@ -353,6 +357,7 @@ def splits(out: Path, depths: list[int], n_rows: int = 400) -> list[dict]:
                 "params": params or "defaults",
                 "theta": theta,
                 "phi": phi,
+                "n_max": n_max,
                 "max_splits": max_splits,
                 "acc_min": float(acc.min()),
                 "acc_mean": float(acc.mean()),
@@ -362,7 +367,8 @@ def splits(out: Path, depths: list[int], n_rows: int = 400) -> list[dict]:
                 "wall_s": wall,
             }
             rows.append(row)
-            print(f"{name:<18} {str(params or ''):<28} {theta:5.1f}/{phi:4.1f}  max_splits {max_splits}  "
+            print(f"{name:<18} {str(params or ''):<28} {theta:5.1f}/{phi:4.1f}  n_max {n_max:g}  "
+                  f"max_splits {max_splits}  "
                   f"acceptance min {row['acc_min']:.3f} mean {row['acc_mean']:.3f}  trees {row['trees']:>3}  "
                   f"split {row['bins_split']:>3}  build {row['build_s']:6.2f} s  wall {wall:6.2f} s",
                   flush=True)  # fmt: skip
@@ -390,9 +396,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     a = ap.parse_args(argv)
     if a.splits:
-        from core.quadtree import BuildOptions
-
-        splits(Path(a.out), a.max_splits or [0, BuildOptions().max_splits])
+        splits(Path(a.out), a.max_splits or [0, None])
         return 0
     if a.grazing:
         grazing(Path(a.out))
