@@ -583,6 +583,18 @@ class _Builder:
         boxes = np.ascontiguousarray(boxes)
         return self.per_box(len(boxes), lambda sl: (self.integrals(boxes[sl], wo_ang, scaled=False)[0],))[0]
 
+    def box_integrals_given(
+        self, boxes: np.ndarray, wo_ang: np.ndarray, known: np.ndarray, values: np.ndarray
+    ) -> np.ndarray:
+        """:meth:`box_integrals` at every ``wo`` where the columns ``known`` are already ``values`` (each
+        column is computed on its own, so the result is the same as computing them all)."""
+        out = np.empty((len(boxes), len(wo_ang)))
+        out[:, known] = values
+        rest = np.setdiff1d(np.arange(len(wo_ang)), known)
+        if len(rest):
+            out[:, rest] = self.box_integrals(boxes, wo_ang[rest])
+        return out
+
     def integral_sums(self, boxes: np.ndarray, wo_ang: np.ndarray) -> np.ndarray:
         """Per ``wo``: the integral of ``g`` over all the boxes (:meth:`per_box`)."""
         return self.box_integrals(boxes, wo_ang).sum(axis=0)
@@ -921,19 +933,21 @@ class _Builder:
             boxes, vals, mass = boxes[~small], vals[~small], mass[~small]
             n = len(boxes)
             quarters, ok = _quarters(boxes)
+            qvals = np.zeros((4 * n, len(probe)))
+            known = np.zeros(0, dtype=np.int64)  # columns of qvals computed already
             if level == 0:
                 # a first look at the middle node only: where the leaves' rules already agree with their
                 # quarters' there (the lobe is resolved), the lobe's shape at the other nodes is too
-                mid = np.array([nw // 2])
-                qmid = np.zeros((4 * n, 1))
-                qmid[ok] = self.box_integrals(quarters[ok], wo_norm[mid])
-                diff = np.abs(qmid.reshape(4, n).sum(axis=0) - vals[:, mid[0]]) / total[mid[0]]
+                known = np.flatnonzero(probe == nw // 2)
+                qvals[ok, known[0]] = self.box_integrals(quarters[ok], wo_norm[probe[known]])[:, 0]
+                diff = (
+                    np.abs(qvals[:, known[0]].reshape(4, n).sum(axis=0) - vals[:, nw // 2]) / total[nw // 2]
+                )
                 if float(diff.sum()) <= 0.2 * QUAD_TOL:
                     keep_b.append(boxes)
                     keep_v.append(vals)
                     break
-            qvals = np.zeros((4 * n, len(probe)))
-            qvals[ok] = self.box_integrals(quarters[ok], wo_norm[probe])
+            qvals[ok] = self.box_integrals_given(quarters[ok], wo_norm[probe], known, qvals[ok][:, known])
             est = np.max(np.abs(qvals.reshape(4, n, -1).sum(axis=0) - vals[:, probe]) / total[probe], axis=1)
             order = np.argsort(est)
             refine = np.ones(n, dtype=bool)
@@ -943,7 +957,7 @@ class _Builder:
             # the refined boxes' quarters, at every normalizer node, are the next level's boxes
             pick = (np.tile(refine, 4) & ok).nonzero()[0]
             boxes = np.ascontiguousarray(quarters[pick])
-            vals = qvals[pick] if len(probe) == nw else self.box_integrals(boxes, wo_norm)
+            vals = self.box_integrals_given(boxes, wo_norm, probe, qvals[pick])
             mass = np.tile(mass, 4)[pick]
         return np.ascontiguousarray(np.concatenate(keep_b)), np.concatenate(keep_v)
 
