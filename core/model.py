@@ -145,6 +145,13 @@ class Model:
             raise ValueError(f"model {self.name}: duplicate parameter names")
 
     @property
+    def id(self) -> int:
+        """The model's id in the compiled switch of :mod:`core.dispatch`."""
+        from core.dispatch import model_id
+
+        return model_id(self.name)
+
+    @property
     def isotropic(self) -> bool:
         return Traits.ISOTROPIC in self.traits
 
