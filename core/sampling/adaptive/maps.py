@@ -1,0 +1,127 @@
+"""From the tree's square to directions: the concentric map onto the unit disk, then a disk projection.
+
+The seed samples on the unit disk, whose area is the projected solid angle. Its quadtree covered the disk's
+bounding square and clipped every leaf to the disk ("improved area"), so rim leaves wasted trials and a leaf
+could not carry a density of its own (part of it lies outside the disk). Its own list of future work asks
+for an area-preserving mapping; Shirley & Chiu's concentric map (1997) is one: it sends the square
+``[0, 1]^2`` onto the unit disk with constant Jacobian ``pi``, continuously, so a quadtree over the square
+*is* a quadtree over the disk whose every leaf lies within it. Nothing is clipped, no trial falls outside, and
+a leaf can hold a bilinear density (the rejection-free mode).
+
+Two projections take a disk point ``X`` to a direction (both exact; a table picks one per node):
+
+============== ================== ======================================================================
+projection     ``|X|``            ``dA / d(omega)`` (the disk area per solid angle at ``wi``)
+============== ================== ======================================================================
+orthographic   ``sin(theta)``     ``cos(theta)`` (the seed's disk: area is the projected solid angle)
+equidistant    ``theta / (pi/2)`` ``theta / ((pi/2)^2 sin(theta))``: a ring of directions near the horizon
+                                  keeps its width, where the orthographic disk squeezes it by ``cos(theta)``
+============== ================== ======================================================================
+
+A density ``q`` on the square is a density ``q / pi`` on the disk and ``q / pi * dA/d(omega)`` per unit solid
+angle. The function the trees approximate is therefore ``g(s) = f(wo, wi) cos(theta_i) pi / (dA/d(omega))``,
+whose integral over the square is ``I(wo) = int f cos d(omega)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+PI = math.pi
+HALF_PI = 0.5 * math.pi
+QUARTER_PI = 0.25 * math.pi
+INV_PI = 1.0 / math.pi
+
+ORTHOGRAPHIC = 0
+EQUIDISTANT = 1
+PROJECTIONS = ("orthographic", "equidistant")
+
+
+@njit(inline="always", nogil=True, cache=True)
+def square_to_disk(a, b):
+    """Shirley-Chiu concentric map of ``(a, b)`` in ``[0, 1]^2`` onto the unit disk."""
+    u = 2.0 * a - 1.0
+    v = 2.0 * b - 1.0
+    if u == 0.0 and v == 0.0:
+        return 0.0, 0.0
+    if abs(u) > abs(v):
+        r = u
+        phi = QUARTER_PI * (v / u)
+    else:
+        r = v
+        phi = HALF_PI - QUARTER_PI * (u / v)
+    return r * math.cos(phi), r * math.sin(phi)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def disk_to_square(x, y):
+    """Inverse of :func:`square_to_disk` (points of the closed unit disk)."""
+    r = math.sqrt(x * x + y * y)
+    if r == 0.0:
+        return 0.5, 0.5
+    phi = math.atan2(y, x)  # (-pi, pi]
+    if phi < -QUARTER_PI:
+        phi += 2.0 * PI  # [-pi/4, 7pi/4)
+    if phi < QUARTER_PI:
+        u = r
+        v = phi / QUARTER_PI * r
+    elif phi < 3.0 * QUARTER_PI:
+        v = r
+        u = (HALF_PI - phi) / QUARTER_PI * r
+    elif phi < 5.0 * QUARTER_PI:
+        u = -r
+        v = (phi - PI) / QUARTER_PI * (-r)
+    else:
+        v = -r
+        u = (phi - 1.5 * PI) / QUARTER_PI * r
+    a = min(max(0.5 * (u + 1.0), 0.0), 1.0)
+    b = min(max(0.5 * (v + 1.0), 0.0), 1.0)
+    return a, b
+
+
+@njit(inline="always", nogil=True, cache=True)
+def disk_to_direction(x, y, projection):
+    """The direction of disk point ``(x, y)`` and ``dA/d(omega)`` there."""
+    r2 = x * x + y * y
+    if projection == ORTHOGRAPHIC:
+        z = math.sqrt(max(0.0, 1.0 - r2))
+        return x, y, z, z
+    r = math.sqrt(r2)
+    theta = r * HALF_PI
+    if r == 0.0:
+        return 0.0, 0.0, 1.0, 1.0 / (HALF_PI * HALF_PI)
+    s = math.sin(theta)
+    jac = theta / (HALF_PI * HALF_PI * s) if s > 0.0 else 0.0
+    return s * x / r, s * y / r, math.cos(theta), jac
+
+
+@njit(inline="always", nogil=True, cache=True)
+def direction_to_disk(wx, wy, wz, projection):
+    """The disk point of an upper-hemisphere direction and ``dA/d(omega)`` there."""
+    if projection == ORTHOGRAPHIC:
+        return wx, wy, max(wz, 0.0)
+    rho = math.sqrt(wx * wx + wy * wy)
+    theta = math.atan2(rho, wz)
+    r = theta / HALF_PI
+    if rho == 0.0:
+        return 0.0, 0.0, 1.0 / (HALF_PI * HALF_PI)
+    s = math.sin(theta)
+    jac = theta / (HALF_PI * HALF_PI * s) if s > 0.0 else 0.0
+    return r * wx / rho, r * wy / rho, jac
+
+
+@njit(inline="always", nogil=True, cache=True)
+def square_to_direction(a, b, projection):
+    """The direction of square point ``(a, b)`` and ``dA/d(omega)`` there."""
+    x, y = square_to_disk(a, b)
+    return disk_to_direction(x, y, projection)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def direction_to_square(wx, wy, wz, projection):
+    """The square point of an upper-hemisphere direction and ``dA/d(omega)`` there."""
+    x, y, jac = direction_to_disk(wx, wy, wz, projection)
+    a, b = disk_to_square(x, y)
+    return a, b, jac

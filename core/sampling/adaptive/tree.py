@@ -1,0 +1,543 @@
+"""One node's quadtree over the square: built in compiled code, in the three steps it takes.
+
+A tree serves the outgoing directions of one *cell* around its node (:mod:`core.sampling.adaptive.layout`).
+It is built from ``g`` (:mod:`core.sampling.adaptive.target`) sampled on each node's 3 x 3 *stencil*: the
+corners, the edges' midpoints and the centre of the node's square (Simpson's rule on the stencil gives the
+node's integral). The cell is represented by a few *views*: view 0 is the node itself; the others span the
+cell (its edges and the points between).
+
+1. :func:`grow` (the rejection-free density). Down to ``base_level`` every node splits; below, a leaf splits
+   while its share of the warp's relative variance, ``int_L (g - q)^2 / q`` with ``q`` the bilinear
+   interpolant of its corners, exceeds ``warp_tol * I``. The leaves' corner values (plus a floor of
+   ``FLOOR * I``, so that the density is positive wherever ``f`` can be) define a piecewise-bilinear density
+   with exact integrals: the rejection-free mode draws from it and its pdf is exact for its own samples.
+2. :func:`bound` (the seed's exact mode). Every leaf gets ``M_L >= g_view / c_view`` over the whole cell: the
+   largest value over its stencil at every view, plus a quarter of the largest second difference along a
+   line of the stencil (twice what a parabola through them rises between its points), plus the lobe's
+   *ridge*: the mirror direction of each view, and the peak of the node's ``g`` moved with it, clamped into
+   each leaf near them (a narrow lobe that moves across the cell passes there); then a safety factor. These
+   are checked, not proven: every trial with ``g > c M`` is counted at run time, and the test suite asserts
+   none (``tests/core/test_adaptive.py``).
+3. :func:`refine` (the seed's ``n_max``). While the envelope's mass ``V = sum area_L M_L`` (in units of the
+   normalizer, so the acceptance is ``1 / V`` at every view) exceeds ``n_max / (1 + ACCEPT_MARGIN)``, the leaves
+   with the largest excess ``V_L - I_L / c`` are split and bounded again. The seed asks it of every leaf
+   (``n_max I_L / V_L >= 1``); the mean number of trials only needs it of the sum, which takes fewer leaves.
+
+Nodes are created in order: the root is 0, a node's four children are contiguous and ordered
+``(x0, y0), (x0 + h, y0), (x0, y0 + h), (x0 + h, y0 + h)`` (``h`` half the parent's side).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from core.sampling.adaptive.maps import direction_to_square
+from core.sampling.adaptive.target import g_at
+
+FLOOR = 1e-3
+"""Share of the normalizer spread evenly over the square as the rejection-free density's floor: a feature
+that the stencils missed still gets a positive density (unbiased estimates), at 0.1 % of the samples."""
+
+BOUND_SAFETY = 1.05
+"""Factor on each leaf's bound (covers what lies between the stencils' points and the views)."""
+
+CURVATURE = 0.25
+"""A leaf's bound adds this times the largest second difference of a stencil (twice a parabola's rise)."""
+
+ACCEPT_MARGIN = 0.02
+"""The envelope aims at an acceptance of ``(1 + ACCEPT_MARGIN) / n_max``."""
+
+SIMPSON = np.array([1.0, 4.0, 1.0, 4.0, 16.0, 4.0, 1.0, 4.0, 1.0]) / 36.0
+CORNERS = (0, 2, 6, 8)
+
+
+class BuildSettings(NamedTuple):
+    """What a tree's construction is asked for (see the module docstring)."""
+
+    n_max: float
+    warp_tol: float
+    quad_tol: float
+    base_level: int
+    max_level: int
+    capacity: int
+    """Nodes a tree may have."""
+
+
+class TreeArrays(NamedTuple):
+    """A built tree in creation order (``n`` nodes, ``k`` leaves)."""
+
+    child: np.ndarray
+    """``(n,)`` int32: index of the first of a node's four children, or ``-1 - leaf`` for a leaf."""
+    x0: np.ndarray
+    """``(n,)`` float64: the node's lower-left corner on the square."""
+    y0: np.ndarray
+    level: np.ndarray
+    """``(n,)`` int32: depth (side ``2^-level``)."""
+    corners: np.ndarray
+    """``(k, 4)`` float64: the rejection-free density's values at the leaf's corners (floor included), in
+    the order of :data:`CORNERS`."""
+    bound: np.ndarray
+    """``(k,)`` float64: ``M_L``, a bound of ``g_view / c_view`` on the leaf for every view of the cell."""
+    integrals: np.ndarray
+    """``(n_views,)``: ``I`` of every view by Simpson's rule over the leaves."""
+    errors: np.ndarray
+    """``(n_views,)``: estimated quadrature error of ``integrals`` (Simpson against the leaves' trapezoids)."""
+    chi2: np.ndarray
+    """``(n_views,)``: the rejection-free density's chi^2 divergence from ``g_view / I_view``: the relative
+    variance of its weight in a furnace, were this tree alone to serve the view."""
+    envelope: float
+    """``V``: the envelope's mass in units of the normalizer (the exact mode's acceptance is ``1 / V``)."""
+    evaluations: int
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _point(x0, y0, h, k):
+    """Square coordinates of stencil point ``k`` of the node ``(x0, y0, h)``."""
+    return x0 + 0.5 * h * (k % 3), y0 + 0.5 * h * (k // 3)
+
+
+@njit(nogil=True, cache=True)
+def _stencil(mid, p, projection, view, x0, y0, h, out):
+    for k in range(9):
+        a, b = _point(x0, y0, h, k)
+        out[k] = g_at(mid, p, a, b, projection, view)
+
+
+@njit(nogil=True, cache=True)
+def _child_stencil(mid, p, projection, view, parent, q, x0, y0, h, out):
+    """The stencil of child ``q`` from its parent's (corners) and five new evaluations (the odd points)."""
+    qi = q % 2
+    qj = q // 2
+    for k in range(9):
+        i = k % 3
+        j = k // 3
+        if i % 2 == 0 and j % 2 == 0:
+            out[k] = parent[(qj + j // 2) * 3 + qi + i // 2]
+        else:
+            a, b = _point(x0, y0, h, k)
+            out[k] = g_at(mid, p, a, b, projection, view)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _bilinear_at_stencil(st, k, floor):
+    """The bilinear interpolant of the stencil's corners (each plus ``floor``) at stencil point ``k``."""
+    i = k % 3
+    j = k // 3
+    tx = 0.5 * i
+    ty = 0.5 * j
+    return (
+        (1.0 - tx) * (1.0 - ty) * (st[0] + floor)
+        + tx * (1.0 - ty) * (st[2] + floor)
+        + (1.0 - tx) * ty * (st[6] + floor)
+        + tx * ty * (st[8] + floor)
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _on_diagonal(x0, y0, h):
+    """Whether a diagonal of the square crosses the node (along the node's own diagonal): there the
+    concentric map, hence ``g``, has a kink."""
+    return x0 == y0 or x0 + y0 + h == 1.0
+
+
+@njit(nogil=True, cache=True)
+def _rule(st, x0, y0, h):
+    """The integral of ``g`` over the node from its stencil: Simpson's rule, or where a diagonal of the square
+    crosses the node, the quadratic rule on each of the two triangles it makes (their edges' midpoints are
+    stencil points), which the kink along the diagonal does not spoil."""
+    area = h * h
+    if _on_diagonal(x0, y0, h):
+        return area / 6.0 * (st[1] + st[3] + st[5] + st[7] + 2.0 * st[4])
+    s = 0.0
+    for k in range(9):
+        s += SIMPSON[k] * st[k]
+    return s * area
+
+
+@njit(nogil=True, cache=True)
+def _trapezoids(st, area):
+    """The four quarter-squares' trapezoid rules (what the stencil gives without Simpson's weights)."""
+    s = st[0] + st[2] + st[6] + st[8] + 2.0 * (st[1] + st[3] + st[5] + st[7]) + 4.0 * st[4]
+    return s * area / 16.0
+
+
+@njit(nogil=True, cache=True)
+def _warp_error(st, area, floor):
+    """``int_L (g - q)^2 / q`` by Simpson's rule on the stencil (``q`` the corners' bilinear interpolant)."""
+    e = 0.0
+    for k in range(9):
+        if k == 0 or k == 2 or k == 6 or k == 8:
+            continue
+        q = _bilinear_at_stencil(st, k, floor)
+        d = st[k] + floor - q
+        e += SIMPSON[k] * d * d / q
+    return e * area
+
+
+@njit(nogil=True, cache=True)
+def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
+    """Split leaf ``i`` into nodes ``n .. n + 3`` (node-view stencils included); returns the new count."""
+    h = 0.5 ** (level[i] + 1)
+    child[i] = n
+    for q in range(4):
+        c = n + q
+        x0[c] = x0[i] + h * (q % 2)
+        y0[c] = y0[i] + h * (q // 2)
+        level[c] = level[i] + 1
+        child[c] = -1
+        _child_stencil(mid, p, projection, view, st[i], q, x0[c], y0[c], h, st[c])
+    return n + 4
+
+
+@njit(nogil=True, cache=True)
+def grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y0, level, st):
+    """Step 1: the tree's shape for the rejection-free density; returns ``(nodes, integral, evaluations)``."""
+    cap = child.shape[0]
+    x0[0] = 0.0
+    y0[0] = 0.0
+    level[0] = 0
+    child[0] = -1
+    _stencil(mid, p, projection, view, 0.0, 0.0, 1.0, st[0])
+    n = 1
+    evals = 9
+    i = 0
+    while i < n:  # the uniform levels, breadth first
+        if level[i] < base_level and n + 4 <= cap:
+            n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
+            evals += 20
+        i += 1
+    integral = 0.0
+    for i in range(n):
+        if child[i] == -1:
+            integral += _rule(st[i], x0[i], y0[i], 0.5 ** level[i])
+    floor = FLOOR * integral
+    i = 0
+    while i < n:  # refinement: children are appended, so one pass reaches them
+        if child[i] == -1 and level[i] < max_level and n + 4 <= cap:
+            area = 0.25 ** level[i]
+            if _warp_error(st[i], area, floor) > warp_tol * integral:
+                n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
+                evals += 20
+        i += 1
+    integral = 0.0
+    for i in range(n):
+        if child[i] == -1:
+            integral += _rule(st[i], x0[i], y0[i], 0.5 ** level[i])
+    return n, integral, evals
+
+
+@njit(nogil=True, cache=True)
+def _max_curvature(st):
+    """The largest second difference along the stencil's rows, columns and diagonals: a function resolved
+    by the stencil rises between two of its points by at most an eighth of it (a parabola's)."""
+    d = 0.0
+    for j in range(3):
+        d = max(d, abs(st[j * 3] - 2.0 * st[j * 3 + 1] + st[j * 3 + 2]))
+    for i in range(3):
+        d = max(d, abs(st[i] - 2.0 * st[3 + i] + st[6 + i]))
+    d = max(d, abs(st[0] - 2.0 * st[4] + st[8]))
+    d = max(d, abs(st[2] - 2.0 * st[4] + st[6]))
+    return d
+
+
+@njit(nogil=True, cache=True)
+def _leaf_bound(mid, p, projection, views, scales, ridge, i, x0, y0, level, stv):
+    """``M_L`` of node ``i`` (its stencils at every view must be in ``stv[i]``); returns ``(M, evaluations)``."""
+    h = 0.5 ** level[i]
+    m = 0.0
+    for v in range(views.shape[0]):
+        st = stv[i, v]
+        top = 0.0
+        for k in range(9):
+            top = max(top, st[k])
+        m = max(m, (top + CURVATURE * _max_curvature(st)) * scales[v])
+    evals = 0
+    lo_x = x0[i] - h
+    hi_x = x0[i] + 2.0 * h
+    lo_y = y0[i] - h
+    hi_y = y0[i] + 2.0 * h
+    for r in range(ridge.shape[0]):
+        v = int(ridge[r, 2])
+        a = ridge[r, 0]
+        b = ridge[r, 1]
+        if a < lo_x or a > hi_x or b < lo_y or b > hi_y:
+            continue
+        a = min(max(a, x0[i]), x0[i] + h)
+        b = min(max(b, y0[i]), y0[i] + h)
+        m = max(m, g_at(mid, p, a, b, projection, views[v]) * scales[v])
+        evals += 1
+    return m * BOUND_SAFETY, evals
+
+
+@njit(nogil=True, cache=True)
+def _ridge(projection, views, child, x0, y0, level, st, n):
+    """Ridge points ``(r, 3)``: ``(a, b, view)`` of each view's mirror direction, and of the node view's peak
+    moved with it."""
+    # the peak of g at the node view, among the stencils' points
+    best = -1.0
+    pa = 0.5
+    pb = 0.5
+    for i in range(n):
+        if child[i] != -1:
+            continue
+        h = 0.5 ** level[i]
+        for k in range(9):
+            if st[i, k] > best:
+                best = st[i, k]
+                pa, pb = _point(x0[i], y0[i], h, k)
+    ma0, mb0, _ = direction_to_square(-views[0, 0], -views[0, 1], views[0, 2], projection)
+    da = pa - ma0
+    db = pb - mb0
+    out = np.empty((2 * views.shape[0], 3))
+    for v in range(views.shape[0]):
+        ma, mb, _ = direction_to_square(-views[v, 0], -views[v, 1], views[v, 2], projection)
+        out[2 * v, 0] = ma
+        out[2 * v, 1] = mb
+        out[2 * v, 2] = v
+        out[2 * v + 1, 0] = min(max(ma + da, 0.0), 1.0)
+        out[2 * v + 1, 1] = min(max(mb + db, 0.0), 1.0)
+        out[2 * v + 1, 2] = v
+    return out
+
+
+@njit(nogil=True, cache=True)
+def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
+    """Node ``i``'s stencils at every view (view 0's is ``st[i]``); returns the evaluations made."""
+    h = 0.5 ** level[i]
+    for k in range(9):
+        stv[i, 0, k] = st[i, k]
+    for v in range(1, views.shape[0]):
+        _stencil(mid, p, projection, views[v], x0[i], y0[i], h, stv[i, v])
+    return 9 * (views.shape[0] - 1)
+
+
+@njit(nogil=True, cache=True)
+def bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m):
+    """Step 2: every leaf's stencils at every view, the views' integrals, and every leaf's bound ``m``.
+
+    Returns ``(scales, ridge, evaluations)``: ``scales[v] = 1 / I_v`` (the bounds are on ``g_v / I_v``)."""
+    evals = 0
+    nv = views.shape[0]
+    integral = np.zeros(nv)
+    for i in range(n):
+        if child[i] == -1:
+            evals += _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv)
+            area = 0.25 ** level[i]
+            for v in range(nv):
+                integral[v] += _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
+    scales = np.zeros(nv)
+    for v in range(nv):
+        scales[v] = 1.0 / integral[v] if integral[v] > 0.0 else 0.0
+    ridge = _ridge(projection, views, child, x0, y0, level, st, n)
+    for i in range(n):
+        if child[i] == -1:
+            m[i], e = _leaf_bound(mid, p, projection, views, scales, ridge, i, x0, y0, level, stv)
+            evals += e
+    return scales, ridge, evals
+
+
+@njit(nogil=True, cache=True)
+def refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child, x0, y0, level, st, stv, m):
+    """Step 3: split the leaves with the largest excess until ``V <= n_max / (1 + ACCEPT_MARGIN)``.
+
+    Returns ``(nodes, V, evaluations)``."""
+    cap = child.shape[0]
+    target = n_max / (1.0 + ACCEPT_MARGIN)
+    evals = 0
+    excess = np.zeros(cap)
+    for _ in range(64):
+        total = 0.0
+        worst = 0.0
+        for i in range(n):
+            excess[i] = 0.0
+            if child[i] == -1:
+                area = 0.25 ** level[i]
+                vol = area * m[i]
+                total += vol
+                if level[i] < max_level:
+                    excess[i] = vol - _rule(st[i], x0[i], y0[i], 0.5 ** level[i]) * scales[0]
+                    worst = max(worst, excess[i])
+        if total <= target or worst <= 0.0:
+            return n, total, evals
+        # split the leaves within a factor 4 of the worst excess (at least the worst), as room allows
+        limit = 0.25 * worst
+        end = n
+        for i in range(end):
+            if child[i] == -1 and excess[i] >= limit and n + 4 <= cap:
+                n = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
+                evals += 20
+                for c in range(n - 4, n):
+                    evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
+                    m[c], e = _leaf_bound(mid, p, projection, views, scales, ridge, c, x0, y0, level, stv)
+                    evals += e
+        if n == end:
+            break
+    total = 0.0
+    for i in range(n):
+        if child[i] == -1:
+            total += 0.25 ** level[i] * m[i]
+    return n, total, evals
+
+
+@njit(nogil=True, cache=True)
+def quadrature(mid, p, projection, views, scales, ridge, quad_tol, max_level, n, child, x0, y0, level, st,
+               stv, m, fine, fine_err):  # fmt: skip
+    """Step 4: the node view's integral, leaf by leaf, to ``quad_tol`` (relative, per leaf).
+
+    Every leaf is split on trial: the rule on its four children against its own estimates the error (a
+    Richardson step). Where that error is above ``quad_tol * I``, the children are kept (and bounded, and
+    tried in turn); elsewhere they are dropped, and the leaf keeps the children's extrapolated estimate in
+    ``fine`` and the error in ``fine_err``. Returns ``(nodes, evaluations)``."""
+    cap = child.shape[0]
+    evals = 0
+    total = 0.0
+    for i in range(n):
+        if child[i] == -1:
+            total += _rule(st[i], x0[i], y0[i], 0.5 ** level[i])
+    tol = quad_tol * total
+    i = 0
+    while i < n:
+        if child[i] != -1:
+            i += 1
+            continue
+        h = 0.5 ** level[i]
+        coarse = _rule(st[i], x0[i], y0[i], h)
+        fine[i] = coarse
+        fine_err[i] = 0.0
+        if level[i] >= max_level or n + 4 > cap:
+            i += 1
+            continue
+        end = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
+        evals += 20
+        s = 0.0
+        for c in range(n, end):
+            s += _rule(st[c], x0[c], y0[c], 0.5 * h)
+        # Richardson's divisor 2^k - 1 for a rule of order k: 4 inside, 3 on the diagonals' kink; at the
+        # square's edge (the horizon) g may behave like (pi/2 - theta)^a, a < 1 (Minnaert, Phong's cut-off
+        # lobes), where no order can be assumed, so the difference itself is the error there
+        if x0[i] == 0.0 or y0[i] == 0.0 or x0[i] + h == 1.0 or y0[i] + h == 1.0:
+            order = 1.0
+        elif _on_diagonal(x0[i], y0[i], h):
+            order = 7.0
+        else:
+            order = 15.0
+        err = abs(s - coarse) / order
+        if err > tol:
+            for c in range(n, end):
+                evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
+                m[c], e = _leaf_bound(mid, p, projection, views, scales, ridge, c, x0, y0, level, stv)
+                evals += e
+            n = end
+        else:
+            child[i] = -1
+            fine[i] = s + (s - coarse) / order
+            fine_err[i] = err
+        i += 1
+    return n, evals
+
+
+@njit(nogil=True, cache=True)
+def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
+    """Leaf numbering, corner values, the views' integrals, errors and chi^2, and the envelope."""
+    nv = stv.shape[1]
+    floor = FLOOR * integral0
+    k = 0
+    for i in range(n):
+        if child[i] < 0:
+            child[i] = -1 - k
+            k += 1
+    corners = np.empty((k, 4))
+    bounds = np.empty(k)
+    integrals = np.zeros(nv)
+    trapezoids = np.zeros(nv)
+    errors = np.zeros(nv)
+    mass = 0.0
+    envelope = 0.0
+    for i in range(n):
+        if child[i] >= 0:
+            continue
+        leaf = -1 - child[i]
+        area = 0.25 ** level[i]
+        for c in range(4):
+            corners[leaf, c] = st[i, CORNERS[c]] + floor
+        bounds[leaf] = m[i]
+        mass += area * 0.25 * (corners[leaf, 0] + corners[leaf, 1] + corners[leaf, 2] + corners[leaf, 3])
+        envelope += area * m[i]
+        integrals[0] += fine[i]
+        errors[0] += fine_err[i]
+        for v in range(1, nv):
+            s = _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
+            t = _trapezoids(stv[i, v], area)
+            integrals[v] += s
+            errors[v] += abs(s - t)
+    # chi^2 of g_v / I_v against the bilinear density q = bilinear / mass, by Simpson on the stencils
+    chi2 = np.zeros(nv)
+    for i in range(n):
+        if child[i] >= 0:
+            continue
+        area = 0.25 ** level[i]
+        for v in range(nv):
+            if integrals[v] <= 0.0:
+                continue
+            acc = 0.0
+            for kk in range(9):
+                q = _bilinear_at_stencil(st[i], kk, floor) / mass
+                g = stv[i, v, kk] / integrals[v]
+                acc += SIMPSON[kk] * g * g / q
+            chi2[v] += acc * area
+    for v in range(nv):
+        chi2[v] = max(chi2[v] - 1.0, 0.0)
+    return corners, bounds, integrals, errors, chi2, envelope
+
+
+@njit(nogil=True, cache=True)
+def build(mid, p, projection, views, n_max, warp_tol, quad_tol, base_level, max_level, capacity):
+    """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there)."""
+    child = np.empty(capacity, dtype=np.int32)
+    x0 = np.empty(capacity)
+    y0 = np.empty(capacity)
+    level = np.empty(capacity, dtype=np.int32)
+    st = np.zeros((capacity, 9))
+    stv = np.zeros((capacity, views.shape[0], 9))
+    m = np.zeros(capacity)
+    n, integral0, evals = grow(mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0,
+                               level, st)  # fmt: skip
+    scales, ridge, e = bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m)
+    evals += e
+    n, envelope, e = refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child, x0, y0,
+                            level, st, stv, m)  # fmt: skip
+    evals += e
+    fine = np.zeros(capacity)
+    fine_err = np.zeros(capacity)
+    n, e = quadrature(mid, p, projection, views, scales, ridge, quad_tol, max_level, n, child, x0, y0, level,
+                      st, stv, m, fine, fine_err)  # fmt: skip
+    evals += e
+    corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
+                                                                   fine_err, integral0)  # fmt: skip
+    return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,
+            errors, chi2, envelope, evals)  # fmt: skip
+
+
+def build_tree(
+    mid: int, p: np.ndarray, projection: int, views: np.ndarray, settings: BuildSettings
+) -> TreeArrays:
+    """One node's tree (``views[0]`` is the node; the others span its cell)."""
+    out = build(
+        int(mid), np.ascontiguousarray(p, dtype=np.float64), int(projection),
+        np.ascontiguousarray(views, dtype=np.float64), float(settings.n_max), float(settings.warp_tol),
+        float(settings.quad_tol),
+        int(settings.base_level), int(settings.max_level), int(settings.capacity),
+    )  # fmt: skip
+    return TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
+
+
+def acceptance(tree: TreeArrays) -> float:
+    return 1.0 / tree.envelope if tree.envelope > 0.0 else 0.0
+
+
+def relative_std(chi2: float) -> float:
+    return math.sqrt(max(chi2, 0.0))
