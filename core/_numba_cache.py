@@ -1,84 +1,196 @@
-"""Where numba keeps compiled functions on disk: a folder per version of the source tree.
+"""Where numba keeps compiled functions on disk, and when a stored compile is stale.
 
-numba checks a cached function against the modification time of *its own* file only. A model's ``eval``
-cached in ``core/models/__pycache__`` is therefore reused after an edit of a helper it calls in another file
-(``core/models/_fresnel.py``, ``core/geometry.py``): the process silently runs the old code. Seen on
-2026-11-22: after a faster conductor Fresnel, GGX's ``eval`` still ran the old one (191 ns a call against
-105 ns once its cache was cleared).
+numba checks a cached function against *its own* file only (a hash of its bytes). A model's ``eval`` cached
+after an edit of a helper it calls in another file (``core/models/_fresnel.py``, ``core/geometry.py``) was
+therefore reused: the process silently ran the old code (seen on 2026-11-22: after a faster conductor
+Fresnel, GGX's ``eval`` still ran the old one, 191 ns a call against 105 ns once its cache was cleared).
+The first fix keyed the whole cache folder by a hash of every source file, so that any edit anywhere
+recompiled everything (minutes on two cores).
 
-So every ``cache=True`` function of the distribution is cached under a folder named by a hash of all its
-Python sources (``core``, ``renderer``: the packages with compiled code) and of the numba and Python
-versions: any edit starts a new folder, and a stale compile can never be loaded. The folder lives in
-``$BRDF_STUDIO_NUMBA_CACHE`` (default ``~/.cache/brdf-studio/numba``); the four most recently used versions
-are kept. If the folder cannot be written, numba's default (next to the sources) is left in place.
+Here each function's stored compile is stamped with a hash of its *import closure*: its own file and every
+file of ``core`` and ``renderer`` that file imports, directly or through others (read from the import
+statements a module runs when imported: jitted code cannot import inside a function). An edit invalidates exactly the compiles that can have seen it: editing
+the adaptive sampler's ``draw.py`` leaves every model's kernels, the renderer's and the sampler's own
+construction cached; editing ``_fresnel.py`` recompiles the models that import it and everything built on
+them. The folder is ``$BRDF_STUDIO_NUMBA_CACHE`` (default ``~/.cache/brdf-studio/numba``); a stale entry is
+overwritten in place by numba. If the folder cannot be written, numba's default (next to the sources) is
+left in place.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import os
-import shutil
 import sys
 from functools import lru_cache
 from pathlib import Path
 
 PACKAGES = ("core", "renderer")
-KEEP = 4
+ROOT = Path(__file__).resolve().parent.parent
+"""The folder holding the packages."""
 
 _configured: Path | None = None
 
 
-@lru_cache(maxsize=1)
-def source_hash() -> str:
-    """:func:`tree_hash` of this installation, read once per process. Also the key of whatever else is derived
-    from the code: the generated kernel modules (:mod:`core.specialize`) and the adaptive sampler's stored
-    trees (:mod:`core.quadtree_table`: a model's ``eval`` or a helper it calls changes them)."""
-    return tree_hash(Path(__file__).resolve().parent.parent)
+def module_file(name: str, root: Path = ROOT) -> Path | None:
+    """The source file of module ``name`` (``core.models.ggx``) under ``root``, or ``None``."""
+    parts = name.split(".")
+    if parts[0] not in PACKAGES:
+        return None
+    base = root.joinpath(*parts)
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
 
 
-def tree_hash(root: Path) -> str:
-    """Hash of every ``.py`` file of the distribution's packages under ``root`` (the folder holding ``core``)
-    and of the numba and Python versions."""
+def _module_name(path: Path, root: Path) -> str:
+    rel = path.relative_to(root).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _top_level_imports(body: list[ast.stmt]) -> list[ast.Import | ast.ImportFrom]:
+    """The import statements a module runs when imported (not those inside functions, which jitted code
+    cannot make, nor ``if TYPE_CHECKING:`` blocks)."""
+    out: list[ast.Import | ast.ImportFrom] = []
+    for node in body:
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            out.append(node)
+        elif isinstance(node, ast.If):
+            if not (isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING"):
+                out += _top_level_imports(node.body) + _top_level_imports(node.orelse)
+        elif isinstance(node, ast.Try):
+            out += _top_level_imports(node.body)
+            for handler in node.handlers:
+                out += _top_level_imports(handler.body)
+    return out
+
+
+def imported_files(path: Path, root: Path = ROOT) -> set[Path]:
+    """The files of ``core``/``renderer`` that the source at ``path`` imports when it is imported (one
+    step; the modules named, not their packages' ``__init__``, which only re-export)."""
+    try:
+        tree = ast.parse(path.read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return set()
+    package = _module_name(path, root)
+    if path.name != "__init__.py":
+        package = package.rpartition(".")[0]
+    out: set[Path] = set()
+
+    def add(name: str) -> None:
+        f = module_file(name, root)
+        if f is not None:
+            out.add(f)
+
+    for node in _top_level_imports(tree.body):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                add(alias.name)
+        else:
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1] if node.level > 1 else base
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            add(mod)
+            for alias in node.names:  # "from core import merl" imports the module core.merl
+                add(f"{mod}.{alias.name}")
+    out.discard(path)
+    return out
+
+
+def import_closure(path: Path, root: Path = ROOT) -> list[Path]:
+    """``path`` and every file of the packages it imports, transitively, sorted."""
+    seen = {path}
+    todo = [path]
+    while todo:
+        for f in imported_files(todo.pop(), root):
+            if f not in seen:
+                seen.add(f)
+                todo.append(f)
+    return sorted(seen)
+
+
+@lru_cache(maxsize=None)
+def closure_hash(path: str) -> bytes:
+    """Hash of the import closure of the source file ``path`` and of the numba and Python versions (read
+    once per process: the sources of a running process do not change)."""
     import numba
 
     h = hashlib.sha256()
-    for package in PACKAGES:
-        for path in sorted((root / package).rglob("*.py")):
-            h.update(str(path.relative_to(root)).encode())
-            h.update(path.read_bytes())
+    for f in import_closure(Path(path).resolve()):
+        h.update(str(f.relative_to(ROOT)).encode() if f.is_relative_to(ROOT) else str(f).encode())
+        h.update(f.read_bytes())
     h.update(numba.__version__.encode())
     h.update(sys.version.encode())
-    return h.hexdigest()[:20]
+    return h.digest()
+
+
+def _inside(py_file: str) -> bool:
+    try:
+        rel = Path(py_file).resolve().relative_to(ROOT)
+    except ValueError:
+        return False
+    return rel.parts[0] in PACKAGES
+
+
+def _install_locator() -> None:
+    """Put a locator in front of numba's own: the user-provided folder, stamped by the import closure."""
+    from numba.core import caching
+
+    class ClosureLocator(caching.UserProvidedCacheLocator):
+        """numba's locator for ``numba.config.CACHE_DIR``, whose source stamp is the import closure's hash
+        instead of the function's own file's."""
+
+        def get_source_stamp(self):  # type: ignore[no-untyped-def]
+            return closure_hash(str(self._py_file))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):  # type: ignore[no-untyped-def]
+            if not _inside(py_file):
+                return None
+            return super().from_function(py_func, py_file)
+
+    classes = caching.CacheImpl._locator_classes
+    if not any(c.__name__ == "ClosureLocator" for c in classes):
+        classes.insert(0, ClosureLocator)
 
 
 def configure() -> Path | None:
-    """Point numba's cache at this source version's folder (once per process); returns it, or ``None`` when
-    it cannot be written."""
+    """Point numba's cache at our folder and stamp our functions by their import closure (once per
+    process); returns the folder, or ``None`` when it cannot be written."""
     global _configured
     if _configured is not None:
         return _configured
     import numba
 
     env = os.environ.get("BRDF_STUDIO_NUMBA_CACHE")
-    base = Path(env) if env else Path.home() / ".cache" / "brdf-studio" / "numba"
-    folder = base / source_hash()
+    folder = Path(env) if env else Path.home() / ".cache" / "brdf-studio" / "numba"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        os.utime(folder)  # marks it as recently used, for the pruning below
+        probe = folder / f".probe-{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
     except OSError:
         return None
     numba.config.CACHE_DIR = str(folder)
+    _install_locator()
     _configured = folder
-    _prune(base, folder)
     return folder
 
 
-def _prune(base: Path, current: Path) -> None:
-    """Remove all but the ``KEEP`` most recently used version folders (never the current one)."""
-    try:
-        others = [p for p in base.iterdir() if p.is_dir() and p != current]
-        others.sort(key=lambda p: p.stat().st_mtime, reverse=True)
-    except OSError:
-        return
-    for old in others[KEEP - 1 :]:
-        shutil.rmtree(old, ignore_errors=True)
+@lru_cache(maxsize=1)
+def source_hash() -> str:
+    """Hash of every source file of the packages (the old adaptive sampler's keys; to be removed with it)."""
+    h = hashlib.sha256()
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            h.update(str(path.relative_to(ROOT)).encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:20]

@@ -46,9 +46,12 @@ def make_views(thetas: np.ndarray, phis: np.ndarray) -> np.ndarray:
     return np.array(rows, dtype=np.float64).reshape(-1, 6)
 
 
-@njit(inline="always", nogil=True, cache=True)
+@njit(nogil=True, cache=True)
 def g_at(mid, p, a, b, projection, view):
-    """``g`` of the view at square point ``(a, b)`` (not divided by the view's scale)."""
+    """``g`` of the view at square point ``(a, b)`` (not divided by the view's scale).
+
+    Not inlined into its callers: the model switch it holds is then compiled once for all of them (the
+    construction's compile time is the switch's, times the number of functions that inline it)."""
     x, y, z, jac = square_to_direction(a, b, projection)
     if projection == ORTHOGRAPHIC:
         if z < RIM_Z:  # the square's edge is the disk's rim: take the limit of f there, not f's 0 below it

@@ -383,68 +383,107 @@ def refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child,
     return n, total, evals
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _richardson_divisor(x0, y0, h):
+    """``2^k - 1`` for a rule of order ``k`` on this node: 4 inside, 3 on the diagonals' kink, 2 at the
+    square's edge (the horizon), where ``g`` may behave like ``(pi/2 - theta)^a`` with ``a < 1`` (Minnaert's
+    ``cos^k``: order ``1 + k``)."""
+    if x0 == 0.0 or y0 == 0.0 or x0 + h == 1.0 or y0 + h == 1.0:
+        return 3.0
+    if _on_diagonal(x0, y0, h):
+        return 7.0
+    return 15.0
+
+
 @njit(nogil=True, cache=True)
-def quadrature(mid, p, projection, views, scales, ridge, quad_tol, max_level, n, child, x0, y0, level, st,
-               stv, m, fine, fine_err):  # fmt: skip
-    """Step 4: the node view's integral, leaf by leaf, to ``quad_tol`` (relative, per leaf).
+def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_level):
+    """The rule on leaf ``i``'s four children (made in slots ``n .. n + 3`` and dropped again): returns the
+    extrapolated integral, its estimated error and the evaluations made."""
+    h = 0.5 ** level[i]
+    coarse = _rule(st[i], x0[i], y0[i], h)
+    if level[i] >= max_level or n + 4 > child.shape[0]:
+        return coarse, 0.0, 0
+    end = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
+    s = 0.0
+    for c in range(n, end):
+        s += _rule(st[c], x0[c], y0[c], 0.5 * h)
+    child[i] = -1
+    divisor = _richardson_divisor(x0[i], y0[i], h)
+    return s + (s - coarse) / divisor, abs(s - coarse) / divisor, 20
+
+
+@njit(nogil=True, cache=True)
+def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, level, st, fine, fine_err):
+    """Step 4: the node view's integral to ``quad_tol`` (relative, the whole square), in cells below the
+    sampling tree's leaves (the caller folds them back into their leaf: they are not stored).
 
     Every leaf is split on trial: the rule on its four children against its own estimates the error (a
-    Richardson step). Where that error is above ``quad_tol * I``, the children are kept (and bounded, and
-    tried in turn); elsewhere they are dropped, and the leaf keeps the children's extrapolated estimate in
-    ``fine`` and the error in ``fine_err``. Returns ``(nodes, evaluations)``."""
+    Richardson step) and gives a better integral (``fine``, error ``fine_err``). While the errors add up to
+    more than ``quad_tol * I``, the cells with the largest errors are split for good and tried in turn: the
+    fewest cells that reach the tolerance. Returns ``(nodes, evaluations)``."""
     cap = child.shape[0]
     evals = 0
-    total = 0.0
-    for i in range(n):
-        if child[i] == -1:
-            total += _rule(st[i], x0[i], y0[i], 0.5 ** level[i])
-    tol = quad_tol * total
-    i = 0
-    while i < n:
-        if child[i] != -1:
-            i += 1
-            continue
-        h = 0.5 ** level[i]
-        coarse = _rule(st[i], x0[i], y0[i], h)
-        fine[i] = coarse
-        fine_err[i] = 0.0
-        if level[i] >= max_level or n + 4 > cap:
-            i += 1
-            continue
-        end = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
-        evals += 20
-        s = 0.0
-        for c in range(n, end):
-            s += _rule(st[c], x0[c], y0[c], 0.5 * h)
-        # Richardson's divisor 2^k - 1 for a rule of order k: 4 inside, 3 on the diagonals' kink; at the
-        # square's edge (the horizon) g may behave like (pi/2 - theta)^a, a < 1 (Minnaert, Phong's cut-off
-        # lobes), where no order can be assumed, so the difference itself is the error there
-        if x0[i] == 0.0 or y0[i] == 0.0 or x0[i] + h == 1.0 or y0[i] + h == 1.0:
-            order = 1.0
-        elif _on_diagonal(x0[i], y0[i], h):
-            order = 7.0
-        else:
-            order = 15.0
-        err = abs(s - coarse) / order
-        if err > tol:
-            for c in range(n, end):
-                evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
-                m[c], e = _leaf_bound(mid, p, projection, views, scales, ridge, c, x0, y0, level, stv)
+    known = np.zeros(cap, dtype=np.bool_)
+    errs = np.zeros(cap)
+    for _ in range(48):
+        total = 0.0
+        err = 0.0
+        for i in range(n):
+            if child[i] != -1:
+                continue
+            if not known[i]:
+                fine[i], fine_err[i], e = _trial_split(mid, p, projection, view, i, n, child, x0, y0, level,
+                                                       st, max_level)  # fmt: skip
                 evals += e
-            n = end
-        else:
-            child[i] = -1
-            fine[i] = s + (s - coarse) / order
-            fine_err[i] = err
-        i += 1
+                known[i] = True
+            total += fine[i]
+            err += fine_err[i]
+        excess = err - 0.5 * quad_tol * total
+        if err <= quad_tol * total or excess <= 0.0:
+            break
+        k = 0
+        for i in range(n):
+            errs[i] = fine_err[i] if child[i] == -1 else 0.0
+        order = np.argsort(-errs[:n])
+        removed = 0.0
+        end = n
+        for r in range(end):
+            i = order[r]
+            if removed >= excess or errs[i] <= 0.0 or n + 4 > cap or level[i] >= max_level:
+                break
+            n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
+            evals += 20
+            removed += errs[i]
+            k += 1
+        if k == 0:
+            break
+    for i in range(n):  # leaves split in the last round
+        if child[i] == -1 and not known[i]:
+            fine[i], fine_err[i], e = _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st,
+                                                   max_level)  # fmt: skip
+            evals += e
     return n, evals
+
+
+@njit(nogil=True, cache=True)
+def _fold_quadrature(n_keep, n, child, fine, fine_err):
+    """Fold the quadrature's cells (nodes ``n_keep ..``) into the sampling tree's leaves: a leaf's ``fine``
+    becomes the sum over its cells; the leaves are made leaves again."""
+    for i in range(n - 1, -1, -1):
+        c = child[i]
+        if c >= 0 and c >= n_keep:
+            fine[i] = fine[c] + fine[c + 1] + fine[c + 2] + fine[c + 3]
+            fine_err[i] = fine_err[c] + fine_err[c + 1] + fine_err[c + 2] + fine_err[c + 3]
+    for i in range(n_keep):
+        if child[i] >= n_keep:
+            child[i] = -1
 
 
 @njit(nogil=True, cache=True)
 def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
     """Leaf numbering, corner values, the views' integrals, errors and chi^2, and the envelope."""
     nv = stv.shape[1]
-    floor = FLOOR * integral0
+    floor = FLOOR * integral0 if integral0 > 0.0 else 1.0
     k = 0
     for i in range(n):
         if child[i] < 0:
@@ -453,7 +492,6 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
     corners = np.empty((k, 4))
     bounds = np.empty(k)
     integrals = np.zeros(nv)
-    trapezoids = np.zeros(nv)
     errors = np.zeros(nv)
     mass = 0.0
     envelope = 0.0
@@ -513,9 +551,12 @@ def build(mid, p, projection, views, n_max, warp_tol, quad_tol, base_level, max_
     evals += e
     fine = np.zeros(capacity)
     fine_err = np.zeros(capacity)
-    n, e = quadrature(mid, p, projection, views, scales, ridge, quad_tol, max_level, n, child, x0, y0, level,
-                      st, stv, m, fine, fine_err)  # fmt: skip
+    n_keep = n
+    n, e = quadrature(mid, p, projection, views[0], quad_tol, max_level, n, child, x0, y0, level, st, fine,
+                      fine_err)  # fmt: skip
     evals += e
+    _fold_quadrature(n_keep, n, child, fine, fine_err)
+    n = n_keep
     corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
                                                                    fine_err, integral0)  # fmt: skip
     return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,

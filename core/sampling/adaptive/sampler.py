@@ -1,0 +1,294 @@
+"""``adaptive`` and ``adaptive_warp``: the adaptive quadtree sampler behind the common sampler interface.
+
+``make_sampler("adaptive", brdf, n_max=2.0)`` is the seed's exact mode: the density of its samples is
+exactly ``f cos / I(wo)`` (luminance), so ``f cos / pdf`` is the same for every sample.
+``make_sampler("adaptive_warp", brdf)`` is the rejection-free mode of the same trees: one evaluation of ``f``
+per sample, a density that approximates ``f cos / I`` and is exact for its own samples. Both draw in one
+compiled loop per batch (:mod:`core.sampling.adaptive.draw`) and return ``(wi, pdf, f)``.
+
+A material's table (every node's tree) is built once, on first use, in well under a second for the
+isotropic models (:mod:`core.sampling.adaptive.table`), shared by every sampler of the same BRDF and options
+in the process, and stored on disk (:mod:`core.cache`).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import asdict, fields
+from typing import Any
+
+import numpy as np
+
+from core.cache import TableCache
+from core.errors import ParameterError
+from core.model import BRDF
+from core.sampling.adaptive.draw import (
+    EXACT,
+    MODES,
+    WARP,
+    acceptance_rows,
+    normalizer_rows,
+    pdf_rows,
+    sample_rows,
+    sample_rows_parallel,
+)
+from core.sampling.adaptive.table import (
+    AdaptiveTable,
+    TableOptions,
+    TableReport,
+    build_table,
+    load_table,
+    memory_bytes,
+    save_table,
+    table_cache_key,
+)
+from core.sampling.base import SampleBatch, Sampler, check_direction, register_sampler
+
+_TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
+"""Tables in memory by key (model, parameters, options, sources): one per material per process."""
+_LOCK = threading.Lock()
+
+PARALLEL_MIN = 1 << 14
+"""With ``threads=True``, batches at least this large are drawn on numba's threads."""
+
+_INTS = {"phi_count": (2, 64), "max_thetas": (11, 256), "base_level": (1, 6), "max_level": (2, 14),
+         "capacity": (64, 1 << 20)}  # fmt: skip
+_FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-4, 10.0),
+           "norm_tol": (1e-9, 1e-2), "min_spacing_deg": (1e-3, 10.0)}  # fmt: skip
+
+
+def table_options(n_max: Any = 2.0, **options: Any) -> TableOptions:
+    """Validated :class:`TableOptions` (a :class:`ParameterError` names the option and its range)."""
+    known = {f.name for f in fields(TableOptions)}
+    for name in options:
+        if name not in known:
+            allowed = ", ".join(sorted(known))
+            raise ParameterError(f"the adaptive sampler has no option '{name}'; its options are: {allowed}")
+    values: dict[str, Any] = {"n_max": _check_n_max(n_max)}
+    for name, value in options.items():
+        if name in _INTS:
+            lo, hi = _INTS[name]
+            values[name] = _check_int(name, value, lo, hi)
+        else:
+            lo, hi = _FLOATS[name]
+            values[name] = _check_float(name, value, lo, hi)
+    opts = TableOptions(**values)
+    if opts.max_level < opts.base_level:
+        raise ParameterError(f"max_level ({opts.max_level}) must be at least base_level ({opts.base_level})")
+    return opts
+
+
+def _check_n_max(n_max: Any) -> float:
+    try:
+        value = float(n_max)
+    except (TypeError, ValueError):
+        raise ParameterError(f"n_max must be a number greater than 1, got {n_max!r}") from None
+    if not math.isfinite(value) or value <= 1.0 or value > 1e3:
+        raise ParameterError(
+            f"n_max must be a number in (1, 1000] (the mean trials per sample), got {n_max!r}"
+        )
+    return value
+
+
+def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer | float | str):
+        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}")
+    try:
+        f = float(value)
+    except ValueError:
+        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}") from None
+    if not math.isfinite(f) or f != int(f) or not lo <= int(f) <= hi:
+        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}")
+    return int(f)
+
+
+def _check_float(name: str, value: Any, lo: float, hi: float) -> float:
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}") from None
+    if not math.isfinite(f) or not lo <= f <= hi:
+        raise ParameterError(f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}")
+    return f
+
+
+def _store(cache: Any) -> TableCache | None:
+    if cache is True:
+        return TableCache()
+    if cache in (False, None):
+        return None
+    return TableCache(cache)
+
+
+class AdaptiveSampler(Sampler):
+    """The adaptive quadtree sampler (both modes; see the module docstring).
+
+    Parameters
+    ----------
+    brdf : the BRDF to sample (analytic or measured)
+    n_max : mean number of rejection trials the exact mode's envelope allows (> 1; the seed's knob)
+    mode : ``"exact"`` (rejection against the bounds: density exactly proportional to ``f cos``) or
+        ``"warp"`` (rejection-free: one evaluation of ``f`` per sample)
+    cache : True (default folder, ``$BRDF_STUDIO_CACHE`` or ``~/.cache/brdf-studio``), False, or a folder
+    threads : draw large batches on numba's threads (same samples); off by default, as callers that run their
+        own threads (the renderer) should not nest them
+    **options : further :class:`~core.sampling.adaptive.table.TableOptions`
+    """
+
+    name = "adaptive"
+
+    def __init__(self, brdf: BRDF, n_max: Any = 2.0, mode: str = "exact", cache: Any = True,
+                 threads: bool = False, **options: Any):  # fmt: skip
+        super().__init__(brdf)
+        if mode not in MODES:
+            raise ParameterError(f"the adaptive sampler's mode must be one of {', '.join(MODES)}, got {mode!r}")
+        self.mode = mode
+        self.name = "adaptive" if mode == "exact" else "adaptive_warp"
+        self.options = table_options(n_max, **options)
+        self.n_max = self.options.n_max
+        self.threads = bool(threads)
+        self.cache = _store(cache)
+        self.key = table_cache_key(brdf, self.options)
+        self.violations = 0
+        self.trials = 0
+        self.samples = 0
+
+    # ------------------------------------------------------------------------------------------ the table
+    @property
+    def table(self) -> AdaptiveTable:
+        return self._entry()[0]
+
+    @property
+    def report(self) -> TableReport:
+        return self._entry()[1]
+
+    def _entry(self) -> tuple[AdaptiveTable, TableReport]:
+        entry = _TABLES.get(self.key)
+        if entry is not None:
+            return entry
+        with _LOCK:
+            entry = _TABLES.get(self.key)
+            if entry is None:
+                entry = load_table(self.cache, self.key) if self.cache is not None else None
+                if entry is None:
+                    entry = build_table(self.brdf, self.options)
+                    if self.cache is not None:
+                        save_table(self.cache, self.key, *entry)
+                _TABLES[self.key] = entry
+        return entry
+
+    def preload(self) -> int:
+        """Make (or load) the material's table now; returns the number of trees."""
+        return len(self.table.root)
+
+    # ------------------------------------------------------------------------------------------ the interface
+    def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> SampleBatch:
+        if int(n) <= 0:
+            raise ParameterError(f"the number of samples must be positive, got {n}")
+        wo = check_direction(wo).reshape(1, 3)
+        return self.sample_each(np.repeat(wo, int(n), axis=0), seed)
+
+    def sample_each(self, wo: np.ndarray, seed: int = 0) -> SampleBatch:
+        batch, _ = self._draw(wo, seed)
+        return batch
+
+    def sample_with_trials(self, wo: np.ndarray, seed: int = 0) -> tuple[SampleBatch, np.ndarray]:
+        """Like :meth:`sample_each`, with the number of rejection trials of every sample."""
+        return self._draw(wo, seed)
+
+    def _draw(self, wo: np.ndarray, seed: int) -> tuple[SampleBatch, np.ndarray]:
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        n = wo.shape[0]
+        wi = np.empty((n, 3))
+        pdf = np.empty(n)
+        f = np.empty((n, 3))
+        trials = np.empty(n, dtype=np.int64)
+        kernel = sample_rows_parallel if self.threads and n >= PARALLEL_MIN else sample_rows
+        mode = EXACT if self.mode == "exact" else WARP
+        v = kernel(self.table, self.brdf.model.id, self.brdf.params, mode, wo, int(seed) % (1 << 63), wi, pdf,
+                   f, trials)  # fmt: skip
+        self.violations += int(v)
+        self.trials += int(trials.sum())
+        self.samples += n
+        return SampleBatch(wi, pdf, f), trials
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        return self.eval_pdf(wo, wi)[1]
+
+    def eval_pdf(self, wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(f (n, 3), pdf (n,))`` at the pairs ``(wo, wi)``: the BRDF and the density in one pass (MIS
+        needs both, and the exact mode's density is made of ``f``)."""
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        wi = np.ascontiguousarray(np.atleast_2d(wi), dtype=np.float64)
+        wo, wi = np.broadcast_arrays(wo, wi)
+        wo, wi = np.ascontiguousarray(wo), np.ascontiguousarray(wi)
+        pdf = np.empty(wo.shape[0])
+        f = np.empty((wo.shape[0], 3))
+        mode = EXACT if self.mode == "exact" else WARP
+        pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, pdf, f)
+        return f, pdf
+
+    # ------------------------------------------------------------------------------------------ facts
+    def normalizer(self, wo: np.ndarray) -> np.ndarray:
+        """``I(wo)``, the integral of the luminance of ``f cos`` (0 where the cosine density is drawn)."""
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        out = np.empty(wo.shape[0])
+        normalizer_rows(self.table, wo, out)
+        return out
+
+    def acceptance(self, wo: np.ndarray) -> np.ndarray:
+        """The exact mode's acceptance per trial at ``wo`` (the guarantee is ``>= 1 / n_max``)."""
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        out = np.empty(wo.shape[0])
+        acceptance_rows(self.table, wo, out)
+        return out
+
+    @property
+    def bound_violations(self) -> int:
+        """Trials (of this sampler) where ``f`` exceeded its leaf bound: must be 0."""
+        return self.violations
+
+    def info(self) -> dict[str, Any]:
+        table, report = self._entry()
+        leaves = len(table.bound)
+        return {
+            "sampler": self.name,
+            "mode": self.mode,
+            "n_max": self.n_max,
+            "memory_bytes": memory_bytes(table),
+            "build_seconds": report.seconds,
+            "from_cache": report.from_cache,
+            "trees": len(table.root),
+            "theta_nodes": len(table.thetas),
+            "phi_nodes": len(table.phis),
+            "leaves": leaves,
+            "leaves_mean": leaves / max(len(table.root), 1),
+            "acceptance_min": report.acceptance_min,
+            "chi2_max_edge": report.chi2_max_edge,
+            "normalizer_error": report.norm_error_max,
+            "evaluations": report.evaluations,
+            "bound_violations": self.violations,
+            "mean_trials": self.trials / self.samples if self.samples else float("nan"),
+            "options": asdict(self.options),
+            "cache_folder": str(self.cache.folder) if self.cache is not None else None,
+        }
+
+
+def clear_memory_cache() -> None:
+    """Forget the in-memory tables (tests, benchmarks)."""
+    _TABLES.clear()
+
+
+def _exact(brdf: BRDF, **options: Any) -> AdaptiveSampler:
+    return AdaptiveSampler(brdf, **{"mode": "exact", **options})
+
+
+def _warp(brdf: BRDF, **options: Any) -> AdaptiveSampler:
+    if options.pop("mode", "warp") != "warp":
+        raise ParameterError("the sampler 'adaptive_warp' is the adaptive sampler's warp mode; use 'adaptive'")
+    return AdaptiveSampler(brdf, mode="warp", **options)
+
+
+register_sampler("adaptive", _exact)
+register_sampler("adaptive_warp", _warp)

@@ -1,0 +1,457 @@
+"""A material's adaptive table: every node's tree, made at once, in parallel, and stored on disk.
+
+:func:`build_table` lays out the nodes (:mod:`core.sampling.adaptive.layout`), builds their trees
+(:mod:`core.sampling.adaptive.tree`) on threads (the compiled builder releases the GIL), halves the intervals
+where the material asks for it, and packs the trees into one :class:`AdaptiveTable` of flat arrays that the
+compiled draws (:mod:`core.sampling.adaptive.draw`) read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import math
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numba import njit
+
+from core.cache import TableCache, table_key
+from core.model import BRDF
+from core.sampling.adaptive.layout import (
+    FULL,
+    HALF_PI,
+    INITIAL_THETAS_DEG,
+    ISOTROPIC,
+    MIRROR,
+    THETA_END,
+    TWO_PI,
+    cell_edges,
+    interpolation_errors,
+    norm_coordinate,
+    phi_nodes,
+    series_coefficients,
+)
+from core.sampling.adaptive.maps import EQUIDISTANT, ORTHOGRAPHIC
+from core.sampling.adaptive.target import g_at, make_view
+from core.sampling.adaptive.tree import ACCEPT_MARGIN, BuildSettings, TreeArrays, build_tree
+
+TABLE_FORMAT = 1
+"""Bumped when the stored arrays change meaning."""
+
+
+@dataclass(frozen=True)
+class TableOptions:
+    """How a material's table is made (the adaptive sampler's options; see ``docs/adaptive.md``)."""
+
+    n_max: float = 2.0
+    """Mean trials per sample the exact mode's envelope aims at (the seed's knob; > 1)."""
+    warp_tol: float = 1e-4
+    """A leaf splits while its share of the rejection-free density's relative variance exceeds this."""
+    quad_tol: float = 1e-4
+    """Relative error of the nodes' integrals (the exact mode's normalizer), by the trees' own estimate."""
+    warp_chi2: float = 0.05
+    """Halve an interval while a node's rejection-free density has a chi^2 above this at its cell's edge."""
+    norm_tol: float = 5e-5
+    """Halve an interval while the normalizer's interpolation error is estimated above this."""
+    phi_count: int = 7
+    """Azimuth nodes of an anisotropic material (over the quadrant when it is mirror-symmetric)."""
+    max_thetas: int = 48
+    """At most this many polar nodes."""
+    min_spacing_deg: float = 0.05
+    """Intervals are not halved below this."""
+    base_level: int = 3
+    max_level: int = 12
+    capacity: int = 16384
+    """Nodes a tree may have."""
+
+    def settings(self) -> BuildSettings:
+        return BuildSettings(
+            n_max=self.n_max, warp_tol=self.warp_tol, quad_tol=self.quad_tol, base_level=self.base_level,
+            max_level=self.max_level, capacity=self.capacity,
+        )  # fmt: skip
+
+
+class AdaptiveTable(NamedTuple):
+    """Every tree of a material in flat arrays (``K`` polar nodes, ``J`` azimuth nodes, tree ``t = k J + j``,
+    ``N`` tree nodes, ``L`` leaves). Read by the compiled draws."""
+
+    symmetry: int
+    """:data:`~core.sampling.adaptive.layout.ISOTROPIC`, ``MIRROR`` or ``FULL``."""
+    thetas: np.ndarray
+    """``(K,)`` polar nodes (radians), increasing; ``thetas[0] = 0``."""
+    phis: np.ndarray
+    """``(J,)`` azimuth nodes."""
+    theta_edges: np.ndarray
+    """``(K + 1,)`` cells in theta (the exact mode's nearest node)."""
+    phi_edges: np.ndarray
+    """``(J + 1,)`` cells in phi."""
+    projection: np.ndarray
+    """``(K * J,)`` int64: each tree's disk projection."""
+    root: np.ndarray
+    """``(K * J,)`` int64: each tree's root in the node arrays."""
+    child: np.ndarray
+    """``(N,)`` int64: a node's first child, or ``-1 - leaf`` (leaf index into the leaf arrays)."""
+    mass: np.ndarray
+    """``(N,)``: the rejection-free density's mass under each node (a leaf's: area times its corners'
+    mean)."""
+    envelope: np.ndarray
+    """``(N,)``: the exact mode's envelope mass under each node (a leaf's: area times its bound)."""
+    corners: np.ndarray
+    """``(L, 4)``: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``."""
+    bound: np.ndarray
+    """``(L,)``: ``M_L``, the bound of ``g / I`` on the leaf over its node's cell."""
+    norm_s: np.ndarray
+    """``(K,)``: the polar nodes as ``-log(cos theta)``, the normalizer's coordinate."""
+    norm: np.ndarray
+    """``(K, J)``: the nodes' ``log I`` (``I`` when ``norm_log`` is 0; MIRROR: each row's cosine-series
+    coefficients), see :func:`~core.sampling.adaptive.layout.normalizer_at`."""
+    norm_log: int
+    """1 when ``norm`` holds logarithms (every node's ``I > 0``)."""
+    theta_max: float
+    """The exact mode draws the cosine density beyond this polar angle."""
+
+
+@dataclass
+class TableReport:
+    """What making a table cost and gave (for ``info()`` and the benchmarks)."""
+
+    seconds: float = 0.0
+    evaluations: int = 0
+    trees: int = 0
+    leaves: int = 0
+    rounds: int = 0
+    acceptance_min: float = 0.0
+    chi2_max_edge: float = 0.0
+    norm_error_max: float = 0.0
+    from_cache: bool = False
+
+
+# ------------------------------------------------------------------------------------------ symmetry
+def symmetry_of(brdf: BRDF, pairs: int = 512, seed: int = 7) -> int:
+    """The layout's symmetry: isotropic by trait, or measured so (an anisotropic model at isotropic
+    parameters, such as Ward with ``sx = sy``: ``f`` unchanged to 1e-10 under random rotations of both
+    directions about the normal); else mirror-symmetric by trait; else none."""
+    model = brdf.model
+    if model.isotropic:
+        return ISOTROPIC
+    rng = np.random.default_rng(seed)
+    wo = _random_upper(rng, pairs)
+    wi = _random_upper(rng, pairs)
+    angle = rng.uniform(0.0, TWO_PI, pairs)
+    c, s = np.cos(angle), np.sin(angle)
+
+    def rot(w: np.ndarray) -> np.ndarray:
+        return np.stack([c * w[:, 0] - s * w[:, 1], s * w[:, 0] + c * w[:, 1], w[:, 2]], axis=1)
+
+    a = brdf.eval(wo, wi)
+    b = brdf.eval(rot(wo), rot(wi))
+    scale = np.maximum(np.abs(a), 1e-300)
+    if np.all(np.abs(a - b) <= 1e-10 * scale + 1e-300):
+        return ISOTROPIC
+    return MIRROR if model.mirror_symmetric else FULL
+
+
+def _random_upper(rng: np.random.Generator, n: int) -> np.ndarray:
+    v = rng.normal(size=(n, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    v[:, 2] = np.abs(v[:, 2])
+    return v
+
+
+# ------------------------------------------------------------------------------------------ nodes
+@njit(nogil=True, cache=True)
+def _is_flat(mid, p, view):
+    """Whether ``g`` on the orthographic disk (``pi f``) is the same everywhere: a Lambertian lobe, which
+    the orthographic disk holds in one level of leaves exactly."""
+    lo = np.inf
+    hi = 0.0
+    for i in range(17):
+        for j in range(17):
+            v = g_at(mid, p, (i + 0.5) / 17.0, (j + 0.5) / 17.0, ORTHOGRAPHIC, view)
+            lo = min(lo, v)
+            hi = max(hi, v)
+    return hi > 0.0 and hi - lo <= 1e-12 * hi
+
+
+def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ...], symmetry: int) -> tuple[
+    np.ndarray, np.ndarray]:  # fmt: skip
+    """A node's views (row 0 the node) and, per view, whether it lies on the cell's theta edge."""
+    if symmetry == ISOTROPIC:
+        ts = [theta, theta_lo, 0.5 * (theta_lo + theta), 0.5 * (theta + theta_hi), theta_hi]
+        edge = [False, True, False, False, True]
+        return np.array([make_view(t, 0.0) for t in ts]), np.array(edge)
+    rows, edge = [], []
+    for t, e in ((theta, False), (theta_lo, True), (theta_hi, True)):
+        for ph in phis:
+            rows.append(make_view(t, ph))
+            edge.append(e)
+    return np.array(rows), np.array(edge)
+
+
+@dataclass
+class _Node:
+    tree: TreeArrays
+    projection: int
+    edge: np.ndarray
+    seconds: float
+
+
+def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
+                phi: float, phi_cell: tuple[float, float]) -> _Node:  # fmt: skip
+    t0 = time.perf_counter()
+    if symmetry == ISOTROPIC:
+        phis: tuple[float, ...] = (0.0,)
+    else:
+        phis = (phi, phi_cell[0], phi_cell[1])
+    views, edge = _views(cell[0], theta, cell[1], phis, symmetry)
+    mid = brdf.model.id
+    projection = ORTHOGRAPHIC if _is_flat(mid, brdf.params, views[0]) else EQUIDISTANT
+    tree = build_tree(mid, brdf.params, projection, views, options.settings())
+    return _Node(tree, projection, edge, time.perf_counter() - t0)
+
+
+# ------------------------------------------------------------------------------------------ the table
+def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -> tuple[AdaptiveTable,
+                                                                                      TableReport]:  # fmt: skip
+    """Lay out the nodes, build their trees (on ``threads`` threads, default all cores) and pack them."""
+    t0 = time.perf_counter()
+    symmetry = symmetry_of(brdf)
+    phis = phi_nodes(symmetry, options.phi_count)
+    if symmetry == MIRROR:
+        phi_edges = cell_edges(phis, 0.0, HALF_PI)
+    elif symmetry == FULL:
+        phi_edges = cell_edges(phis, phis[0] - 0.5 * (phis[1] - phis[0]), TWO_PI - 0.5 * (phis[1] - phis[0]))
+    else:
+        phi_edges = np.array([0.0, TWO_PI])
+    thetas = np.radians(np.array(INITIAL_THETAS_DEG))
+    nodes: dict[tuple[float, float, float, int], _Node] = {}
+    report = TableReport()
+    workers = threads or max(1, min(8, os.cpu_count() or 1))
+    min_spacing = math.radians(options.min_spacing_deg)
+    target = (1.0 + ACCEPT_MARGIN) / options.n_max
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        while True:
+            report.rounds += 1
+            edges = cell_edges(thetas, 0.0, THETA_END)
+            wanted = []
+            for k, theta in enumerate(thetas):
+                for j, phi in enumerate(phis):
+                    key = (float(theta), float(edges[k]), float(edges[k + 1]), j)
+                    if key not in nodes:
+                        wanted.append(key)
+            jobs = {
+                key: pool.submit(
+                    _build_node, brdf, options, symmetry, key[0], (key[1], key[2]), float(phis[key[3]]),
+                    (float(phi_edges[key[3]]), float(phi_edges[key[3] + 1])),
+                )  # fmt: skip
+                for key in wanted
+            }
+            for key, job in jobs.items():
+                nodes[key] = job.result()
+            grid = [
+                [nodes[(float(theta), float(edges[k]), float(edges[k + 1]), j)] for j in range(len(phis))]
+                for k, theta in enumerate(thetas)
+            ]
+            halve = _intervals_to_halve(thetas, grid, options, target)
+            halve &= np.diff(thetas) > 2.0 * min_spacing
+            if not np.any(halve) or len(thetas) >= options.max_thetas:
+                break
+            new = 0.5 * (thetas[:-1] + thetas[1:])[halve]
+            new = new[: options.max_thetas - len(thetas)]
+            thetas = np.sort(np.concatenate([thetas, new]))
+    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid)
+    report.seconds = time.perf_counter() - t0
+    report.trees = len(thetas) * len(phis)
+    report.leaves = len(table.bound)
+    report.evaluations = sum(n.tree.evaluations for n in nodes.values())
+    report.acceptance_min = min(1.0 / n.tree.envelope for row in grid for n in row)
+    report.chi2_max_edge = max(float(np.max(n.tree.chi2[n.edge])) for row in grid for n in row)
+    report.norm_error_max = float(np.max(_norm_errors(thetas, grid)))
+    return table, report
+
+
+def _node_integrals(grid: list[list[_Node]]) -> np.ndarray:
+    return np.array([[n.tree.integrals[0] for n in row] for row in grid])
+
+
+def _norm_errors(thetas: np.ndarray, grid: list[list[_Node]]) -> np.ndarray:
+    """``(K,)``: the normalizer's estimated interpolation error at each polar node (relative, the worst
+    azimuth). The nodes' own quadrature errors are the trees' business (``quad_tol``): halving an interval
+    does not change them."""
+    values = _node_integrals(grid)
+    s = norm_coordinate(thetas)
+    if np.all(values > 0.0):
+        cols = [interpolation_errors(s, np.log(values[:, j])) for j in range(values.shape[1])]
+    else:
+        scale = max(float(np.max(np.abs(values))), 1e-300)
+        cols = [interpolation_errors(s, values[:, j] / scale) for j in range(values.shape[1])]
+    return np.max(cols, axis=0)
+
+
+def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], options: TableOptions,
+                        target: float) -> np.ndarray:  # fmt: skip
+    """``(K - 1,)``: the intervals the material asks to halve (see :mod:`core.sampling.adaptive.layout`)."""
+    k = len(thetas)
+    halve = np.zeros(k - 1, dtype=bool)
+    norm_err = _norm_errors(thetas, grid)
+    for i in range(k):
+        row = grid[i]
+        weak = any(1.0 / n.tree.envelope < target for n in row)
+        rough_lo = rough_hi = False
+        for n in row:
+            views_lo, views_hi = _edge_views(n, len(row) > 1)
+            rough_lo |= bool(np.max(n.tree.chi2[views_lo]) > options.warp_chi2)
+            rough_hi |= bool(np.max(n.tree.chi2[views_hi]) > options.warp_chi2)
+        inexact = norm_err[i] > options.norm_tol
+        if i > 0 and (weak or rough_lo or inexact):
+            halve[i - 1] = True
+        if i < k - 1 and (weak or rough_hi or inexact):
+            halve[i] = True
+    return halve
+
+
+def _edge_views(node: _Node, anisotropic: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the views on the cell's lower and upper theta edge."""
+    if not anisotropic:
+        return np.array([1]), np.array([4])
+    n_phi = len(node.edge) // 3
+    return np.arange(n_phi, 2 * n_phi), np.arange(2 * n_phi, 3 * n_phi)
+
+
+def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
+          phi_edges: np.ndarray, grid: list[list[_Node]]) -> AdaptiveTable:  # fmt: skip
+    children, masses, envelopes, corners, bounds, roots, projections = [], [], [], [], [], [], []
+    node_base = 0
+    leaf_base = 0
+    for row in grid:
+        for n in row:
+            tr = n.tree
+            child = tr.child.astype(np.int64)
+            inner = child >= 0
+            child[inner] += node_base
+            child[~inner] -= leaf_base
+            mass, env = _masses(tr)
+            children.append(child)
+            masses.append(mass)
+            envelopes.append(env)
+            corners.append(tr.corners)
+            bounds.append(tr.bound)
+            roots.append(node_base)
+            projections.append(n.projection)
+            node_base += len(child)
+            leaf_base += len(tr.bound)
+    integrals = _node_integrals(grid)
+    norm_log = bool(np.all(integrals > 0.0))
+    values = np.log(integrals) if norm_log else integrals
+    norm = series_coefficients(values) if symmetry == MIRROR else values
+    return AdaptiveTable(
+        symmetry=int(symmetry),
+        thetas=np.ascontiguousarray(thetas, dtype=np.float64),
+        phis=np.ascontiguousarray(phis, dtype=np.float64),
+        theta_edges=np.ascontiguousarray(theta_edges, dtype=np.float64),
+        phi_edges=np.ascontiguousarray(phi_edges, dtype=np.float64),
+        projection=np.array(projections, dtype=np.int64),
+        root=np.array(roots, dtype=np.int64),
+        child=np.concatenate(children),
+        mass=np.concatenate(masses),
+        envelope=np.concatenate(envelopes),
+        corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float64),
+        bound=np.concatenate(bounds),
+        norm_s=norm_coordinate(thetas),
+        norm=np.ascontiguousarray(norm, dtype=np.float64),
+        norm_log=int(norm_log),
+        theta_max=float(THETA_END),
+    )
+
+
+def _masses(tree: TreeArrays) -> tuple[np.ndarray, np.ndarray]:
+    """Both densities' masses under every node (children follow their parents, so one reverse pass)."""
+    n = len(tree.child)
+    area = 0.25 ** tree.level.astype(np.float64)
+    mass = np.zeros(n)
+    env = np.zeros(n)
+    leaf = tree.child < 0
+    idx = -1 - tree.child[leaf]
+    mass[leaf] = area[leaf] * tree.corners[idx].mean(axis=1)
+    env[leaf] = area[leaf] * tree.bound[idx]
+    for i in range(n - 1, -1, -1):
+        c = tree.child[i]
+        if c >= 0:
+            mass[i] = mass[c : c + 4].sum()
+            env[i] = env[c : c + 4].sum()
+    return mass, env
+
+
+# ------------------------------------------------------------------------------------------ storage
+_SOURCES_HASH: dict[str, str] = {}
+
+
+def sources_hash(brdf: BRDF) -> str:
+    """Hash of the sources that can change a material's table: the model's own file, the shared model
+    helpers (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package.
+    An edit anywhere else (the app, the renderer, another model) keeps the stored tables."""
+    module = inspect.getmodule(brdf.model.eval.py_func) if hasattr(brdf.model.eval, "py_func") else None
+    own = Path(inspect.getfile(module)) if module is not None else None
+    key = str(own)
+    if key not in _SOURCES_HASH:
+        core = Path(__file__).resolve().parents[2]
+        files = sorted(Path(__file__).resolve().parent.glob("*.py"))
+        files += sorted((core / "models").glob("_*.py"))
+        files += [core / "models" / "lobes.py", core / "geometry.py", core / "dispatch.py"]
+        if own is not None:
+            files.append(own)
+        h = hashlib.sha256()
+        for f in files:
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+        _SOURCES_HASH[key] = h.hexdigest()[:20]
+    return _SOURCES_HASH[key]
+
+
+def table_cache_key(brdf: BRDF, options: TableOptions) -> str:
+    return table_key(
+        ["adaptive", TABLE_FORMAT, brdf.model.name, brdf.params, sorted(asdict(options).items()),
+         sources_hash(brdf)]
+    )  # fmt: skip
+
+
+def save_table(cache: TableCache, key: str, table: AdaptiveTable, report: TableReport) -> bool:
+    arrays: dict[str, Any] = {name: np.asarray(value) for name, value in table._asdict().items()}
+    arrays["report"] = np.array([report.seconds, report.evaluations, report.rounds, report.acceptance_min,
+                                 report.chi2_max_edge, report.norm_error_max])  # fmt: skip
+    return cache.save(key, "table", arrays)
+
+
+def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport] | None:
+    arrays = cache.load(key, "table")
+    if arrays is None:
+        return None
+    try:
+        rep = arrays.pop("report")
+        fields = {}
+        for name in AdaptiveTable._fields:
+            value = arrays[name]
+            fields[name] = value.item() if value.ndim == 0 else np.ascontiguousarray(value)
+        fields["symmetry"] = int(fields["symmetry"])
+        fields["norm_log"] = int(fields["norm_log"])
+        fields["theta_max"] = float(fields["theta_max"])
+        table = AdaptiveTable(**fields)
+    except (KeyError, ValueError, TypeError):
+        return None
+    report = TableReport(
+        seconds=float(rep[0]), evaluations=int(rep[1]), trees=len(table.root), leaves=len(table.bound),
+        rounds=int(rep[2]), acceptance_min=float(rep[3]), chi2_max_edge=float(rep[4]),
+        norm_error_max=float(rep[5]), from_cache=True,
+    )  # fmt: skip
+    return table, report
+
+
+def memory_bytes(table: AdaptiveTable) -> int:
+    return int(sum(v.nbytes for v in table if isinstance(v, np.ndarray)))
+
