@@ -4,7 +4,8 @@ For every registered model at its default parameters (and the bundled measured d
 
 - throughput of ``core.kernels.eval_batch`` on random direction pairs over the upper hemisphere, in millions
   of evaluations per second, on one core (serial driver) and on two threads (numba ``prange`` driver); the
-  best of ``--repeat`` alternating timed runs after a warm-up call (compile time excluded, reported apart);
+  best of ``--repeat`` alternating timed runs after a warm-up call (compile time excluded, reported apart: the
+  drivers serve every model by its id, so the first model's warm-up call compiles or loads them for all);
 - the directional albedo at theta = 0, 30, 60, 80 degrees with the stated error of ``core.analysis.albedo``
   (maximum over RGB), the number of evaluations it took and its wall time.
 
@@ -42,7 +43,8 @@ def random_pairs(n: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
 
 
 def throughput(brdf: BRDF, wi: np.ndarray, wo: np.ndarray, repeat: int) -> tuple[float, float, float]:
-    """``(M evaluations / s on one thread, on two threads, compile-and-first-call seconds)``.
+    """``(M evaluations / s on one thread, on two threads, first-call seconds)`` (the first call compiles or
+    loads the drivers, for every model at once).
 
     The serial and threaded runs alternate so that a change of machine load hits both alike."""
     t0 = time.perf_counter()

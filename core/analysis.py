@@ -40,7 +40,6 @@ import numpy as np
 
 from core.errors import BrdfStudioError, ParameterError
 from core.geometry import degrees_to_dir, spherical_to_dir
-from core.kernels import eval_batch
 from core.model import BRDF
 
 # 15-point Gauss-Kronrod rule on [-1, 1] (nodes >= 0; the 7-point Gauss rule uses the odd-indexed ones).
@@ -130,7 +129,9 @@ class _Integrand:
         wi = np.ascontiguousarray(spherical_to_dir(theta, phi).reshape(-1, 3))
         wo = np.ascontiguousarray(np.broadcast_to(self.wo, wi.shape))
         self.evaluations += wi.shape[0]
-        f = eval_batch(self.brdf.model, wi, wo, self.brdf.params, threads=self.threads)
+        f = self.brdf.eval(
+            wo, wi, threads=self.threads
+        )  # the BRDF's own evaluation (a subclass may have one)
         return f * wi[:, 2:3]
 
     def rules(self, a0, a1, b0, b1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from core.merl import eval_merl, eval_merl_nearest
+from core import merl  # the module, not its kernels: core.merl reaches this switch too (see merl._tabulate)
 from core.models.ashikhmin_shirley import (
     eval_ashikhmin_shirley,
     pdf_ashikhmin_shirley,
@@ -90,7 +90,10 @@ MODEL_IDS: dict[str, int] = {
 
 def model_id(name: str) -> int:
     """The dispatch id of the model called ``name`` (``KeyError`` for a model this module does not know)."""
-    return MODEL_IDS[name]
+    try:
+        return MODEL_IDS[name]
+    except KeyError:
+        raise KeyError(f"model '{name}' has no dispatch id: add it to core/dispatch.py") from None
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -131,9 +134,9 @@ def eval_model(mid, wi, wo, p):
     elif mid == WARD:
         return eval_ward(wi, wo, p)
     elif mid == MERL:
-        return eval_merl(wi, wo, p)
+        return merl.eval_merl(wi, wo, p)
     elif mid == MERL_NEAREST:
-        return eval_merl_nearest(wi, wo, p)
+        return merl.eval_merl_nearest(wi, wo, p)
     return 0.0, 0.0, 0.0
 
 

@@ -1,136 +1,149 @@
-"""Batch drivers around the per-model kernels.
+"""Batch drivers: compiled loops that evaluate, sample or take the density of a model, reached by its id.
 
-Each driver is one numba loop specialized to one kernel, so the loops never branch on the model at run time
-(pbrt's one-kernel-per-type). The specializations are generated modules with the kernel bound as a global
-(:mod:`core.specialize`), so numba compiles them once per machine and loads them from disk afterwards; a
-kernel that cannot be imported by name (a closure) goes to the generic drivers below, which take it as an
-argument and compile once per process.
+Every loop is an ordinary ``@njit(nogil=True, cache=True)`` function taking the model's dispatch id
+(:mod:`core.dispatch`) and its kernel parameter vector, so each compiles once per machine for every model
+(``python -m core.warmup`` does it at setup) and is loaded from disk afterwards. The id is the same on every
+iteration of a loop, so the inlined switch costs little next to the kernel (see :mod:`core.dispatch`).
+
+The Python wrappers take a :class:`core.model.Model` or its id, and make every array C-contiguous float64:
+one signature per loop, the one the warm-up compiles.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-from core.specialize import specialize
+from core.dispatch import eval_model, pdf_model, sample_model
 
 if TYPE_CHECKING:
     from core.model import Model
 
-_EVAL = """
-from numba import njit, prange
+
+class DirectionSamples(NamedTuple):
+    """Directions drawn by a sampling kernel, one per row of ``wo``."""
+
+    wi: np.ndarray
+    """``(n, 3)`` float64: the sampled incident directions (possibly below the horizon)."""
+    pdf: np.ndarray
+    """``(n,)`` float64: their density per unit solid angle (0 where nothing could be drawn)."""
+
+
+def model_index(model_or_id: Model | int) -> int:
+    """The dispatch id of a :class:`core.model.Model`, or the id itself."""
+    if isinstance(model_or_id, int | np.integer):
+        return int(model_or_id)
+    return model_or_id.id
+
+
+def _rows(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 @njit(nogil=True, cache=True)
-def serial(wi, wo, p, out):
+def _eval_serial(mid, wi, wo, p, out):
     for i in range(wi.shape[0]):
-        r, g, b = _eval((wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
+        r, g, b = eval_model(mid, (wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
         out[i, 0] = r
         out[i, 1] = g
         out[i, 2] = b
 
 
 @njit(nogil=True, cache=True, parallel=True)
-def parallel(wi, wo, p, out):
+def _eval_parallel(mid, wi, wo, p, out):
     for i in prange(wi.shape[0]):
-        r, g, b = _eval((wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
+        r, g, b = eval_model(mid, (wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
         out[i, 0] = r
         out[i, 1] = g
         out[i, 2] = b
-"""
-
-_SAMPLE = """
-from numba import njit
 
 
 @njit(nogil=True, cache=True)
-def serial(wo, p, u, wi_out, pdf_out):
+def _sample_serial(mid, wo, p, u, wi_out, pdf_out):
     for i in range(wo.shape[0]):
-        x, y, z, pdf = _sample((wo[i, 0], wo[i, 1], wo[i, 2]), p, u[i, 0], u[i, 1], u[i, 2])
+        x, y, z, pdf = sample_model(mid, (wo[i, 0], wo[i, 1], wo[i, 2]), p, u[i, 0], u[i, 1], u[i, 2])
         wi_out[i, 0] = x
         wi_out[i, 1] = y
         wi_out[i, 2] = z
         pdf_out[i] = pdf
-"""
-
-_PDF = """
-from numba import njit
 
 
 @njit(nogil=True, cache=True)
-def serial(wo, wi, p, out):
+def _pdf_serial(mid, wo, wi, p, out):
     for i in range(wo.shape[0]):
-        out[i] = _pdf((wo[i, 0], wo[i, 1], wo[i, 2]), (wi[i, 0], wi[i, 1], wi[i, 2]), p)
-"""
-
-
-@njit(nogil=True)
-def _eval_serial(kernel, wi, wo, p, out):
-    for i in range(wi.shape[0]):
-        r, g, b = kernel((wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
-        out[i, 0] = r
-        out[i, 1] = g
-        out[i, 2] = b
-
-
-@njit(nogil=True, parallel=True)
-def _eval_parallel(kernel, wi, wo, p, out):
-    for i in prange(wi.shape[0]):
-        r, g, b = kernel((wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
-        out[i, 0] = r
-        out[i, 1] = g
-        out[i, 2] = b
+        out[i] = pdf_model(mid, (wo[i, 0], wo[i, 1], wo[i, 2]), (wi[i, 0], wi[i, 1], wi[i, 2]), p)
 
 
 def eval_batch(
-    model: Model, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, threads: bool = False
+    model_or_id: Model | int, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, threads: bool = False
 ) -> np.ndarray:
-    """``f_r(wi[k], wo[k])`` for every row; ``wi, wo (n, 3)`` float64 contiguous; returns ``(n, 3)``."""
+    """``f_r(wi[k], wo[k])`` for every row (note the kernels' order: ``wi`` first).
+
+    Parameters
+    ----------
+    model_or_id : the model, or its dispatch id
+    wi, wo : (n, 3) float64
+        Unit directions in the local frame.
+    p : (m,) float64
+        The model's kernel parameter vector.
+    threads : bool
+        Run the loop on numba's threads (worth it above ~10^5 rows; never from inside another parallel loop).
+
+    Returns
+    -------
+    (n, 3) float64
+        RGB values, 0 where either direction is below the horizon.
+    """
+    wi, wo = _rows(wi), _rows(wo)
     out = np.empty((wi.shape[0], 3), dtype=np.float64)
-    mod = specialize(_EVAL, _eval=model.eval)
-    if mod is not None:
-        (mod.parallel if threads else mod.serial)(wi, wo, p, out)
-    else:
-        (_eval_parallel if threads else _eval_serial)(model.eval, wi, wo, p, out)
+    (_eval_parallel if threads else _eval_serial)(model_index(model_or_id), wi, wo, _rows(p), out)
     return out
 
 
-@njit(nogil=True)
-def _sample_serial(kernel, wo, p, u, wi_out, pdf_out):
-    for i in range(wo.shape[0]):
-        x, y, z, pdf = kernel((wo[i, 0], wo[i, 1], wo[i, 2]), p, u[i, 0], u[i, 1], u[i, 2])
-        wi_out[i, 0] = x
-        wi_out[i, 1] = y
-        wi_out[i, 2] = z
-        pdf_out[i] = pdf
+def sample_batch(model_or_id: Model | int, wo: np.ndarray, p: np.ndarray, u: np.ndarray) -> DirectionSamples:
+    """The model's analytic sample for every row of ``wo``.
 
+    Parameters
+    ----------
+    model_or_id : the model, or its dispatch id
+    wo : (n, 3) float64
+        Outgoing directions.
+    p : (m,) float64
+        The model's kernel parameter vector.
+    u : (n, 3) float64
+        Uniform numbers in [0, 1), one row per sample.
 
-@njit(nogil=True)
-def _pdf_serial(kernel, wo, wi, p, out):
-    for i in range(wo.shape[0]):
-        out[i] = kernel((wo[i, 0], wo[i, 1], wo[i, 2]), (wi[i, 0], wi[i, 1], wi[i, 2]), p)
-
-
-def sample_batch(kernel, wo: np.ndarray, p: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Run a ``sample(wo, p, u1, u2, u3)`` kernel for every row of ``wo (n, 3)`` with uniforms ``u (n, 3)``."""
+    Returns
+    -------
+    DirectionSamples
+        ``wi (n, 3)`` and ``pdf (n,)`` per unit solid angle; ``pdf = 0`` for a model without a sampler.
+    """
+    wo = _rows(wo)
     wi = np.empty_like(wo)
     pdf = np.empty(wo.shape[0])
-    mod = specialize(_SAMPLE, _sample=kernel)
-    if mod is not None:
-        mod.serial(wo, p, u, wi, pdf)
-    else:
-        _sample_serial(kernel, wo, p, u, wi, pdf)
-    return wi, pdf
+    _sample_serial(model_index(model_or_id), wo, _rows(p), _rows(u), wi, pdf)
+    return DirectionSamples(wi, pdf)
 
 
-def pdf_batch(kernel, wo: np.ndarray, wi: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Run a ``pdf(wo, wi, p)`` kernel for every row: density per unit solid angle."""
+def pdf_batch(model_or_id: Model | int, wo: np.ndarray, wi: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The density of the model's analytic sampler at every row.
+
+    Parameters
+    ----------
+    model_or_id : the model, or its dispatch id
+    wo, wi : (n, 3) float64
+        Outgoing and incident unit directions (``wi`` in either hemisphere).
+    p : (m,) float64
+        The model's kernel parameter vector.
+
+    Returns
+    -------
+    (n,) float64
+        Density per unit solid angle; 0 for a model without a sampler.
+    """
+    wo, wi = _rows(wo), _rows(wi)
     out = np.empty(wo.shape[0])
-    mod = specialize(_PDF, _pdf=kernel)
-    if mod is not None:
-        mod.serial(wo, wi, p, out)
-    else:
-        _pdf_serial(kernel, wo, wi, p, out)
+    _pdf_serial(model_index(model_or_id), wo, wi, _rows(p), out)
     return out

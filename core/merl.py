@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
 from core.errors import FileFormatError
 from core.io import atomic_write
 from core.model import BRDF, Model, Traits
@@ -342,16 +343,17 @@ def _pair_from_cell(u_h, u_d, u_p):
     return wi, wo
 
 
-@njit(nogil=True)
-def _tabulate(kernel, p, scales, sub, out):
-    """``out (3, N_CELLS)``: the raw values of ``kernel`` at the cell centres (see the module docstring)."""
+@njit(nogil=True, cache=True)
+def _tabulate(mid, p, scales, sub, out):
+    """``out (3, N_CELLS)``: the raw values of model ``mid`` (a :mod:`core.dispatch` id) with kernel
+    parameters ``p`` at the cell centres (see the module docstring)."""
     for ih in range(N_THETA_H):
         for jd in range(N_THETA_D):
             for kp in range(N_PHI_D):
                 idx = kp + N_PHI_D * (jd + N_THETA_D * ih)
                 wi, wo = _pair_from_cell(ih + 0.5, jd + 0.5, kp + 0.5)
                 if wi[2] > 0.0 and wo[2] > 0.0:
-                    r, g, b = kernel(wi, wo, p)
+                    r, g, b = dispatch.eval_model(mid, wi, wo, p)
                 else:
                     # Centre below the horizon: the mean over the valid part of the cell.
                     r = g = b = 0.0
@@ -363,7 +365,7 @@ def _tabulate(kernel, p, scales, sub, out):
                                     ih + (a + 0.5) / sub, jd + (bb + 0.5) / sub, kp + (c + 0.5) / sub
                                 )
                                 if wi2[2] > 0.0 and wo2[2] > 0.0:
-                                    r2, g2, b2 = kernel(wi2, wo2, p)
+                                    r2, g2, b2 = dispatch.eval_model(mid, wi2, wo2, p)
                                     r += r2
                                     g += g2
                                     b += b2
@@ -384,7 +386,7 @@ def _tabulate(kernel, p, scales, sub, out):
 def tabulate(brdf: BRDF, subcells: int = 4) -> MerlTable:
     """A MERL table of ``brdf`` (any model, analytic or measured): its value at every cell centre."""
     out = np.empty((3, N_CELLS), dtype=np.float64)
-    _tabulate(brdf.model.eval, brdf.params, SCALES, int(subcells), out)
+    _tabulate(brdf.model.id, brdf.params, SCALES, int(subcells), out)
     bad = ~np.isfinite(out)
     if bad.any():  # a model bug, but never write a file the reader would refuse
         raise FileFormatError(f"cannot export {brdf.key()}: it gives {int(bad.sum())} non-finite values")

@@ -41,6 +41,7 @@ from core.analysis import (
 )
 from core.errors import BrdfStudioError, ParameterError
 from core.model import Model, Param, Traits, all_models, make_brdf
+from tests.core._kernel_brdf import bind
 
 
 @njit(nogil=True)
@@ -105,6 +106,7 @@ def eval_broken(wi, wo, p):
 
 
 def _test_model(name, kernel, params=()):
+    """A model of a test kernel (no dispatch id: bind it with :func:`tests.core._kernel_brdf.bind`)."""
     return Model(name, name, "test", tuple(params), Traits.NONE, kernel, doc="test")
 
 
@@ -153,14 +155,14 @@ def test_albedo_is_zero_at_exactly_grazing():
 
 @pytest.mark.parametrize("n", [1.0, 100.0, 1e4])
 def test_cosine_lobe_at_normal_incidence(n):
-    r = albedo(COS_LOBE.bind(n=n), 0.0)
+    r = albedo(bind(COS_LOBE, n=n), 0.0)
     _assert_within_stated(r, (1.0, 0.5, 0.25), 1e-6)
 
 
 @pytest.mark.parametrize("theta", [30.0, 52.5, 80.0])
 @pytest.mark.parametrize("phi", [0.0, 123.0])
 def test_sharp_cosine_lobe_off_normal(theta, phi):
-    r = albedo(COS_LOBE.bind(n=1e4), theta, phi)
+    r = albedo(bind(COS_LOBE, n=1e4), theta, phi)
     _assert_within_stated(r, (1.0, 0.5, 0.25), 1e-6)
 
 
@@ -177,7 +179,7 @@ def test_sharp_cosine_lobe_cut_by_the_horizon():
     )
     exact *= (n + 1.0) / math.pi
     assert 0.3 < exact < 0.99 and qerr < 1e-10  # the cut is real, and the reference is accurate
-    r = albedo(COS_LOBE.bind(n=n), theta)
+    r = albedo(bind(COS_LOBE, n=n), theta)
     _assert_within_stated(r, (exact, 0.5 * exact, 0.25 * exact), 1e-6)
 
 
@@ -190,13 +192,13 @@ def test_sharp_lobe_away_from_mirror_and_retro_directions(theta):
         np.round(np.array([math.sin(0.698) * math.cos(1.449), math.sin(0.698) * math.sin(1.449), 0]), 12)
     )
     axis = (axis[0], axis[1], math.sqrt(1.0 - axis[0] ** 2 - axis[1] ** 2))
-    r = albedo(FIXED_LOBE.bind(n=1e6, axis=axis), theta, 10.0)
+    r = albedo(bind(FIXED_LOBE, n=1e6, axis=axis), theta, 10.0)
     _assert_within_stated(r, 1.0, 1e-6)
 
 
 @pytest.mark.parametrize("theta", [0.0, 30.0, 37.5, 60.0, 80.0])
 def test_sharp_beckmann_lobe(theta):
-    r = albedo(BECKMANN.bind(m=0.005), theta, 17.0)
+    r = albedo(bind(BECKMANN, m=0.005), theta, 17.0)
     _assert_within_stated(r, 1.0, 1e-6)
 
 
@@ -210,7 +212,7 @@ def test_lewis_sharp_lobe_closed_form(theta):
 
 
 def test_budget_exhaustion_is_reported():
-    r = albedo(COS_LOBE.bind(n=1e4), 30.0, rtol=1e-14, atol=0.0, max_evals=100_000)
+    r = albedo(bind(COS_LOBE, n=1e4), 30.0, rtol=1e-14, atol=0.0, max_evals=100_000)
     assert not r.converged
     assert max(r.error) > 1e-14 * 1.0
     assert r.evaluations <= 100_000 + 225 * 2
@@ -224,14 +226,14 @@ def test_albedo_rejects_bad_angles(bad):
 
 def test_non_finite_model_is_a_clear_error():
     with pytest.raises(BrdfStudioError, match="non-finite values"):
-        albedo(_test_model("broken", eval_broken).bind(), 30.0)
+        albedo(bind(_test_model("broken", eval_broken)), 30.0)
 
 
 def test_energy_report_verdicts():
-    ok = energy_report(SCALED_LAMBERT.bind(k=0.8), thetas_deg=(0.0, 45.0, 85.0))
+    ok = energy_report(bind(SCALED_LAMBERT, k=0.8), thetas_deg=(0.0, 45.0, 85.0))
     assert ok.verdict == "conserving" and ok.passed
     np.testing.assert_allclose(ok.max_albedo, 0.8, rtol=1e-9)
-    bad = energy_report(SCALED_LAMBERT.bind(k=1.5), thetas_deg=(0.0, 45.0))
+    bad = energy_report(bind(SCALED_LAMBERT, k=1.5), thetas_deg=(0.0, 45.0))
     assert bad.verdict == "violating" and not bad.passed
     assert "violating" in bad.summary()
     assert len(bad.to_dict()["results"]) == 2
@@ -240,7 +242,7 @@ def test_energy_report_verdicts():
 def test_reciprocity_report():
     good = reciprocity_report(make_brdf("lambert"))
     assert good.passed and good.max_relative_error == 0.0 and good.declared
-    bad = reciprocity_report(_test_model("nr", eval_not_reciprocal).bind())
+    bad = reciprocity_report(bind(_test_model("nr", eval_not_reciprocal)))
     # f = cos(theta_i): for a pair (0.5, 1) of cosines the relative difference is 0.5; the grid holds far
     # larger contrasts (cos 89.9 deg against 1).
     assert not bad.passed and bad.max_relative_error > 0.9
@@ -250,6 +252,6 @@ def test_reciprocity_report():
 def test_nonnegativity_report():
     good = nonnegativity_report(make_brdf("lambert"))
     assert good.passed and good.min_value == 0.0
-    bad = nonnegativity_report(_test_model("broken", eval_broken).bind())
+    bad = nonnegativity_report(bind(_test_model("broken", eval_broken)))
     assert not bad.passed and bad.negative > 0 and bad.non_finite > 0 and bad.min_value < 0
     assert "FAILED" in bad.summary()

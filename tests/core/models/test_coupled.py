@@ -160,8 +160,8 @@ def test_sampler_pdf_is_the_density_of_its_samples():
     n = 200_000
     u = np.random.default_rng(7).random((n, 3))
     wo = np.repeat(wo1[None], n, 0)
-    wi, pdf = sample_batch(MODEL.sample, wo, brdf.params, u)
-    np.testing.assert_allclose(pdf, pdf_batch(MODEL.pdf, wo, wi, brdf.params), rtol=1e-12)
+    wi, pdf = sample_batch(MODEL, wo, brdf.params, u)
+    np.testing.assert_allclose(pdf, pdf_batch(MODEL, wo, wi, brdf.params), rtol=1e-12)
     # chi-square on a (cos theta, phi) grid over the whole sphere; expected counts from the pdf (midpoint
     # rule on a 4x finer grid); cells with expected < 5 pooled; significance 1e-3.
     nt, npf, r = 20, 40, 4
@@ -171,7 +171,7 @@ def test_sampler_pdf_is_the_density_of_its_samples():
     cg, pg = np.meshgrid(cm, pm, indexing="ij")
     sg = np.sqrt(1 - cg**2)
     dirs = np.stack([sg * np.cos(pg), sg * np.sin(pg), cg], -1).reshape(-1, 3)
-    dens = pdf_batch(MODEL.pdf, np.repeat(wo1[None], len(dirs), 0), dirs, brdf.params).reshape(cg.shape)
+    dens = pdf_batch(MODEL, np.repeat(wo1[None], len(dirs), 0), dirs, brdf.params).reshape(cg.shape)
     cell = dens * (2.0 / (nt * r)) * (2 * np.pi / (npf * r))
     np.testing.assert_allclose(cell.sum(), 1.0, atol=5e-3)
     expected = cell.reshape(nt, r, npf, r).sum(axis=(1, 3)) * n

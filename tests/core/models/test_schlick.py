@@ -154,7 +154,7 @@ def test_pdf_integrates_to_one_over_the_sphere(name, values, theta_o):
     p = model.kernel_params(values)
     wi, cell = _sphere_grid()
     wo = np.repeat(degrees_to_dir(theta_o, 25.0)[None, :], len(wi), axis=0)
-    pdf = pdf_batch(model.pdf, wo, wi, p)
+    pdf = pdf_batch(model, wo, wi, p)
     assert np.all(np.isfinite(pdf)) and np.all(pdf >= 0)
     # Midpoint rule in (z, phi) (uniform in solid angle); the sharpest lobe here (r = 0.05) is resolved.
     np.testing.assert_allclose(pdf.sum() * cell, 1.0, atol=5e-3)
@@ -170,10 +170,10 @@ def test_samples_follow_the_pdf(name, values, theta_o):
     rng = np.random.default_rng(1994)
     wo1 = degrees_to_dir(theta_o, 25.0)
     wo = np.repeat(wo1[None, :], n, axis=0)
-    wi, pdf = sample_batch(model.sample, wo, p, rng.random((n, 3)))
+    wi, pdf = sample_batch(model, wo, p, rng.random((n, 3)))
     assert np.all(np.isfinite(wi)) and np.all(pdf > 0)
     np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9)
-    np.testing.assert_allclose(pdf, pdf_batch(model.pdf, wo, wi, p), rtol=1e-12)
+    np.testing.assert_allclose(pdf, pdf_batch(model, wo, wi, p), rtol=1e-12)
 
     n_z, n_phi, sub = 24, 48, 8
     z_idx = np.clip(((wi[:, 2] + 1) / 2 * n_z).astype(int), 0, n_z - 1)
@@ -182,7 +182,7 @@ def test_samples_follow_the_pdf(name, values, theta_o):
     observed = np.bincount(z_idx * n_phi + p_idx, minlength=n_z * n_phi).astype(float)
     # Expected counts: the pdf integrated over each cell with sub x sub midpoints (area-preserving (z, phi)).
     fine, cell = _sphere_grid(n_z * sub, n_phi * sub)
-    dens = pdf_batch(model.pdf, np.repeat(wo1[None, :], len(fine), axis=0), fine, p) * cell
+    dens = pdf_batch(model, np.repeat(wo1[None, :], len(fine), axis=0), fine, p) * cell
     expected = dens.reshape(n_z, sub, n_phi, sub).sum(axis=(1, 3)).ravel() * n
     assert not np.any((expected == 0) & (observed > 0))
     order = np.argsort(expected)
