@@ -66,7 +66,7 @@ def quadtree_available() -> bool:
 
 
 def _sampler_names() -> list[str]:
-    from core.sampler import sampler_names
+    from core.sampling import sampler_names
 
     return sampler_names()
 
@@ -89,7 +89,7 @@ def quadtree_bin(brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> 
 
 def _sampler_tree(q: Any, brdf: BRDF, theta_deg: float, phi_deg: float, n_max: float) -> dict[str, Any]:
     """The tree the adaptive sampler itself uses for this direction (built on demand, cached by it)."""
-    from core.sampler import make_sampler
+    from core.sampling import make_sampler
 
     sampler = make_sampler("adaptive", brdf, n_max=n_max)
     table = sampler.table
@@ -160,7 +160,7 @@ def renderer_available() -> bool:
 
 def adaptive_table_info(brdf: BRDF) -> dict[str, Any]:
     """Memory and build time of the adaptive sampler's tables for ``brdf`` (builds them)."""
-    from core.sampler import make_sampler, sampler_names
+    from core.sampling import make_sampler, sampler_names
 
     if "adaptive" not in sampler_names():
         raise Unavailable("the adaptive sampler is not available yet in this build")

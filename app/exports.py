@@ -15,7 +15,7 @@ import numpy as np
 from core.errors import OutputError
 from core.io import atomic_write_bytes
 from core.model import BRDF, luminance
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 
 COLUMNS = ("x", "y", "z", "pdf", "weight")
 
@@ -23,10 +23,11 @@ COLUMNS = ("x", "y", "z", "pdf", "weight")
 def sample_set(brdf: BRDF, wo: np.ndarray, sampler: str, n: int, seed: int = 0, **options) -> np.ndarray:
     """``(n, 5)`` rows ``x, y, z, pdf, weight`` from the named strategy."""
     s = make_sampler(sampler, brdf, **options)
-    wi, pdf = s.sample(np.asarray(wo, dtype=np.float64), int(n), seed)
-    f = luminance(brdf.eval(wo, wi)) * np.maximum(wi[:, 2], 0.0)
+    batch = s.sample(np.asarray(wo, dtype=np.float64), int(n), seed)
+    wi, pdf = batch.wi, batch.pdf
+    fcos = luminance(batch.f) * np.maximum(wi[:, 2], 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        weight = np.where(pdf > 0, f / pdf, 0.0)
+        weight = np.where(pdf > 0, fcos / pdf, 0.0)
     return np.column_stack([wi, pdf, weight])
 
 

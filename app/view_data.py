@@ -226,7 +226,7 @@ def sampling_snapshot(
     """
     from app.capabilities import Unavailable, from_disk, quadtree_bin, to_disk
     from core.errors import BrdfStudioError
-    from core.sampler import make_sampler, sampler_names
+    from core.sampling import make_sampler, sampler_names
 
     iso = brdf.model.isotropic
     frame_phi = math.radians(phi_deg) if iso else 0.0
@@ -247,12 +247,13 @@ def sampling_snapshot(
     out["projection"] = projection
 
     out["samples"], out["samples_error"], out["sampler_info"] = None, "", {}
-    adaptive_draw = None  # (sampler, wi, pdf): reused by the ratio map when it shows the adaptive sampler
+    adaptive_draw = None  # (sampler, batch): reused by the ratio map when it shows the adaptive sampler
     if "adaptive" in sampler_names():
         try:
             s = make_sampler("adaptive", brdf, n_max=n_max)
-            wi, wpdf = s.sample(wo_true, n_samples, seed)
-            adaptive_draw = (s, wi, wpdf)
+            batch = s.sample(wo_true, n_samples, seed)
+            adaptive_draw = (s, batch)
+            wi = batch.wi
             up = wi[:, 2] > 0.0
             out["samples"] = to_disk(rotate_z(wi[up], -frame_phi), projection)
             out["sampler_info"] = s.info()
@@ -276,21 +277,21 @@ def sampling_snapshot(
     if ratio_sampler in sampler_names():
         try:
             if ratio_sampler == "adaptive" and adaptive_draw is not None:
-                s, ws, wpdf = adaptive_draw  # the same draw as the samples shown (same seed and count)
+                s, drawn = adaptive_draw  # the same draw as the samples shown (same seed and count)
             else:
                 s = make_sampler(
                     ratio_sampler, brdf, **({"n_max": n_max} if ratio_sampler == "adaptive" else {})
                 )
-                ws, wpdf = s.sample(wo_true, n_samples, seed)
+                drawn = s.sample(wo_true, n_samples, seed)
             pdf = s.pdf(np.broadcast_to(wo_true, wi_true.shape), wi_true)
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where((pdf > 0) | (target > 0), pdf / target, np.nan)
             img = np.full(x.shape, np.nan)
             img[inside] = r
             out["ratio"] = img
-            fw = luminance(brdf.eval(wo_true, ws)) * np.maximum(ws[:, 2], 0.0)
+            fw = luminance(drawn.f) * np.maximum(drawn.wi[:, 2], 0.0)
             with np.errstate(divide="ignore", invalid="ignore"):
-                w = np.where(wpdf > 0, fw / wpdf, 0.0)
+                w = np.where(drawn.pdf > 0, fw / drawn.pdf, 0.0)
             mean = float(np.mean(w))
             out["weight_rel_std"] = float(np.std(w) / mean) if mean > 0 else float("nan")
         except BrdfStudioError as exc:

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from app.commands.render import demo_scene_path
-from core.sampler import sampler_names
+from core.sampling import sampler_names
 from core.scene import load_scene
 from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
 from renderer.render import prepare

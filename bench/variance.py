@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from core.geometry import degrees_to_dir  # noqa: E402
 from core.model import LUMINANCE, all_models  # noqa: E402
-from core.sampler import applicable_samplers, make_sampler  # noqa: E402
+from core.sampling import applicable_samplers, make_sampler  # noqa: E402
 
 THETAS = (30.0, 60.0, 80.0)
 SUN = np.array([0.35, 0.2, 1.0]) / np.linalg.norm([0.35, 0.2, 1.0])
@@ -53,9 +53,10 @@ def sky(w: np.ndarray) -> np.ndarray:
 def variances(brdf, wo: np.ndarray, n: int, rotations: np.ndarray, seed: int) -> dict[str, dict[str, float]]:
     """``{sampler: {lighting: variance per sample}}`` at one ``wo`` (``inf`` where a sampler misses f)."""
     q = make_sampler("adaptive", brdf)
-    wi, q_pdf = q.sample(wo, n, seed)
+    drawn = q.sample(wo, n, seed)
+    wi, q_pdf = drawn.wi, drawn.pdf
     wos = np.broadcast_to(wo, wi.shape)
-    fcos = (q.eval(wos, wi) @ LUMINANCE) * wi[:, 2]
+    fcos = (drawn.f @ LUMINANCE) * wi[:, 2]
     norm = float(np.median(fcos / q_pdf))  # I(wo): f cos / q is the same for every sample
     lights = {"furnace": np.ones((1, n)), "sky": sky(wi)[None, :]}
     lights["rotated_sky"] = np.stack([sky(wi @ r.T) for r in rotations])

@@ -27,7 +27,7 @@ Two grids over the same directions:
 
 A ``sample(n, seed) -> wi (n, 3)`` callable and a ``pdf(wi (m, 3)) -> (m,)`` callable (density per unit solid
 angle) describe the sampler under test; :func:`sampler_functions` makes them from a
-:class:`core.sampler.Sampler` and an outgoing direction.
+:class:`core.sampling.Sampler` and an outgoing direction.
 """
 
 from __future__ import annotations
@@ -430,11 +430,11 @@ def integrate_pdf(pdf: PdfFn, resolution: tuple[int, int] = (64, 64), cell_tol: 
 
 
 def sampler_functions(sampler: Any, wo: np.ndarray) -> tuple[SampleFn, PdfFn]:
-    """``sample(n, seed)`` and ``pdf(wi)`` callables for a :class:`core.sampler.Sampler` at direction ``wo``."""
+    """``sample(n, seed)`` and ``pdf(wi)`` callables for a :class:`core.sampling.Sampler` at direction ``wo``."""
     wo = np.asarray(wo, dtype=np.float64).reshape(3)
 
     def sample(n: int, seed: int) -> np.ndarray:
-        return sampler.sample(wo, n, seed)[0]
+        return sampler.sample(wo, n, seed).wi
 
     def pdf(wi: np.ndarray) -> np.ndarray:
         return sampler.pdf(np.broadcast_to(wo, wi.shape), wi)

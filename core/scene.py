@@ -339,7 +339,7 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
     """Checks beyond the field types: models and their parameters, names that refer to each other,
     samplers, and (with ``check_files``) that every referenced file exists with a known extension."""
     from core.model import get_model
-    from core.sampler import sampler_names
+    from core.sampling import sampler_names
 
     names: dict[str, int] = {}
     for i, mat in enumerate(scene.materials):

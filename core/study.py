@@ -27,8 +27,8 @@ from core.geometry import degrees_to_dir
 from core.io import atomic_write_text
 from core.lighting import CapLight, Furnace, LatLongEnvironment
 from core.model import BRDF, LUMINANCE, all_models
-from core.ris import ris_sample
-from core.sampler import Sampler, make_sampler
+from core.sampling import Sampler, make_sampler
+from core.sampling.ris import ris_sample
 
 DEFAULT_SAMPLERS = (
     "uniform",
@@ -103,11 +103,12 @@ class _Estimator:
 
     def draw(self, wo: np.ndarray, n: int, light: Any, seed: int) -> np.ndarray:
         if self.name == "ris":
-            wi, weight = ris_sample(self.sampler, wo, light.radiance, n, RIS_CANDIDATES, seed=seed)
-            g = (self.brdf.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
-            return g * weight
-        wi, pdf = self.sampler.sample(wo, n, seed=seed)
-        g = (self.brdf.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
+            kept = ris_sample(self.sampler, wo, light.radiance, n, RIS_CANDIDATES, seed=seed)
+            g = (kept.f @ LUMINANCE) * np.maximum(kept.wi[:, 2], 0.0) * light.radiance(kept.wi)
+            return g * kept.weight
+        drawn = self.sampler.sample(wo, n, seed=seed)
+        wi, pdf = drawn.wi, drawn.pdf
+        g = (drawn.f @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light.radiance(wi)
         return np.where(pdf > 0.0, g / np.where(pdf > 0.0, pdf, 1.0), 0.0)
 
     def memory(self) -> int:

@@ -3,8 +3,9 @@
 Per bounce: intersect every live ray (Embree, batched over threads); add environment or emitted radiance
 (MIS-weighted against light sampling); at each hit, next-event estimation (one light sample, shadow ray,
 MIS-weighted against BRDF sampling), then a BRDF sample from the material's chosen strategy; Russian
-roulette after ``rr_depth`` bounces. Rays are grouped by material so each group's BRDF kernel (one numba
-specialization per model) and sampler run on contiguous arrays: no branching on the model per ray.
+roulette after ``rr_depth`` bounces. Rays are grouped by material so each group's sampler (whose draws carry
+``f`` with them) and BRDF run on contiguous arrays, one compiled loop per group with the model's id fixed
+(:mod:`core.dispatch`).
 
 NEE picks a light type with equal shares among those present (area, point, sky), then a light (emissive
 triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
@@ -263,10 +264,10 @@ class PathTracer:
             f = np.zeros((n, 3))
             for m, idx in groups:
                 rt = w.materials_by_index[m]
-                s_wi, s_pdf = rt.sampler.sample_each(wo_l[idx], seed=self._seed(pass_index, depth, int(m)))
-                wi_l[idx] = s_wi
-                pdf[idx] = s_pdf
-                f[idx] = rt.brdf.eval(wo_l[idx], s_wi, threads=len(idx) > PARALLEL_MIN)
+                drawn = rt.sampler.sample_each(wo_l[idx], seed=self._seed(pass_index, depth, int(m)))
+                wi_l[idx] = drawn.wi
+                pdf[idx] = drawn.pdf
+                f[idx] = drawn.f
             wi, ok, beta = bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta)
 
             # ---- Russian roulette
@@ -334,10 +335,10 @@ class PathTracer:
             rows = (idx[:, None] * m_c + np.arange(m_c)).ravel()
             rt = w.materials_by_index[m]
             seed = self._seed(pass_index, depth, int(m) + 0x10000)
-            s_wi, s_pdf = rt.sampler.sample_each(wo_rep[rows], seed=seed)
-            wi_l[rows] = s_wi
-            pdf[rows] = s_pdf
-            f[rows] = rt.brdf.eval(wo_rep[rows], s_wi, threads=len(rows) > PARALLEL_MIN)
+            drawn = rt.sampler.sample_each(wo_rep[rows], seed=seed)
+            wi_l[rows] = drawn.wi
+            pdf[rows] = drawn.pdf
+            f[rows] = drawn.f
         rep = (np.repeat(x, m_c, axis=0) for x in (tb, bb, ns, ng))
         wi, ok, fcos_over_p = bsdf_step(wi_l, pdf, f, *rep, np.ones((n * m_c, 3)))
         le = w.env.lookup(wi)[0]

@@ -2,7 +2,9 @@
 selection tables, the environment, and one BRDF + sampler per material.
 
 "Model only what a scene needs": only the scene's materials get a BRDF and a sampler (an adaptive sampler
-builds its tables for them alone), and only their models' kernels get compiled, in :meth:`World.compile`.
+builds its tables for them alone), in :meth:`World.compile`. The compiled loops serve every model by its id
+and are compiled once per machine at setup (``python -m core.warmup``); here they are loaded, or compiled if
+the warm-up did not run.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 
 from core.errors import BrdfStudioError, UnknownNameError
 from core.model import BRDF, LUMINANCE, make_brdf
-from core.sampler import Sampler, make_sampler
+from core.sampling import Sampler, make_sampler
 from core.scene import Material, QuadLight, Scene, kept_groups
 from renderer.accel import Accel
 from renderer.envmap import ConstantEnvironment, EnvironmentMap, load_environment
@@ -193,9 +195,9 @@ class World:
 
     # ------------------------------------------------------------------------------------- materials
     def compile(self, on_step: StepCallback | None = None, parallel: bool = False) -> dict[str, Any]:
-        """Bind each used material's BRDF and sampler, then compile the kernels of the models used (one
-        specialization per model) and build sampler tables. Reports each step through ``on_step``.
-        ``parallel`` also compiles the multi-threaded evaluation (only worth it for large batches)."""
+        """Bind each used material's BRDF and sampler, load (or compile) the kernels they use and build sampler
+        tables. Reports each step through ``on_step``. ``parallel`` also loads the multi-threaded evaluation
+        (only worth it for large batches)."""
         scene = self.scene
         used = sorted({int(m) for m in np.unique(self.tri_material) if m != NO_MATERIAL})
         steps = len(used)
@@ -220,7 +222,7 @@ class World:
             brdf.eval(wo, wo)
             if parallel:
                 brdf.eval(wo, wo, threads=True)
-            wi, _ = sampler.sample_each(wo, seed=0)
+            sampler.sample_each(wo, seed=0)
             sampler.pdf(wo, np.array([[0.0, -0.6, 0.8]]))
             seconds = time.perf_counter() - t0
             info = dict(sampler.info())

@@ -9,7 +9,7 @@ from tqdm import tqdm
 
 from core.errors import ParameterError, UnknownNameError
 from core.model import get_model
-from core.sampler import sampler_names
+from core.sampling import sampler_names
 from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results
 
 QUICK_MODELS = ("lambert", "phong", "ward")

@@ -21,7 +21,7 @@ from core.chi2 import chi2_test, integrate_pdf, sampler_functions
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, all_models
-from core.sampler import applicable_samplers, make_sampler
+from core.sampling import applicable_samplers, make_sampler
 
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 N_MAXES = (1.3, 2.0, 3.0)
@@ -58,8 +58,9 @@ def validate(sampler, theta: float, phi: float, n: int, n_tests: int, seed: int)
     if abs(row["integral"] - 1.0) > 1e-3:
         ok = False
         row.setdefault("reasons", []).append(f"pdf integrates to {row['integral']:.6f}")
-    wi, p = sampler.sample(wo, min(n, 100_000), seed + 1)
-    f = sampler.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+    batch = sampler.sample(wo, min(n, 100_000), seed + 1)
+    wi, p = batch.wi, batch.pdf
+    f = batch.f @ LUMINANCE
     w = np.where(p > 0, f * np.maximum(wi[:, 2], 0.0) / np.where(p > 0, p, 1.0), 0.0)
     row["weight_rel_std"] = float(np.std(w) / np.mean(w)) if np.mean(w) > 0 else float("nan")
     if hasattr(sampler, "acceptance"):

@@ -64,7 +64,7 @@ def demo_scene_path() -> Path:
 
 
 def _strategies(args: argparse.Namespace, default: str) -> list[str]:
-    from core.sampler import sampler_names
+    from core.sampling import sampler_names
 
     names = (
         [s.strip() for s in args.compare.split(",") if s.strip()]

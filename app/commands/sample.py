@@ -20,7 +20,7 @@ from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.io import atomic_write_bytes
 from core.model import LUMINANCE
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 
 FORMATS = (".csv", ".npy", ".ply")
 
@@ -56,8 +56,9 @@ def check_theta(theta: float) -> float:
 
 def sample_table(sampler, wo: np.ndarray, n: int, seed: int) -> np.ndarray:
     """``(n, 5)``: x, y, z, pdf, weight."""
-    wi, pdf = sampler.sample(wo, n, seed)
-    f = sampler.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+    batch = sampler.sample(wo, n, seed)
+    wi, pdf = batch.wi, batch.pdf
+    f = batch.f @ LUMINANCE
     with np.errstate(divide="ignore", invalid="ignore"):
         weight = np.where(pdf > 0.0, f * np.maximum(wi[:, 2], 0.0) / pdf, 0.0)
     return np.column_stack([wi, pdf, weight])

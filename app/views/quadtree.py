@@ -13,7 +13,7 @@ from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel, QS
 from app.capabilities import to_disk
 from app.view_data import leaf_raster
 from app.views.figure import FigureView
-from core.sampler import sampler_names
+from core.sampling import sampler_names
 
 RASTER = 192
 

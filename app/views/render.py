@@ -30,7 +30,7 @@ from app.views.figure import FigureView
 from app.views.images import ImageView
 from app.workers import WorkerPool
 from core.errors import BrdfStudioError, OutputError
-from core.sampler import sampler_names
+from core.sampling import sampler_names
 from core.scene import Scene
 
 PLOT_INTERVAL_MS = 500

@@ -22,7 +22,7 @@ from core.errors import ParameterError
 from core.model import BRDF
 from core.quadtree import BuildOptions
 from core.quadtree_table import QuadtreeTable
-from core.sampler import Sampler, check_direction, register_sampler
+from core.sampling.base import SampleBatch, Sampler, check_direction, register_sampler
 
 _TABLES: dict[str, QuadtreeTable] = {}
 """In-memory tables by key (model, parameters, options, code version): one per material per process."""
@@ -84,19 +84,19 @@ class AdaptiveSampler(Sampler):
             self.table.cache = store
 
     # the interface
-    def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> SampleBatch:
         if int(n) <= 0:
             raise ParameterError(f"the number of samples must be positive, got {n}")
         wo = check_direction(wo).reshape(3)
         if not self.batch:
             return self.sample_each(np.repeat(wo[None, :], int(n), axis=0), seed)
         wi, pdf, _ = self.table.sample_batch(wo, int(n), _seed(seed))
-        return wi, pdf
+        return self._with_f(wo, wi, pdf)
 
-    def sample_each(self, wo: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    def sample_each(self, wo: np.ndarray, seed: int = 0) -> SampleBatch:
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
         wi, pdf, _ = self.table.sample_each(wo, _seed(seed), self.threads)
-        return wi, pdf
+        return self._with_f(wo, wi, pdf)
 
     def sample_with_trials(self, wo: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Like :meth:`sample_each`, with the number of rejection trials of every sample."""

@@ -1,32 +1,46 @@
 """The one sampling interface every strategy implements, and the registry of strategies by name.
 
-``sample(wo, n, seed) -> (wi (n, 3), pdf (n,))``
-    ``n`` directions for one outgoing direction ``wo (3,)``, with their density per unit solid angle.
-``sample_each(wo (n, 3), seed) -> (wi (n, 3), pdf (n,))``
+``sample(wo, n, seed) -> SampleBatch``
+    ``n`` directions for one outgoing direction ``wo (3,)``.
+``sample_each(wo (n, 3), seed) -> SampleBatch``
     one direction for each row of ``wo`` (what a wavefront renderer needs).
 ``pdf(wo, wi) -> (n,)``
     the density per unit solid angle of the samples the strategy makes, at any unit vector ``wi``.
 ``eval(wo, wi) -> (n, 3)``
     the BRDF being sampled.
 
-All in the local frame (z = normal), reproducible for a given seed. A strategy may return directions
-below the horizon (a lobe that spills over); they carry no energy, and ``pdf`` accounts for them.
+A :class:`SampleBatch` carries, as pbrt's ``BSDFSample`` does, everything computed for the draw: the
+directions ``wi``, their density ``pdf`` and the BRDF value ``f`` there, so no caller evaluates the BRDF again.
+All in the local frame (z = normal), reproducible for a given seed. A strategy may return directions below the
+horizon (a lobe that spills over); they carry no energy (``f = 0``), and ``pdf`` accounts for them.
+
+Strategies live in the modules and subpackages of :mod:`core.sampling` and call :func:`register_sampler` when
+imported; :func:`make_sampler` imports them all on first use, so adding a strategy is adding a module.
 """
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
 from core.errors import ParameterError, UnknownNameError
-from core.kernels import pdf_batch, sample_batch
+from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
 
-INV_TWO_PI = 0.15915494309189535
+
+class SampleBatch(NamedTuple):
+    """Directions drawn by a sampler and what was computed for them (pbrt's ``BSDFSample``)."""
+
+    wi: np.ndarray
+    """``(n, 3)`` float64: incident directions, unit vectors in the local frame (possibly below the horizon)."""
+    pdf: np.ndarray
+    """``(n,)`` float64: their density per unit solid angle, equal to :meth:`Sampler.pdf` there."""
+    f: np.ndarray
+    """``(n, 3)`` float64: the BRDF's RGB value at ``(wo, wi)``; 0 where ``wi`` is below the horizon."""
 
 
 def _pairs(wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,6 +51,7 @@ def _pairs(wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_direction(wo: np.ndarray) -> np.ndarray:
+    """``wo`` as float64 if it holds finite unit 3-vectors (last axis), else :class:`ParameterError`."""
     wo = np.asarray(wo, dtype=np.float64)
     if wo.shape[-1] != 3 or not np.all(np.isfinite(wo)):
         raise ParameterError("a direction must be three finite numbers")
@@ -47,30 +62,49 @@ def check_direction(wo: np.ndarray) -> np.ndarray:
 
 
 class Sampler:
-    """Base class: subclasses provide ``_sample_rows(wo (n,3), u (n,3))`` and ``_pdf_rows(wo, wi)``, or
-    override :meth:`sample_each` and :meth:`pdf` themselves."""
+    """Base class of the sampling strategies.
+
+    A strategy provides ``_sample_directions(wo (n, 3), u (n, 3)) -> DirectionSamples`` and
+    ``_pdf_rows(wo, wi) -> (n,)``; the base class draws the uniforms and evaluates ``f`` once, in compiled
+    code, for the directions drawn. A strategy whose kernels compute ``f`` anyway overrides
+    :meth:`_sample_rows` (or :meth:`sample_each` and :meth:`pdf` themselves) and returns it.
+    """
 
     name = "base"
 
     def __init__(self, brdf: BRDF):
         self.brdf = brdf
 
-    def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> SampleBatch:
+        """``n`` samples for one outgoing direction.
+
+        Parameters
+        ----------
+        wo : (3,) float64
+            Unit outgoing direction.
+        n : int
+            Number of samples (positive).
+        seed : int
+            The same seed gives the same samples.
+        """
         if int(n) <= 0:
             raise ParameterError(f"the number of samples must be positive, got {n}")
         wo = check_direction(wo).reshape(1, 3)
         return self.sample_each(np.repeat(wo, int(n), axis=0), seed)
 
-    def sample_each(self, wo: np.ndarray, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    def sample_each(self, wo: np.ndarray, seed: int = 0) -> SampleBatch:
+        """One sample for each row of ``wo (n, 3)`` (unit outgoing directions)."""
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
         u = np.random.default_rng(seed).random((wo.shape[0], 3))
         return self._sample_rows(wo, u)
 
     def pdf(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """Density per unit solid angle ``(n,)`` of the samples at ``wi``; ``wo, wi`` of shape (3,) or (n, 3)."""
         wo, wi = _pairs(wo, wi)
         return self._pdf_rows(wo, wi)
 
     def eval(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """The BRDF being sampled, ``(n, 3)``."""
         return self.brdf.eval(wo, wi)
 
     def info(self) -> dict[str, Any]:
@@ -82,99 +116,45 @@ class Sampler:
         passes do not); returns how many. Samplers without such tables have nothing to load."""
         return 0
 
-    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    # ------------------------------------------------------------------------- what a strategy provides
+    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> SampleBatch:
+        """Samples for the rows of ``wo (n, 3)`` from uniforms ``u (n, 3)``: the strategy's directions, with
+        ``f`` evaluated once."""
+        drawn = self._sample_directions(wo, u)
+        return self._with_f(wo, drawn.wi, drawn.pdf)
+
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
         raise NotImplementedError
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
-
-@njit(nogil=True, cache=True)
-def sample_uniform(wo, p, u1, u2, u3):
-    x, y, z = uniform_hemisphere(u1, u2)
-    return x, y, z, INV_TWO_PI
-
-
-@njit(nogil=True, cache=True)
-def pdf_uniform(wo, wi, p):
-    return INV_TWO_PI if wi[2] > 0.0 else 0.0
-
-
-@njit(nogil=True, cache=True)
-def sample_cosine(wo, p, u1, u2, u3):
-    x, y, z = cosine_hemisphere(u1, u2)
-    return x, y, z, cosine_hemisphere_pdf(z)
-
-
-@njit(nogil=True, cache=True)
-def pdf_cosine(wo, wi, p):
-    return cosine_hemisphere_pdf(wi[2])
-
-
-class _KernelSampler(Sampler):
-    """A sampler given by a pair of kernels with the model-kernel signatures."""
-
-    sample_kernel: Any = None
-    pdf_kernel: Any = None
-
-    def _kernels(self) -> tuple[Any, Any]:
-        return self.sample_kernel, self.pdf_kernel
-
-    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s, _ = self._kernels()
-        return sample_batch(s, wo, self.brdf.params, u)
-
-    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-        _, p = self._kernels()
-        return pdf_batch(p, wo, wi, self.brdf.params)
-
-
-class UniformSampler(_KernelSampler):
-    """Uniform over the upper hemisphere: ``pdf = 1 / (2 pi)``."""
-
-    name = "uniform"
-    sample_kernel = sample_uniform
-    pdf_kernel = pdf_uniform
-
-
-class CosineSampler(_KernelSampler):
-    """Cosine-weighted upper hemisphere: ``pdf = cos(theta_i) / pi``."""
-
-    name = "cosine"
-    sample_kernel = sample_cosine
-    pdf_kernel = pdf_cosine
-
-
-class AnalyticSampler(_KernelSampler):
-    """The model's own importance sampler (lobe mixtures for diffuse + specular models)."""
-
-    name = "analytic"
-
-    def __init__(self, brdf: BRDF):
-        if brdf.model.sample is None or brdf.model.pdf is None:
-            raise UnknownNameError(
-                f"model '{brdf.model.name}' has no analytic sampler; use 'adaptive', 'cosine' or 'uniform'"
-            )
-        super().__init__(brdf)
-
-    def _kernels(self) -> tuple[Any, Any]:
-        return self.brdf.model.sample, self.brdf.model.pdf
+    def _with_f(self, wo: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> SampleBatch:
+        """The batch of directions ``wi (n, 3)`` with densities ``pdf (n,)`` drawn for ``wo`` ((3,) or
+        (n, 3)), completed with the BRDF's value there (one compiled loop over the model's dispatch id)."""
+        wo = np.broadcast_to(np.asarray(wo, dtype=np.float64), wi.shape)
+        f = eval_batch(self.brdf.model.id, wi, wo, self.brdf.params)
+        return SampleBatch(wi, pdf, f)
 
 
 SamplerFactory = Callable[..., Sampler]
 _SAMPLERS: dict[str, SamplerFactory] = {}
+_loaded = False
+
+LEGACY_MODULES = ("core.samplers.adaptive",)
+"""Strategy modules outside :mod:`core.sampling` the registry imports too (temporarily: the old adaptive
+sampler, until :mod:`core.sampling.adaptive` replaces it). Imported before the package's own modules, so a
+strategy there registered under the same name takes the name over."""
 
 
 def register_sampler(name: str, factory: SamplerFactory) -> None:
+    """Make ``factory(brdf, **options) -> Sampler`` available as ``make_sampler(name, brdf, **options)``
+    (a later registration of the same name replaces the earlier one)."""
     _SAMPLERS[name] = factory
 
 
-register_sampler("uniform", lambda brdf, **_: UniformSampler(brdf))
-register_sampler("cosine", lambda brdf, **_: CosineSampler(brdf))
-register_sampler("analytic", lambda brdf, **_: AnalyticSampler(brdf))
-
-
 def sampler_names() -> list[str]:
+    """Every registered strategy, the basic ones first."""
     _load_samplers()
     return list(_SAMPLERS)
 
@@ -190,6 +170,7 @@ def make_sampler(name: str, brdf: BRDF, **options: Any) -> Sampler:
 
 
 def applicable_samplers(brdf: BRDF) -> list[str]:
+    """The strategies that can sample ``brdf`` (``analytic`` needs the model's own sampler)."""
     names = sampler_names()
     if brdf.model.sample is None:
         names = [n for n in names if n != "analytic"]
@@ -197,7 +178,17 @@ def applicable_samplers(brdf: BRDF) -> list[str]:
 
 
 def _load_samplers() -> None:
-    """Import the modules that register further strategies (kept lazy: they are heavier)."""
-    from core.samplers import load_all
+    """Import every public module and subpackage of :mod:`core.sampling` (each registers its strategies),
+    once; kept lazy because some are heavy. ``basic`` comes first so the basic strategies lead the list."""
+    global _loaded
+    if _loaded:
+        return
+    import core.sampling
 
-    load_all()
+    importlib.import_module("core.sampling.basic")
+    for name in LEGACY_MODULES:
+        importlib.import_module(name)
+    for m in sorted(pkgutil.iter_modules(core.sampling.__path__), key=lambda m: m.name):
+        if not m.name.startswith("_"):
+            importlib.import_module(f"core.sampling.{m.name}")
+    _loaded = True

@@ -27,10 +27,10 @@ import numpy as np
 from numba import njit
 
 from core.errors import ParameterError
-from core.kernels import eval_batch
+from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
-from core.sampler import Sampler, register_sampler
-from core.samplers.tabulated import bin_directions, bin_of, search_cdf
+from core.sampling.base import Sampler, register_sampler
+from core.sampling.tabulated import bin_directions, bin_of, search_cdf
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -97,7 +97,9 @@ def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
 
 
 @njit(nogil=True, cache=True)
-def _sample_rows(wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, wi_out, pdf_out):
+def _factored_sample_rows(
+    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, wi_out, pdf_out
+):
     n_terms = u_cdf.shape[0]
     n_tp = u_cdf.shape[1] - 1
     n_pp = v_cdf.shape[1] - 1
@@ -149,7 +151,7 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_c
 
 
 @njit(nogil=True, cache=True)
-def _pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
+def _factored_pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
         if w[2] <= 0.0:
@@ -291,20 +293,20 @@ class FactoredSampler(Sampler):
         self._v_pdf = V / (TWO_PI / s.n_phi_p)
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
 
-    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
         s = self.settings
         wi = np.empty_like(wo)
         pdf = np.empty(wo.shape[0])
-        _sample_rows(
+        _factored_sample_rows(
             wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
             self._v_cdf, self._v_pdf, wi, pdf,
         )  # fmt: skip
-        return wi, pdf
+        return DirectionSamples(wi, pdf)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         s = self.settings
         out = np.empty(wo.shape[0])
-        _pdf_rows(
+        _factored_pdf_rows(
             wo, wi, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_pdf, self._v_pdf,
             s.n_theta_p, s.n_phi_p, out,
         )  # fmt: skip

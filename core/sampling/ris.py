@@ -11,12 +11,24 @@ traces for the kept candidate only).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
 from core.errors import ParameterError
 from core.model import LUMINANCE
-from core.sampler import Sampler
+from core.sampling.base import Sampler
+
+
+class ResampledBatch(NamedTuple):
+    """The directions RIS kept, one per output sample, with their weights and BRDF values."""
+
+    wi: np.ndarray
+    """``(n, 3)`` float64: the kept candidates."""
+    weight: np.ndarray
+    """``(n,)`` float64: ``mean_k(w_k) / p_hat(wi)``, the factor that makes ``g(wi) * weight`` unbiased."""
+    f: np.ndarray
+    """``(n, 3)`` float64: the BRDF's value at ``(wo, wi)`` (the source sampler's, not evaluated again)."""
 
 
 def ris_sample(
@@ -26,18 +38,27 @@ def ris_sample(
     n: int,
     candidates: int,
     seed: int = 0,
-) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` resampled directions for ``wo (3,)`` and their RIS weights ``mean_k(w_k) / p_hat(y)``.
+) -> ResampledBatch:
+    """``n`` resampled directions for ``wo (3,)``, their RIS weights ``mean_k(w_k) / p_hat(y)`` and ``f``.
 
     Multiply the integrand ``g(y)`` by the weight to get an unbiased estimate of its integral; a weight of 0
     means every candidate had zero target.
+
+    Parameters
+    ----------
+    sampler : the source of the candidates (its ``f`` gives the target)
+    wo : (3,) float64
+        Unit outgoing direction.
+    light_radiance : ``(m, 3) -> (m,)`` incident radiance (luminance) from each direction, unoccluded
+    n, candidates : output samples, and candidates ``M`` per output sample
+    seed : int
     """
     if candidates < 1 or n < 1:
         raise ParameterError("RIS needs at least one candidate and one sample")
     m = int(candidates)
-    wi, pdf = sampler.sample(wo, n * m, seed=seed)
-    f = sampler.eval(wo, wi) @ LUMINANCE
-    target = f * np.maximum(wi[:, 2], 0.0) * light_radiance(wi)
+    batch = sampler.sample(wo, n * m, seed=seed)
+    wi, pdf = batch.wi, batch.pdf
+    target = (batch.f @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) * light_radiance(wi)
     w = np.where(pdf > 0.0, target / np.where(pdf > 0.0, pdf, 1.0), 0.0).reshape(n, m)
     total = w.sum(axis=1)
     rng = np.random.default_rng([seed, 0x5151])
@@ -47,4 +68,4 @@ def ris_sample(
     chosen = wi.reshape(n, m, 3)[rows, pick]
     p_hat = target.reshape(n, m)[rows, pick]
     weight = np.where(p_hat > 0.0, (total / m) / np.where(p_hat > 0.0, p_hat, 1.0), 0.0)
-    return chosen, weight
+    return ResampledBatch(chosen, weight, batch.f.reshape(n, m, 3)[rows, pick])

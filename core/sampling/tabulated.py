@@ -26,9 +26,9 @@ import numpy as np
 from numba import njit
 
 from core.errors import ParameterError
-from core.kernels import eval_batch
+from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
-from core.sampler import Sampler, register_sampler
+from core.sampling.base import Sampler, register_sampler
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -98,7 +98,7 @@ def search_cdf(cdf, lo, hi, u):
 
 
 @njit(nogil=True, cache=True)
-def _sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, wi_out, pdf_out):
+def _cdf_sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, wi_out, pdf_out):
     """Draw one direction per row of ``wo``; the layout is explained in :class:`CDFSampler`."""
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
@@ -135,7 +135,7 @@ def _sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, 
 
 
 @njit(nogil=True, cache=True)
-def _pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, out):
+def _cdf_pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, out):
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
         if w[2] <= 0.0 or wi[i, 2] <= 0.0:
@@ -276,15 +276,15 @@ class CDFSampler(Sampler):
             self._coff,
         )
 
-    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
         wi = np.empty_like(wo)
         pdf = np.empty(wo.shape[0])
-        _sample_rows(wo, u, *self._tables(), wi, pdf)
-        return wi, pdf
+        _cdf_sample_rows(wo, u, *self._tables(), wi, pdf)
+        return DirectionSamples(wi, pdf)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])
-        _pdf_rows(wo, wi, *self._tables(), out)
+        _cdf_pdf_rows(wo, wi, *self._tables(), out)
         return out
 
     def memory_bytes(self) -> int:

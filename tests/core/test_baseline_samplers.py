@@ -14,10 +14,10 @@ from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.lighting import CapLight, LatLongEnvironment
 from core.model import LUMINANCE, make_brdf
-from core.ris import ris_sample
-from core.sampler import make_sampler
-from core.samplers.factored import nmf
-from core.samplers.tabulated import douglas_peucker
+from core.sampling import make_sampler
+from core.sampling.factored import nmf
+from core.sampling.ris import ris_sample
+from core.sampling.tabulated import douglas_peucker
 
 BASELINES = ["uniform_cdf", "compress_cdf", "factored"]
 FAST_CASES = [
@@ -90,7 +90,8 @@ def test_pdf_of_sample_matches_pdf_function(model, name):
     s = _sampler(model, name)
     for theta in (0.0, 45.0, 89.9):
         wo = degrees_to_dir(theta, 70.0)
-        wi, pdf = s.sample(wo, 20_000, seed=5)
+        drawn = s.sample(wo, 20_000, seed=5)
+        wi, pdf = drawn.wi, drawn.pdf
         assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
         np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9)
         up = wi[:, 2] > 1e-6  # below the horizon the half-vector map degenerates near wi = -wo
@@ -103,8 +104,8 @@ def test_grazing_and_hard_cases_are_finite(name):
         s = make_sampler(name, make_brdf(model, params))
         for theta in (0.0, 89.9, 90.0):
             wo = degrees_to_dir(theta)
-            wi, pdf = s.sample(wo, 5000, seed=1)
-            f = s.eval(wo, wi)
+            drawn = s.sample(wo, 5000, seed=1)
+            wi, pdf, f = drawn.wi, drawn.pdf, drawn.f
             assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(np.isfinite(f))
 
 
@@ -115,8 +116,8 @@ def test_compression_shrinks_memory_and_keeps_the_estimate():
     wo = degrees_to_dir(30.0)
     estimates = []
     for s in (u, c):
-        wi, pdf = s.sample(wo, 400_000, seed=9)
-        g = (s.eval(wo, wi) @ LUMINANCE) * np.maximum(wi[:, 2], 0.0) / pdf
+        drawn = s.sample(wo, 400_000, seed=9)
+        g = (drawn.f @ LUMINANCE) * np.maximum(drawn.wi[:, 2], 0.0) / drawn.pdf
         estimates.append((g.mean(), g.std() / np.sqrt(len(g))))
     (a, sa), (b, sb) = estimates
     assert abs(a - b) < 5.0 * np.hypot(sa, sb)  # both unbiased for the same albedo
@@ -168,8 +169,9 @@ def test_ris_is_unbiased(light_kind):
 
     wl, pl = light.sample(400_000, np.random.default_rng(1))
     ref = g(wl) / pl
-    y, w = ris_sample(make_sampler("cosine", brdf), wo, light.radiance, 100_000, 8, seed=2)
-    est = g(y) * w
+    kept = ris_sample(make_sampler("cosine", brdf), wo, light.radiance, 100_000, 8, seed=2)
+    np.testing.assert_array_equal(kept.f, brdf.eval(wo, kept.wi))
+    est = g(kept.wi) * kept.weight
     assert np.all(np.isfinite(est))
     diff = abs(est.mean() - ref.mean())
     assert diff < 5.0 * np.hypot(est.std() / np.sqrt(len(est)), ref.std() / np.sqrt(len(ref)))

@@ -21,7 +21,6 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
 
 from core.errors import FileFormatError
 from core.kernels import eval_batch
@@ -37,38 +36,19 @@ from core.merl import (
     tabulate,
     write_merl,
 )
-from core.model import Model, Param, Traits, make_brdf
-from core.sampler import make_sampler
+from core.model import make_brdf
+from core.sampling import make_sampler
 
 LOBE_N = 50.0
-LOBE_RGB = np.array([1.0, 0.5, 0.25])
+LOBE_RGB = np.array([0.48, 0.24, 0.12])
 LOBE_KD = 0.1
 
-
-@njit(nogil=True)
-def eval_half_lobe(wi, wo, p):
-    """A smooth test lobe depending on theta_h only: ``(kd/pi + (n+2)/(8 pi) cos^n theta_h) * rgb``."""
-    if wi[2] <= 0.0 or wo[2] <= 0.0:
-        return 0.0, 0.0, 0.0
-    hx, hy, hz = wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]
-    c = hz / math.sqrt(hx * hx + hy * hy + hz * hz)
-    v = p[1] / math.pi + (p[0] + 2.0) / (8.0 * math.pi) * c ** p[0]
-    return v * p[2], v * p[3], v * p[4]
-
-
-HALF_LOBE = Model(
-    name="test_half_lobe",
-    label="test lobe",
-    citation="test",
-    params=(
-        Param("n", LOBE_N, 1.0, 1e4),
-        Param("kd", LOBE_KD, 0.0, 1.0),
-        Param("rgb", tuple(LOBE_RGB), 0.0, 1.0, kind="color"),
-    ),
-    traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-    eval=eval_half_lobe,
-    doc="test",
+HALF_LOBE = make_brdf(
+    "blinn",
+    {"n": LOBE_N, "ks": tuple((LOBE_N + 2.0) / (8.0 * math.pi) * LOBE_RGB), "kd": tuple(LOBE_KD * LOBE_RGB)},
 )
+"""A smooth test lobe depending on theta_h only: ``(kd/pi + (n+2)/(8 pi) cos^n theta_h) * rgb`` (Blinn's
+model, whose specular coefficient bounds the tint to ``rgb <= 8 pi / (n + 2)``)."""
 
 
 def lobe_value(theta_h: np.ndarray) -> np.ndarray:
@@ -106,7 +86,7 @@ def centre_angles(ih: int, jd: int, kp: int) -> tuple[float, float, float]:
 @pytest.fixture(scope="module")
 def lobe_file(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("merl") / "lobe.binary"
-    write_merl(path, HALF_LOBE.bind())
+    write_merl(path, HALF_LOBE)
     return str(path)
 
 
@@ -162,7 +142,7 @@ def test_single_cell_is_found_from_its_angles(rng, interpolate):
 @pytest.mark.parametrize("interpolate", [True, False])
 def test_exact_at_cell_centres(lobe_file, rng, interpolate):
     brdf = measured_brdf(lobe_file, interpolate=interpolate)
-    source = HALF_LOBE.bind()
+    source = HALF_LOBE
     wis, wos = [], []
     while len(wis) < 400:
         ih, jd, kp = rng.integers(0, 90), rng.integers(0, 90), rng.integers(0, 180)
@@ -261,8 +241,9 @@ def test_measured_plugs_into_batch_drivers_and_samplers(lobe_file, rng):
     )
     assert np.array_equal(serial, parallel)
     sampler = make_sampler("cosine", brdf)
-    s_wi, pdf = sampler.sample(np.array([0.0, 0.0, 1.0]), 100, seed=1)
-    assert np.all(np.isfinite(sampler.eval(np.array([0.0, 0.0, 1.0]), s_wi))) and np.all(pdf > 0)
+    drawn = sampler.sample(np.array([0.0, 0.0, 1.0]), 100, seed=1)
+    assert np.all(np.isfinite(drawn.f)) and np.all(drawn.pdf > 0)
+    np.testing.assert_array_equal(drawn.f, brdf.eval(np.array([0.0, 0.0, 1.0]), drawn.wi))
     assert brdf.key() != measured_brdf(lobe_file, interpolate=False).key()
 
 

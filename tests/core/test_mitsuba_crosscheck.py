@@ -19,7 +19,7 @@ import pytest
 from core.geometry import degrees_to_dir
 from core.model import get_model
 from core.models._fresnel import fresnel_conductor
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 
 mi = pytest.importorskip("mitsuba")
 mi.set_variant("scalar_rgb")

@@ -1,5 +1,6 @@
-"""The sampling interface every registered strategy implements (core.sampler): shapes, unit directions, the
-pdf returned with a sample equals ``pdf(wo, wi)``, reproducibility for a seed, user errors for bad input."""
+"""The sampling interface every registered strategy implements (core.sampling): shapes, unit directions, the
+pdf and BRDF value returned with a sample equal ``pdf(wo, wi)`` and ``eval(wo, wi)``, reproducibility for a
+seed, user errors for bad input."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import pytest
 from core.errors import ParameterError, UnknownNameError
 from core.geometry import degrees_to_dir
 from core.model import make_brdf
-from core.sampler import applicable_samplers, make_sampler, sampler_names
+from core.sampling import SampleBatch, applicable_samplers, make_sampler, sampler_names
 
 BRDFS = [("lambert", None), ("phong", {"n": 30})]
+F_BRDFS = BRDFS + [("ward", {"sx": 0.1, "sy": 0.3})]
+"""For the check of the returned ``f``: an anisotropic model too (its value depends on the azimuths)."""
 
 
 @pytest.fixture(autouse=True)
@@ -19,9 +22,9 @@ def _private_cache(private_tables):
     """Every test gets its own table cache folder and an empty in-memory cache (tests/core/conftest.py)."""
 
 
-def _cases():
+def _cases(brdfs=BRDFS):
     out = []
-    for model, params in BRDFS:
+    for model, params in brdfs:
         brdf = make_brdf(model, params)
         for name in applicable_samplers(brdf):
             out.append(pytest.param(model, params, name, id=f"{model}-{name}"))
@@ -32,22 +35,43 @@ def _cases():
 def test_interface_contract(model, params, name):
     sampler = make_sampler(name, make_brdf(model, params))
     wo = degrees_to_dir(35.0, 20.0)
-    wi, pdf = sampler.sample(wo, 2000, seed=4)
-    assert wi.shape == (2000, 3) and pdf.shape == (2000,)
+    drawn = sampler.sample(wo, 2000, seed=4)
+    assert isinstance(drawn, SampleBatch)
+    wi, pdf = drawn.wi, drawn.pdf
+    assert wi.shape == (2000, 3) and pdf.shape == (2000,) and drawn.f.shape == (2000, 3)
     assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
     np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9)
     np.testing.assert_allclose(sampler.pdf(np.broadcast_to(wo, wi.shape), wi), pdf, rtol=1e-12, atol=0)
-    again, _ = sampler.sample(wo, 2000, seed=4)
-    np.testing.assert_array_equal(wi, again)
+    np.testing.assert_array_equal(sampler.sample(wo, 2000, seed=4).wi, wi)
     many = np.stack([degrees_to_dir(t, p) for t, p in [(0, 0), (20, 40), (60, 200), (85, 300)]] * 50)
-    wi2, pdf2 = sampler.sample_each(many, seed=1)
-    assert wi2.shape == many.shape and pdf2.shape == (len(many),)
-    np.testing.assert_allclose(sampler.pdf(many, wi2), pdf2, rtol=1e-12, atol=0)
+    each = sampler.sample_each(many, seed=1)
+    assert each.wi.shape == many.shape and each.pdf.shape == (len(many),) and each.f.shape == many.shape
+    np.testing.assert_allclose(sampler.pdf(many, each.wi), each.pdf, rtol=1e-12, atol=0)
     assert sampler.eval(np.broadcast_to(wo, wi.shape), wi).shape == (2000, 3)
     info = sampler.info()
     assert info["sampler"] == name and info["memory_bytes"] >= 0 and info["build_seconds"] >= 0.0
     with pytest.raises(ParameterError):
         sampler.sample(wo, 0)
+
+
+@pytest.mark.parametrize(("model", "params", "name"), _cases(F_BRDFS))
+def test_a_draw_returns_the_brdf_value_and_the_pdf_at_its_directions(model, params, name):
+    """``f`` is the BRDF's value at the drawn directions (0 below the horizon), exactly as ``brdf.eval`` gives
+    it, and ``pdf`` is ``sampler.pdf`` there; for one ``wo`` and for one ``wo`` per row. (The pdf to 1e-9: the
+    factored sampler's half-vector density is recomputed from ``wi + wo`` by ``pdf``, which rounds
+    differently inside a sharp lobe.)"""
+    brdf = make_brdf(model, params)
+    sampler = make_sampler(name, brdf)
+    wo = degrees_to_dir(50.0, 110.0)
+    drawn = sampler.sample(wo, 3000, seed=8)
+    np.testing.assert_array_equal(drawn.f, brdf.eval(wo, drawn.wi))
+    np.testing.assert_allclose(sampler.pdf(wo, drawn.wi), drawn.pdf, rtol=1e-9, atol=0)
+    many = np.stack([degrees_to_dir(t, p) for t, p in [(0, 0), (30, 70), (70, 190), (89, 320)]] * 250)
+    each = sampler.sample_each(many, seed=2)
+    np.testing.assert_array_equal(each.f, brdf.eval(many, each.wi))
+    np.testing.assert_allclose(sampler.pdf(many, each.wi), each.pdf, rtol=1e-9, atol=0)
+    assert np.all(each.f[each.wi[:, 2] <= 0.0] == 0.0)
+    assert np.any(each.f > 0.0)
 
 
 def test_unknown_sampler_is_a_user_error():

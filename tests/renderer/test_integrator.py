@@ -91,7 +91,7 @@ ALBEDO_CASES = [
 def test_plane_renders_its_albedo(tmp_path: Path, model: str, params: dict, sampler: str) -> None:
     """A plane under a constant unit sky, seen at 60 degrees: each pixel is the directional albedo rho(60)
     (no interreflection on a plane), computed independently by quadrature (core.analysis)."""
-    from core.sampler import sampler_names
+    from core.sampling import sampler_names
 
     if model not in {m.name for m in all_models()} or sampler not in sampler_names():
         pytest.skip(f"model {model} or sampler {sampler} not in the library yet")
@@ -151,7 +151,7 @@ def test_strategies_converge_to_the_same_image(tmp_path: Path) -> None:
     """uniform, cosine, analytic (and adaptive, once registered) sampling estimate the same image: 4x4-pixel
     blocks agree within a Bonferroni-corrected two-sided z-test at alpha = 0.01 (16 blocks x 3 channels x
     the number of pairs)."""
-    from core.sampler import sampler_names
+    from core.sampling import sampler_names
 
     others = ["uniform", "analytic"] + (["adaptive"] if "adaptive" in sampler_names() else [])
     passes = 24

@@ -25,7 +25,7 @@ from core.chi2 import chi2_test, sampler_functions
 from core.geometry import degrees_to_dir, spherical_to_dir
 from core.kernels import pdf_batch, sample_batch
 from core.model import BRDF
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
 
 # ----------------------------------------------------------------------------------------------------------
@@ -110,8 +110,8 @@ def albedo_estimate(
     """Directional albedo (RGB) by importance sampling with the model's analytic sampler, and its standard
     error: mean of ``f cos / pdf`` (samples below the horizon contribute 0)."""
     sampler = make_sampler("analytic", brdf)
-    wi, pdf = sampler.sample(np.asarray(wo, dtype=np.float64), n, seed)
-    f = brdf.eval(wo, wi)
+    drawn = sampler.sample(np.asarray(wo, dtype=np.float64), n, seed)
+    wi, pdf, f = drawn.wi, drawn.pdf, drawn.f
     up = (wi[:, 2] > 0.0) & (pdf > 0.0)
     w = np.zeros_like(f)
     w[up] = f[up] * wi[up, 2:3] / pdf[up, None]
@@ -146,11 +146,11 @@ def assert_sample_matches_pdf(brdf: BRDF, thetas=(0.0, 1.0, 30.0, 60.0, 85.0, 89
     model = brdf.model
     for theta in thetas:
         wo = np.repeat(direction(theta)[None, :], n, axis=0)
-        wi, pdf = sample_batch(model.sample, wo, brdf.params, rng.random((n, 3)))
+        wi, pdf = sample_batch(model, wo, brdf.params, rng.random((n, 3)))
         assert np.all(np.isfinite(wi)), f"theta_o={theta}: non-finite directions"
         np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-9, err_msg=f"theta_o={theta}")
         assert np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0), f"theta_o={theta}: pdf {pdf.min()}"
-        again = pdf_batch(model.pdf, wo, wi, brdf.params)
+        again = pdf_batch(model, wo, wi, brdf.params)
         np.testing.assert_allclose(again, pdf, rtol=1e-9, atol=0.0, err_msg=f"theta_o={theta}")
 
 
@@ -163,7 +163,8 @@ def assert_sampler_exact(
     grid, or on the disk grid beyond 60 degrees, where it resolves lobes at grazing angles better)."""
     sampler = make_sampler("analytic", brdf)
     wo = degrees_to_dir(theta_deg, phi_deg)
-    wi, pdf = sampler.sample(wo, 20_000, seed)
+    drawn = sampler.sample(wo, 20_000, seed)
+    wi, pdf = drawn.wi, drawn.pdf
     assert np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
     np.testing.assert_allclose(pdf, sampler.pdf(wo, wi), rtol=1e-9, atol=0.0)
     sample, density = sampler_functions(sampler, wo)
@@ -180,7 +181,7 @@ def assert_pdf_integrates_to_one(brdf: BRDF, thetas=(0.0, 45.0, 80.0)) -> None:
 
         def density(dirs, wo=wo):
             wos = np.ascontiguousarray(np.repeat(wo[None, :], len(dirs), axis=0))
-            return pdf_batch(model.pdf, wos, np.ascontiguousarray(dirs), brdf.params)
+            return pdf_batch(model, wos, np.ascontiguousarray(dirs), brdf.params)
 
         # Upper and lower hemispheres apart: densities with a diffuse part jump at the horizon.
         upper, err_upper = quadrature(density, 0.0, 0.5 * np.pi)
@@ -199,7 +200,7 @@ def assert_albedo_estimate_matches(brdf: BRDF, thetas=(0.0, 45.0, 80.0), n=200_0
         albedo, err = albedo_by_quadrature(brdf, wo)
         rng = np.random.default_rng(seed + k)
         wos = np.repeat(wo[None, :], n, axis=0)
-        wi, pdf = sample_batch(model.sample, wos, brdf.params, rng.random((n, 3)))
+        wi, pdf = sample_batch(model, wos, brdf.params, rng.random((n, 3)))
         fc = brdf.eval(wos, wi) * np.maximum(wi[:, 2], 0.0)[:, None]
         assert not np.any((pdf == 0.0)[:, None] & (fc > 0.0)), "a sample with pdf 0 where f > 0"
         weight = np.where(pdf[:, None] > 0.0, fc / np.where(pdf > 0.0, pdf, 1.0)[:, None], 0.0)

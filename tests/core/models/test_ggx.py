@@ -13,7 +13,7 @@ import pytest
 
 from core.geometry import degrees_to_dir
 from core.model import get_model
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 from tests.core.models._checks import (
     albedo_estimate,
     assert_sampler_exact,
@@ -88,9 +88,10 @@ def test_visible_normal_weight_is_fresnel_times_shadowing():
     brdf = GGX.bind(alpha=alpha)
     sampler = make_sampler("analytic", brdf)
     wo = degrees_to_dir(70.0, 30.0)
-    wi, pdf = sampler.sample(wo, 2000, 11)
+    drawn = sampler.sample(wo, 2000, 11)
+    wi, pdf = drawn.wi, drawn.pdf
     up = wi[:, 2] > 0.0
-    weights = brdf.eval(wo, wi[up])[:, 0] * wi[up, 2] / pdf[up]
+    weights = drawn.f[up, 0] * wi[up, 2] / pdf[up]
     h = wi[up] + wo
     h /= np.linalg.norm(h, axis=1, keepdims=True)
     expected = [
@@ -132,7 +133,8 @@ def test_sampler_is_exact(values, theta):
 def test_sampler_below_the_horizon_falls_back_to_the_cosine_hemisphere():
     sampler = make_sampler("analytic", GGX.bind(kd=0.5))
     wo = np.array([0.6, 0.0, -0.8])
-    wi, pdf = sampler.sample(wo, 1000, 2)
+    drawn = sampler.sample(wo, 1000, 2)
+    wi, pdf = drawn.wi, drawn.pdf
     assert np.all(wi[:, 2] >= 0.0)
     np.testing.assert_allclose(pdf, wi[:, 2] / math.pi, rtol=1e-12)
     np.testing.assert_allclose(pdf, sampler.pdf(wo, wi), rtol=1e-12)

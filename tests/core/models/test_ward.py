@@ -12,7 +12,7 @@ import pytest
 
 from core.geometry import degrees_to_dir
 from core.model import get_model
-from core.sampler import make_sampler
+from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
 from tests.core.models._checks import (
     albedo_estimate,
@@ -144,5 +144,6 @@ def test_sampler_below_the_horizon_still_consistent():
     brdf = WARD.bind(sx=0.3, sy=0.3)
     sampler = make_sampler("analytic", brdf)
     wo = np.array([0.6, 0.0, -0.8])
-    wi, pdf = sampler.sample(wo, 2000, 1)
+    drawn = sampler.sample(wo, 2000, 1)
+    wi, pdf = drawn.wi, drawn.pdf
     np.testing.assert_allclose(pdf, sampler.pdf(wo, wi), rtol=1e-9)

@@ -1,0 +1,113 @@
+"""The basic strategies: ``uniform`` and ``cosine`` over the upper hemisphere, and ``analytic``, the model's own
+importance sampler (lobe mixtures for diffuse + specular models, reached through :mod:`core.dispatch`).
+
+The uniform and cosine loops know no model: they compile once for every material. ``f`` is evaluated by the
+base class for the directions drawn.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from core.errors import UnknownNameError
+from core.kernels import DirectionSamples, pdf_batch, sample_batch
+from core.model import BRDF
+from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
+from core.sampling.base import Sampler, register_sampler
+
+INV_TWO_PI = 0.15915494309189535
+
+
+@njit(nogil=True, cache=True)
+def sample_uniform_rows(u, wi_out, pdf_out):
+    """``wi_out (n, 3)``, ``pdf_out (n,)``: directions uniform over the upper hemisphere from ``u (n, 3)``."""
+    for i in range(u.shape[0]):
+        x, y, z = uniform_hemisphere(u[i, 0], u[i, 1])
+        wi_out[i, 0] = x
+        wi_out[i, 1] = y
+        wi_out[i, 2] = z
+        pdf_out[i] = INV_TWO_PI
+
+
+@njit(nogil=True, cache=True)
+def pdf_uniform_rows(wi, out):
+    """``out (n,)``: the uniform hemisphere density at every row of ``wi (n, 3)`` (0 below the horizon)."""
+    for i in range(wi.shape[0]):
+        out[i] = INV_TWO_PI if wi[i, 2] > 0.0 else 0.0
+
+
+@njit(nogil=True, cache=True)
+def sample_cosine_rows(u, wi_out, pdf_out):
+    """``wi_out (n, 3)``, ``pdf_out (n,)``: cosine-weighted directions over the upper hemisphere."""
+    for i in range(u.shape[0]):
+        x, y, z = cosine_hemisphere(u[i, 0], u[i, 1])
+        wi_out[i, 0] = x
+        wi_out[i, 1] = y
+        wi_out[i, 2] = z
+        pdf_out[i] = cosine_hemisphere_pdf(z)
+
+
+@njit(nogil=True, cache=True)
+def pdf_cosine_rows(wi, out):
+    """``out (n,)``: the cosine-weighted density ``cos(theta_i) / pi`` (0 below the horizon)."""
+    for i in range(wi.shape[0]):
+        out[i] = cosine_hemisphere_pdf(wi[i, 2])
+
+
+class UniformSampler(Sampler):
+    """Uniform over the upper hemisphere: ``pdf = 1 / (2 pi)``."""
+
+    name = "uniform"
+
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        sample_uniform_rows(np.ascontiguousarray(u), wi, pdf)
+        return DirectionSamples(wi, pdf)
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        out = np.empty(wi.shape[0])
+        pdf_uniform_rows(wi, out)
+        return out
+
+
+class CosineSampler(Sampler):
+    """Cosine-weighted upper hemisphere: ``pdf = cos(theta_i) / pi``."""
+
+    name = "cosine"
+
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        sample_cosine_rows(np.ascontiguousarray(u), wi, pdf)
+        return DirectionSamples(wi, pdf)
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        out = np.empty(wi.shape[0])
+        pdf_cosine_rows(wi, out)
+        return out
+
+
+class AnalyticSampler(Sampler):
+    """The model's own importance sampler."""
+
+    name = "analytic"
+
+    def __init__(self, brdf: BRDF):
+        if brdf.model.sample is None or brdf.model.pdf is None:
+            raise UnknownNameError(
+                f"model '{brdf.model.name}' has no analytic sampler; use 'adaptive', 'cosine' or 'uniform'"
+            )
+        super().__init__(brdf)
+
+    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
+        return sample_batch(self.brdf.model.id, wo, self.brdf.params, u)
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        return pdf_batch(self.brdf.model.id, wo, wi, self.brdf.params)
+
+
+register_sampler("uniform", lambda brdf, **_: UniformSampler(brdf))
+register_sampler("cosine", lambda brdf, **_: CosineSampler(brdf))
+register_sampler("analytic", lambda brdf, **_: AnalyticSampler(brdf))
