@@ -3,11 +3,15 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
+WARMED := $(VENV)/.warmed-stamp
+# numba's cached compiles are stamped by the sources they import (core/_numba_cache.py): an edit of any of
+# these makes some of them stale, and the warm-up compiles those again
+KERNEL_SOURCES := $(shell find core renderer -name '*.py' -not -path '*/__pycache__/*' 2>/dev/null)
 JOBS   ?= 2
 
 .PHONY: setup sysdeps run test lint bench clean
 
-setup: sysdeps $(STAMP)
+setup: sysdeps $(STAMP) $(WARMED)
 
 sysdeps:
 	@bash .ci/system-deps.sh
@@ -17,6 +21,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[test]'
 	@touch $(STAMP)
+
+# Compile every cached kernel now rather than in the first render, test or edit of the app.
+$(WARMED): $(STAMP) $(KERNEL_SOURCES)
+	$(BIN)/python -m core.warmup && $(BIN)/python -m renderer.warmup
+	@touch $(WARMED)
 
 # With a display: the desktop app on the demo scene. Headless: the demo summary and a render of the demo scene.
 run: setup

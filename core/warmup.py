@@ -1,0 +1,141 @@
+"""Compile every cached kernel of ``core`` once, at setup: ``python -m core.warmup``.
+
+numba compiles a ``cache=True`` function on its first call and stores it on disk, stamped by the sources it
+imports (:mod:`core._numba_cache`): after an edit, the compiles that could have seen it are made again, minutes
+on two cores for the model switch. The warm-up pays that cost at setup (``make setup`` runs it after every
+change of the sources; what is still valid only loads) instead of in the first render, the first test or the
+app's first edit.
+
+Each entry of :data:`WARM_UPS` is a :class:`WarmUp`, a label and a function that calls one group of kernels
+on tiny inputs through the same public functions the program uses, so that the argument types (and the
+compiled signatures) are the program's. Another package adds its groups by appending to the list (the
+renderer's, which ``core`` cannot import, are in :mod:`renderer.warmup`).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Sequence
+from typing import NamedTuple, TextIO
+
+import numpy as np
+
+
+class WarmUp(NamedTuple):
+    """One group of kernels to compile."""
+
+    label: str
+    """What the line of the report names."""
+    run: Callable[[], object]
+    """Calls every kernel of the group once (on tiny inputs)."""
+
+
+def _directions() -> tuple[np.ndarray, np.ndarray]:
+    """Two pairs ``(wi, wo)`` of unit directions, ``(2, 3)`` each: one above the horizon, one below."""
+    wi = np.array([[0.3, 0.1, 0.948683298050514], [0.0, 0.6, -0.8]])
+    wo = np.array([[-0.2, 0.4, 0.894427190999916], [0.6, 0.0, 0.8]])
+    return wi, wo
+
+
+def _model_batches() -> int:
+    """The batch drivers of :mod:`core.kernels` (one loop for all models), for every model id."""
+    from core.kernels import eval_batch, pdf_batch, sample_batch
+    from core.model import all_models
+
+    wi, wo = _directions()
+    u = np.full((2, 3), 0.5)
+    models = all_models()
+    for model in models:
+        p = model.kernel_params()
+        for threads in (False, True):
+            eval_batch(model.id, wi, wo, p, threads=threads)
+        sample_batch(model.id, wo, p, u)
+        pdf_batch(model.id, wo, wi, p)
+    return len(models)
+
+
+def _measured() -> None:
+    """The MERL writer's loop (:func:`core.merl.tabulate`) and the measured lookups (in the switch above)."""
+    from core.merl import MeasuredBRDF, tabulate
+    from core.model import make_brdf
+
+    table = tabulate(make_brdf("lambert"), subcells=1)
+    wi, wo = _directions()
+    for interpolate in (True, False):
+        MeasuredBRDF(table, None, interpolate).eval(wo, wi)
+
+
+def _basic_samplers() -> None:
+    """``uniform``, ``cosine`` and ``analytic`` (sample, ``f`` and pdf)."""
+    from core.model import make_brdf
+    from core.sampling import make_sampler
+
+    _, wo = _directions()
+    brdf = make_brdf("phong")
+    for name in ("uniform", "cosine", "analytic"):
+        sampler = make_sampler(name, brdf)
+        drawn = sampler.sample_each(wo, seed=1)
+        sampler.pdf(wo, drawn.wi)
+
+
+def _tabulated_samplers() -> None:
+    """``uniform_cdf``, ``compress_cdf`` and ``factored`` on tiny tables (isotropic and anisotropic)."""
+    from core.model import make_brdf
+    from core.sampling import make_sampler
+
+    _, wo = _directions()
+    small = {
+        "uniform_cdf": {"n_theta_o": 2, "n_theta": 4, "n_phi": 4, "substeps": 1},
+        "compress_cdf": {"n_theta_o": 2, "n_theta": 4, "n_phi": 4, "substeps": 1},
+        "factored": {"n_theta_o": 2, "n_phi_o": 2, "n_theta_p": 4, "n_phi_p": 4, "terms_j": 1, "terms_k": 1},
+    }
+    for brdf in (make_brdf("phong"), make_brdf("ward", {"sx": 0.1, "sy": 0.3})):
+        for name, options in small.items():
+            sampler = make_sampler(name, brdf, **options)
+            drawn = sampler.sample_each(wo, seed=1)
+            sampler.pdf(wo, drawn.wi)
+
+
+def _random_streams() -> None:
+    """The counter-based random streams of :mod:`core.rng`."""
+    from core.rng import stream
+
+    stream(1, 2)
+
+
+WARM_UPS: list[WarmUp] = [
+    WarmUp("models: eval, sample, pdf batches", _model_batches),
+    WarmUp("measured (MERL) lookups and writer", _measured),
+    WarmUp("samplers: uniform, cosine, analytic", _basic_samplers),
+    WarmUp("samplers: uniform_cdf, compress_cdf, factored", _tabulated_samplers),
+    WarmUp("random streams", _random_streams),
+]
+"""The groups ``python -m core.warmup`` compiles, in order."""
+
+
+def run(warm_ups: Sequence[WarmUp], out: TextIO = sys.stdout) -> float:
+    """Run every group, printing one line per group with its seconds; returns the total seconds."""
+    from core._numba_cache import configure
+
+    folder = configure()
+    print(f"numba cache: {folder if folder is not None else '(next to the sources)'}", file=out, flush=True)
+    total = 0.0
+    for warm_up in warm_ups:
+        t0 = time.perf_counter()
+        warm_up.run()
+        seconds = time.perf_counter() - t0
+        total += seconds
+        print(f"{seconds:8.1f} s  {warm_up.label}", file=out, flush=True)
+    print(f"{total:8.1f} s  total", file=out, flush=True)
+    return total
+
+
+def main() -> int:
+    """``python -m core.warmup``: compile (or load) every group of :data:`WARM_UPS`."""
+    run(WARM_UPS)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
