@@ -23,7 +23,7 @@ import ast
 import hashlib
 import os
 import sys
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 PACKAGES = ("core", "renderer")
@@ -117,7 +117,7 @@ def import_closure(path: Path, root: Path = ROOT) -> list[Path]:
     return sorted(seen)
 
 
-@lru_cache(maxsize=None)
+@cache
 def closure_hash(path: str) -> bytes:
     """Hash of the import closure of the source file ``path`` and of the numba and Python versions (read
     once per process: the sources of a running process do not change)."""

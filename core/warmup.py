@@ -97,6 +97,32 @@ def _tabulated_samplers() -> None:
             sampler.pdf(wo, drawn.wi)
 
 
+def _adaptive_sampler() -> None:
+    """The adaptive sampler: the construction (a small table of an isotropic and an anisotropic material,
+    not stored), and both modes' draws, densities, normalizer and acceptance (serial and threaded)."""
+    from core.geometry import degrees_to_dir
+    from core.model import make_brdf
+    from core.sampling.adaptive import AdaptiveSampler, clear_memory_cache
+    from core.sampling.adaptive import sampler as adaptive
+
+    wo = np.repeat(degrees_to_dir(40.0, 30.0)[None, :], 4, axis=0)
+    small = {"max_thetas": 7, "warp_tol": 1e-2, "quad_tol": 1e-2, "phi_count": 2, "capacity": 256}
+    for brdf in (make_brdf("phong"), make_brdf("ward", {"sx": 0.1, "sy": 0.3})):
+        for mode in ("exact", "warp"):
+            for threads in (False, True):
+                sampler = AdaptiveSampler(brdf, mode=mode, cache=False, threads=threads, **small)
+                old = adaptive.PARALLEL_MIN
+                adaptive.PARALLEL_MIN = 1  # the threaded loop compiles on a tiny batch too
+                try:
+                    drawn = sampler.sample_each(wo, seed=1)
+                finally:
+                    adaptive.PARALLEL_MIN = old
+                sampler.eval_pdf(wo, drawn.wi)
+                sampler.normalizer(wo)
+                sampler.acceptance(wo)
+    clear_memory_cache()
+
+
 def _random_streams() -> None:
     """The counter-based random streams of :mod:`core.rng`."""
     from core.rng import stream
@@ -110,6 +136,7 @@ WARM_UPS: list[WarmUp] = [
     WarmUp("samplers: uniform, cosine, analytic", _basic_samplers),
     WarmUp("samplers: uniform_cdf, compress_cdf, factored", _tabulated_samplers),
     WarmUp("random streams", _random_streams),
+    WarmUp("adaptive sampler: construction, both modes' draws and densities", _adaptive_sampler),
 ]
 """The groups ``python -m core.warmup`` compiles, in order."""
 

@@ -141,12 +141,6 @@ SamplerFactory = Callable[..., Sampler]
 _SAMPLERS: dict[str, SamplerFactory] = {}
 _loaded = False
 
-LEGACY_MODULES = ("core.samplers.adaptive",)
-"""Strategy modules outside :mod:`core.sampling` the registry imports too (temporarily: the old adaptive
-sampler, until :mod:`core.sampling.adaptive` replaces it). Imported before the package's own modules, so a
-strategy there registered under the same name takes the name over."""
-
-
 def register_sampler(name: str, factory: SamplerFactory) -> None:
     """Make ``factory(brdf, **options) -> Sampler`` available as ``make_sampler(name, brdf, **options)``
     (a later registration of the same name replaces the earlier one)."""
@@ -186,8 +180,6 @@ def _load_samplers() -> None:
     import core.sampling
 
     importlib.import_module("core.sampling.basic")
-    for name in LEGACY_MODULES:
-        importlib.import_module(name)
     for m in sorted(pkgutil.iter_modules(core.sampling.__path__), key=lambda m: m.name):
         if not m.name.startswith("_"):
             importlib.import_module(f"core.sampling.{m.name}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from core.samplers.adaptive import clear_memory_cache
+from core.sampling.adaptive import clear_memory_cache
 
 
 @pytest.fixture

@@ -1,10 +1,9 @@
-"""numba's disk cache is keyed by the whole source tree (core/_numba_cache.py): an edit anywhere in the
-compiled packages must lead to a new cache folder, never to a stale compile."""
+"""numba's stored compiles are stamped by their import closure (core/_numba_cache.py): an edit of a file a
+function can see must make it stale, an edit elsewhere must not; stored adaptive tables follow the sources
+that can change them."""
 
 from __future__ import annotations
 
-import os
-import time
 from pathlib import Path
 
 import numba
@@ -15,52 +14,74 @@ from core import _numba_cache as nc
 def _tree(root: Path) -> None:
     (root / "core" / "models").mkdir(parents=True)
     (root / "renderer").mkdir()
+    (root / "core" / "__init__.py").write_text("")
+    (root / "core" / "models" / "__init__.py").write_text("import core.models.model\n")
     (root / "core" / "models" / "_helper.py").write_text("def h(x):\n    return x\n")
-    (root / "core" / "models" / "model.py").write_text("from core.models._helper import h\n")
-    (root / "renderer" / "kernels.py").write_text("K = 1\n")
+    (root / "core" / "models" / "model.py").write_text(
+        "from core.models._helper import h\n\ndef f():\n    from core.lazy import z  # not a dependency\n"
+    )
+    (root / "core" / "lazy.py").write_text("z = 1\n")
+    (root / "core" / "other.py").write_text("from core import models\nK = 1\n")
+    (root / "renderer" / "kernels.py").write_text("from core.models import model\n")
 
 
-def test_numba_caches_in_the_folder_of_this_source_version():
+def _closure(root: Path, rel: str) -> list[str]:
+    return [str(p.relative_to(root)) for p in nc.import_closure(root / rel, root)]
+
+
+def test_the_closure_holds_what_a_module_imports_when_imported(tmp_path):
+    _tree(tmp_path)
+    assert _closure(tmp_path, "core/models/model.py") == ["core/models/_helper.py", "core/models/model.py"]
+    # "from package import module" imports the module; a package's own __init__ is not followed
+    assert "core/models/__init__.py" in _closure(tmp_path, "core/other.py")
+    assert "core/models/model.py" in _closure(tmp_path, "core/other.py")
+    assert _closure(tmp_path, "renderer/kernels.py") == [
+        "core/models/_helper.py", "core/models/model.py", "renderer/kernels.py"
+    ]  # fmt: skip
+
+
+def test_an_edit_reaches_the_functions_that_can_see_it_and_no_others(tmp_path):
+    _tree(tmp_path)
+    files = ("core/models/model.py", "renderer/kernels.py", "core/lazy.py")
+
+    def stamps() -> dict[str, str]:
+        out = {}
+        for rel in files:
+            h = "".join((tmp_path / p).read_text() for p in _closure(tmp_path, rel))
+            out[rel] = h
+        return out
+
+    before = stamps()
+    (tmp_path / "core" / "models" / "_helper.py").write_text("def h(x):\n    return 2 * x\n")
+    after = stamps()
+    assert after["core/models/model.py"] != before["core/models/model.py"]
+    assert after["renderer/kernels.py"] != before["renderer/kernels.py"]  # through model.py
+    assert after["core/lazy.py"] == before["core/lazy.py"]
+
+
+def test_numba_caches_our_functions_with_the_closure_locator():
     folder = nc.configure()
     assert folder is not None
     assert Path(numba.config.CACHE_DIR) == folder
-    assert folder.name == nc.source_hash()
+    from numba.core import caching
+
+    assert caching.CacheImpl._locator_classes[0].__name__ == "ClosureLocator"
+    stamp = nc.closure_hash(str(nc.ROOT / "core" / "dispatch.py"))
+    assert stamp == nc.closure_hash(str(nc.ROOT / "core" / "dispatch.py"))  # read once, stable
 
 
-def test_an_edit_to_a_helper_in_another_file_changes_the_key(tmp_path):
-    _tree(tmp_path)
-    before = nc.tree_hash(tmp_path)
-    assert nc.tree_hash(tmp_path) == before  # deterministic
-    (tmp_path / "core" / "models" / "_helper.py").write_text("def h(x):\n    return 2 * x\n")
-    edited = nc.tree_hash(tmp_path)
-    assert edited != before
-    (tmp_path / "renderer" / "kernels.py").write_text("K = 2\n")
-    assert nc.tree_hash(tmp_path) not in (before, edited)
-    (tmp_path / "renderer" / "new.py").write_text("")
-    assert nc.tree_hash(tmp_path) != edited
-
-
-def test_old_versions_are_pruned_but_the_current_one_kept(tmp_path):
-    now = time.time()
-    for k in range(7):
-        d = tmp_path / f"v{k}"
-        d.mkdir()
-        os.utime(d, (now - 100 * k, now - 100 * k))
-    current = tmp_path / "v6"  # the oldest by time, but in use
-    nc._prune(tmp_path, current)
-    left = sorted(p.name for p in tmp_path.iterdir())
-    assert left == ["v0", "v1", "v2", "v6"]
-    assert len(left) == nc.KEEP
-
-
-def test_stored_trees_are_keyed_by_every_core_source(monkeypatch):
-    """The adaptive sampler's disk cache key follows the whole source hash (a model's ``eval`` or its
-    Fresnel helper changes the trees), not only the quadtree files."""
-    import core.quadtree_table as qt
+def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monkeypatch):
     from core.model import make_brdf
-    from core.quadtree import BuildOptions
+    from core.sampling.adaptive import table
+    from core.sampling.adaptive.table import TableOptions, table_cache_key
 
-    brdf = make_brdf("ggx")
-    key = qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions()).key
-    monkeypatch.setattr(qt, "source_hash", lambda: "an edit of core/models/_fresnel.py")
-    assert qt.QuadtreeTable(brdf.model, brdf.params, BuildOptions()).key != key
+    ggx, phong = make_brdf("ggx"), make_brdf("phong")
+    key = table_cache_key(ggx, TableOptions())
+    assert key == table_cache_key(ggx, TableOptions())
+    assert key != table_cache_key(ggx, TableOptions(n_max=3.0))
+    assert key != table_cache_key(make_brdf("ggx", {"alpha": 0.1}), TableOptions())
+    files = table.source_files(ggx)
+    names = {p.name for p in files}
+    assert {"ggx.py", "_fresnel.py", "dispatch.py", "tree.py", "draw.py"} <= names
+    assert "phong.py" not in names and "integrator.py" not in names
+    assert "phong.py" in {p.name for p in table.source_files(phong)}

@@ -1,21 +1,27 @@
 """The adaptive sampler's draws and densities: one compiled loop over a batch of outgoing directions.
 
-Two modes share the table (:class:`~core.sampling.adaptive.table.AdaptiveTable`):
+Both modes use the tree of the node whose cell holds ``wo`` (:class:`~core.sampling.adaptive.table.
+AdaptiveTable`):
 
 ``exact`` (the seed's)
-    The node whose cell holds ``wo``; a leaf chosen by its envelope mass ``V_L = area_L M_L`` (descending by
-    the children's masses); a uniform point of the leaf, accepted with probability ``g / (c M_L)``,
+    A leaf chosen by its envelope mass ``V_L = K_L q_L`` (``q_L`` its mass under the rejection-free density
+    ``q``, ``K_L`` a bound of ``g / (c q)`` on it; descending by the children's masses); a point of the leaf
+    drawn from ``q`` (the rejection-free mode's warp), accepted with probability ``g / (c K_L q)``,
     ``c = I(wo)`` the interpolated normalizer; on rejection the draw restarts from the root. The accepted
     point has density exactly ``g / I`` on the square: ``pdf = f cos / I(wo)`` per unit solid angle, and the
-    weight ``f cos / pdf = I(wo)`` is the same for every sample (the zero-variance property). Every trial with
-    ``g > c M_L`` is counted (a bound that did not hold); the tests assert there are none.
+    weight ``f cos / pdf = I(wo)`` is the same for every sample (the zero-variance property). The seed's
+    envelope is constant on a leaf (``M_L``); a bilinear one follows the lobe inside the leaf, so the same
+    acceptance takes far fewer leaves. Every trial with ``g > c K_L q`` is counted (a bound that did not
+    hold); the tests assert there are none.
 
 ``warp`` (rejection-free)
-    The two nodes around ``wo``'s polar angle (four with the two around its azimuth), one chosen with its
-    linear weight; a leaf chosen by the bilinear density's masses; the point warped inside the leaf by the
-    bilinear density of its corners (one square root per axis). The density is the weighted sum of the
-    chosen nodes' densities at the drawn direction, ``pdf = sum_t w_t q_t`` (Mitsuba's conditional warps
-    blend the same way): exact for the samples it makes, with no bound and one evaluation of ``f``.
+    A leaf chosen by the bilinear density's masses; the point warped inside the leaf by the bilinear
+    density of its corners (a square root per axis). The density on the square is the leaf's probability
+    (the product of the children's shares along its path) times the bilinear density, so the pdf is exact
+    for the samples it makes, with no bound and one evaluation of ``f``.
+    (Blending the two nodes around ``wo``, as Mitsuba's conditional warps do, was tried: it needs a second
+    tree's density at every sample, a third more time per sample, for a variance the layout's refinement
+    already bounds at the cells' edges.)
 
 Every draw returns what it computed: the direction, its pdf, and ``f`` (RGB) there.
 """
@@ -30,7 +36,14 @@ from numba import njit, prange
 from core.dispatch import eval_model
 from core.rng import next_u01, stream
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, MIRROR, TWO_PI, locate, normalizer_at
-from core.sampling.adaptive.maps import INV_PI, ORTHOGRAPHIC, PI, direction_to_square, square_to_direction
+from core.sampling.adaptive.maps import (
+    HALF_VECTOR,
+    INV_PI,
+    ORTHOGRAPHIC,
+    PI,
+    direction_to_square,
+    square_to_direction,
+)
 from core.sampling.adaptive.target import luminance3
 
 EXACT = 0
@@ -44,10 +57,11 @@ reached with an envelope that accepts ``>= 1 / n_max``)."""
 
 @njit(inline="always", nogil=True, cache=True)
 def _frame(symmetry, wx, wy, wz):
-    """``(theta, phi, cos, sin, sx, sy)``: polar angle, the azimuth the trees see (folded into the quadrant
-    when mirror-symmetric), the rotation to the tree frame and the mirror signs."""
+    """``(mu, phi, cos, sin, sx, sy)``: ``-cos theta``, the azimuth the trees see (folded into the quadrant
+    when mirror-symmetric; not computed for an isotropic table, which does not need it), the rotation to the
+    tree frame and the mirror signs."""
     rho = math.sqrt(wx * wx + wy * wy)
-    theta = math.atan2(rho, wz)
+    theta = -wz
     sx = 1.0
     sy = 1.0
     if symmetry == MIRROR:
@@ -61,12 +75,31 @@ def _frame(symmetry, wx, wy, wz):
         if rho > 0.0:
             return theta, phi, ax / rho, ay / rho, sx, sy
         return theta, 0.0, 1.0, 0.0, sx, sy
-    phi = math.atan2(wy, wx)
-    if phi < 0.0:
-        phi += TWO_PI
+    if symmetry == ISOTROPIC:
+        phi = 0.0
+    else:
+        phi = math.atan2(wy, wx)
+        if phi < 0.0:
+            phi += TWO_PI
     if rho > 0.0:
         return theta, phi, wx / rho, wy / rho, sx, sy
     return theta, 0.0, 1.0, 0.0, sx, sy
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _view_frame(table, wx, wy, wz):
+    """:func:`_frame`, with no turn when the table keeps its trees in the local frame."""
+    mu, phi, c, s, sx, sy = _frame(table.symmetry, wx, wy, wz)
+    if table.follow == 0:
+        return mu, phi, 1.0, 0.0, sx, sy
+    return mu, phi, c, s, sx, sy
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _reflect(hx, hy, hz, wx, wy, wz):
+    """``wi = 2 (wo.h) h - wo`` and ``wo.h``."""
+    d = hx * wx + hy * wy + hz * wz
+    return 2.0 * d * hx - wx, 2.0 * d * hy - wy, 2.0 * d * hz - wz, d
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -102,120 +135,105 @@ def _sample_linear(u, a, b):
 
 @njit(inline="always", nogil=True, cache=True)
 def _descend(masses, child, root, u):
-    """A leaf chosen by ``masses`` from ``root``: ``(leaf, x0, y0, h)``."""
+    """A leaf chosen by ``masses`` from ``root``: ``(leaf, x0, y0, h, prob)``, ``prob`` its probability."""
     node = root
-    x0 = 0.0
-    y0 = 0.0
-    h = 1.0
-    while True:
-        c = child[node]
-        if c < 0:
-            return -1 - c, x0, y0, h
-        m0 = masses[c]
-        m1 = masses[c + 1]
-        m2 = masses[c + 2]
-        m3 = masses[c + 3]
-        t = u * (m0 + m1 + m2 + m3)
-        if t < m0:
-            q = 0
-            u = t / m0
-        elif t < m0 + m1:
-            q = 1
-            u = (t - m0) / m1
-        elif t < m0 + m1 + m2:
-            q = 2
-            u = (t - m0 - m1) / m2
-        else:
-            q = 3
-            u = min((t - m0 - m1 - m2) / m3, 0.9999999999999999) if m3 > 0.0 else 0.5
-        h *= 0.5
-        x0 += h * (q % 2)
-        y0 += h * (q // 2)
-        node = c + q
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _warp_density(table, t, a, b):
-    """The rejection-free density of tree ``t`` at square point ``(a, b)`` (per unit square area)."""
-    node = table.root[t]
     x0 = 0.0
     y0 = 0.0
     h = 1.0
     prob = 1.0
     while True:
-        c = table.child[node]
+        c = child[node]
         if c < 0:
-            break
+            return -1 - c, x0, y0, h, prob
+        m0 = np.float64(masses[c])  # float64 sums of float32 masses are exact: the shares are the stored ones
+        m1 = m0 + np.float64(masses[c + 1])
+        m2 = m1 + np.float64(masses[c + 2])
+        m3 = m2 + np.float64(masses[c + 3])
+        t = u * m3
+        q = int(t >= m0) + int(t >= m1) + int(t >= m2)
+        if q == 0:
+            u = t / m0
+        elif q == 1:
+            u = (t - m0) / (m1 - m0)
+        elif q == 2:
+            u = (t - m1) / (m2 - m1)
+        else:
+            d = m3 - m2
+            u = min((t - m2) / d, 0.9999999999999999) if d > 0.0 else 0.5
+        prob *= (m1 - m0 if q == 1 else m2 - m1 if q == 2 else m3 - m2 if q == 3 else m0) / m3
         h *= 0.5
-        qi = 1 if a >= x0 + h else 0
-        qj = 1 if b >= y0 + h else 0
-        q = qj * 2 + qi
-        s = table.mass[c] + table.mass[c + 1] + table.mass[c + 2] + table.mass[c + 3]
-        prob *= table.mass[c + q] / s
+        x0 += h * (q & 1)
+        y0 += h * (q >> 1)
+        node = c + q
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _leaf_at(masses, child, root, a, b):
+    """The leaf holding square point ``(a, b)``: ``(leaf, x0, y0, h, prob)``, ``prob`` the probability
+    :func:`_descend` reaches it with (the product of the children's shares along the path, from the same
+    stored masses: the pdf is the density of the draws whatever the masses' precision)."""
+    node = root
+    x0 = 0.0
+    y0 = 0.0
+    h = 1.0
+    prob = 1.0
+    while True:
+        c = child[node]
+        if c < 0:
+            return -1 - c, x0, y0, h, prob
+        h *= 0.5
+        qi = int(a >= x0 + h)
+        qj = int(b >= y0 + h)
         x0 += h * qi
         y0 += h * qj
+        q = qi + 2 * qj
+        total = np.float64(masses[c]) + np.float64(masses[c + 1]) + np.float64(masses[c + 2])
+        total += np.float64(masses[c + 3])
+        prob *= np.float64(masses[c + q]) / total
         node = c + q
-    leaf = -1 - c
-    tx = min(max((a - x0) / h, 0.0), 1.0)
-    ty = min(max((b - y0) / h, 0.0), 1.0)
-    v0 = table.corners[leaf, 0]
-    v1 = table.corners[leaf, 1]
-    v2 = table.corners[leaf, 2]
-    v3 = table.corners[leaf, 3]
-    mean = 0.25 * (v0 + v1 + v2 + v3)
-    if mean <= 0.0:
-        return 0.0
-    bil = (1.0 - tx) * (1.0 - ty) * v0 + tx * (1.0 - ty) * v1 + (1.0 - tx) * ty * v2 + tx * ty * v3
-    return prob * bil / (mean * h * h)
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _brackets(table, theta, phi):
-    """The rejection-free mode's nodes around ``(theta, phi)``: up to four trees and their weights."""
-    k = table.thetas.shape[0]
-    j = table.phis.shape[0]
-    if theta >= table.thetas[k - 1]:
-        k0 = k - 1
-        k1 = k - 1
-        wt = 0.0
-    else:
-        k0 = locate(table.thetas, theta)
-        k1 = k0 + 1
-        wt = (theta - table.thetas[k0]) / (table.thetas[k1] - table.thetas[k0])
-        wt = min(max(wt, 0.0), 1.0)
-    if table.symmetry == ISOTROPIC or j == 1:
-        j0 = 0
-        j1 = 0
-        wp = 0.0
-    elif table.symmetry == MIRROR:
-        j0 = locate(table.phis, phi)
-        j1 = j0 + 1
-        wp = min(max((phi - table.phis[j0]) / (table.phis[j1] - table.phis[j0]), 0.0), 1.0)
-    else:
-        x = phi / TWO_PI * j
-        fl = math.floor(x)
-        j0 = int(fl) % j
-        j1 = (j0 + 1) % j
-        wp = x - fl
-    trees = (k0 * j + j0, k1 * j + j0, k0 * j + j1, k1 * j + j1)
-    weights = ((1.0 - wt) * (1.0 - wp), wt * (1.0 - wp), (1.0 - wt) * wp, wt * wp)
-    return trees, weights
+def _bilinear(corners, leaf, tx, ty):
+    return (
+        (1.0 - tx) * (1.0 - ty) * corners[leaf, 0]
+        + tx * (1.0 - ty) * corners[leaf, 1]
+        + (1.0 - tx) * ty * corners[leaf, 2]
+        + tx * ty * corners[leaf, 3]
+    )
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _warp_pdf_tree(table, trees, weights, x, y, z):
-    """The rejection-free mode's pdf (per unit solid angle) of tree-frame direction ``(x, y, z)``."""
+def _leaf_density(corners, leaf, tx, ty, h):
+    """The bilinear density of a leaf of side ``h`` at its point ``(tx, ty)`` (per unit square area; it
+    integrates to 1 over the leaf)."""
+    mean = 0.25 * (corners[leaf, 0] + corners[leaf, 1] + corners[leaf, 2] + corners[leaf, 3])
+    return _bilinear(corners, leaf, tx, ty) / (mean * h * h)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _warp_pdf(table, t, x, y, z):
+    """The rejection-free density of tree ``t`` at the tree-frame direction ``(x, y, z)``, per unit solid
+    angle: the leaf's probability times its bilinear density on the square, times ``dA/d(omega) / pi``."""
     if z <= 0.0:
         return 0.0
-    pdf = 0.0
-    for i in range(4):
-        w = weights[i]
-        if w <= 0.0:
-            continue
-        t = trees[i]
-        a, b, jac = direction_to_square(x, y, z, table.projection[t])
-        pdf += w * _warp_density(table, t, a, b) * INV_PI * jac
-    return pdf
+    a, b, jac = direction_to_square(x, y, z, table.projection[t])
+    leaf, x0, y0, h, prob = _leaf_at(table.mass, table.child, table.root[t], a, b)
+    tx = min(max((a - x0) / h, 0.0), 1.0)
+    ty = min(max((b - y0) / h, 0.0), 1.0)
+    return prob * _leaf_density(table.corners, leaf, tx, ty, h) * INV_PI * jac
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _node(table, mu, phi):
+    """The tree of the node whose cell holds ``(mu, phi)`` (``mu = -cos theta``)."""
+    lut = table.cell_lut
+    n = lut.shape[0]
+    k = lut[min(max(int((mu + 1.0) * n), 0), n - 1)]
+    last = table.cell_mu.shape[0] - 2
+    while k < last and mu >= table.cell_mu[k + 1]:
+        k += 1
+    return k * table.phis.shape[0] + _phi_node(table, phi)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -239,22 +257,12 @@ def _cosine(state):
 def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
     """One draw for row ``i``; writes ``out_wi[i]``, ``out_f[i]``; returns ``(pdf, trials, violations)``."""
     wo = (wx, wy, wz)
-    theta, phi, c, s, sx, sy = _frame(table.symmetry, wx, wy, wz)
+    theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
-        trees, weights = _brackets(table, theta, phi)
+        t = _node(table, theta, phi)
+        root = table.root[t]
         state, u = next_u01(state)
-        pick = 3
-        acc = 0.0
-        for q in range(4):
-            acc += weights[q]
-            if u < acc:
-                pick = q
-                break
-        while weights[pick] <= 0.0:
-            pick -= 1
-        t = trees[pick]
-        state, u = next_u01(state)
-        leaf, x0, y0, h = _descend(table.mass, table.child, table.root[t], u)
+        leaf, x0, y0, h, prob = _descend(table.mass, table.child, root, u)
         v0 = table.corners[leaf, 0]
         v1 = table.corners[leaf, 1]
         v2 = table.corners[leaf, 2]
@@ -263,8 +271,12 @@ def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
         state, u3 = next_u01(state)
         tx = _sample_linear(u2, v0 + v2, v1 + v3)
         ty = _sample_linear(u3, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
-        x, y, z, _ = square_to_direction(x0 + tx * h, y0 + ty * h, table.projection[t])
+        proj = table.projection[t]
+        x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
         lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
+        d = 0.25
+        if proj == HALF_VECTOR:
+            lx, ly, lz, d = _reflect(lx, ly, lz, wx, wy, wz)
         r, g, b = eval_model(mid, (lx, ly, lz), wo, p)
         out_wi[i, 0] = lx
         out_wi[i, 1] = ly
@@ -272,30 +284,45 @@ def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
         out_f[i, 0] = r
         out_f[i, 1] = g
         out_f[i, 2] = b
-        tx_, ty_, tz_ = _to_tree(lx, ly, lz, c, s, sx, sy)
-        return _warp_pdf_tree(table, trees, weights, tx_, ty_, tz_), 1, 0
+        if z <= 0.0 or d == 0.0:
+            return 0.0, 1, 0
+        # per solid angle of wi: on the square, then on the disk, per solid angle of the point (and of wi
+        # through h: d(omega_i) = 4 |wo.h| d(omega_h); d = 1/4 makes that factor 1 for a wi tree)
+        return prob * _leaf_density(table.corners, leaf, tx, ty, h) * INV_PI * jac / (4.0 * abs(d)), 1, 0
     norm = 0.0
-    if mode == EXACT and wz > 0.0 and theta <= table.theta_max:
-        norm = normalizer_at(table.symmetry, table.norm_s, table.norm, table.norm_log, wz, phi)
+    if mode == EXACT and wz >= table.cos_min:
+        norm = normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wz, phi)
     if norm > 0.0:
-        k = locate(table.theta_edges, theta)
-        t = k * table.phis.shape[0] + _phi_node(table, phi)
+        t = _node(table, theta, phi)
         proj = table.projection[t]
         violations = 0
         for trial in range(1, MAX_TRIALS + 1):
             state, u = next_u01(state)
-            leaf, x0, y0, h = _descend(table.envelope, table.child, table.root[t], u)
+            leaf, x0, y0, h, _ = _descend(table.envelope, table.child, table.root[t], u)
+            v0 = table.corners[leaf, 0]
+            v1 = table.corners[leaf, 1]
+            v2 = table.corners[leaf, 2]
+            v3 = table.corners[leaf, 3]
             state, u2 = next_u01(state)
             state, u3 = next_u01(state)
             state, u4 = next_u01(state)
-            x, y, z, jac = square_to_direction(x0 + u2 * h, y0 + u3 * h, proj)
+            tx = _sample_linear(u2, v0 + v2, v1 + v3)
+            ty = _sample_linear(u3, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
+            x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
             lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
+            if proj == HALF_VECTOR:
+                lx, ly, lz, d = _reflect(lx, ly, lz, wx, wy, wz)
+                if d <= 0.0 or lz <= 0.0:
+                    continue
+                scale = 4.0 * d * lz / jac
+            else:
+                scale = _g_scale(proj, z, jac)
             r, g, b = eval_model(mid, (lx, ly, lz), wo, p)
             lum = luminance3(r, g, b)
             if not lum > 0.0 or z <= 0.0:
                 continue
-            gn = PI * lum * _g_scale(proj, z, jac) / norm
-            bound = table.bound[leaf]
+            gn = PI * lum * scale / norm
+            bound = table.bound[leaf] * _bilinear(table.corners, leaf, tx, ty)
             if gn > bound:
                 violations += 1
             if u4 * bound < gn:
@@ -329,7 +356,9 @@ def sample_rows(table, mid, p, mode, wo, seed, out_wi, out_pdf, out_f, out_trial
     violations = 0
     for i in range(wo.shape[0]):
         state = stream(seed, i)
-        pdf, trials, v = _sample_row(table, mid, p, mode, wo[i, 0], wo[i, 1], wo[i, 2], state, out_wi, out_f, i)
+        pdf, trials, v = _sample_row(
+            table, mid, p, mode, wo[i, 0], wo[i, 1], wo[i, 2], state, out_wi, out_f, i
+        )
         out_pdf[i] = pdf
         out_trials[i] = trials
         violations += v
@@ -343,7 +372,9 @@ def sample_rows_parallel(table, mid, p, mode, wo, seed, out_wi, out_pdf, out_f, 
     viol = np.zeros(n, dtype=np.int64)
     for i in prange(n):
         state = stream(seed, i)
-        pdf, trials, v = _sample_row(table, mid, p, mode, wo[i, 0], wo[i, 1], wo[i, 2], state, out_wi, out_f, i)
+        pdf, trials, v = _sample_row(
+            table, mid, p, mode, wo[i, 0], wo[i, 1], wo[i, 2], state, out_wi, out_f, i
+        )
         out_pdf[i] = pdf
         out_trials[i] = trials
         viol[i] = v
@@ -358,14 +389,31 @@ def _pdf_row(table, mid, p, mode, wo, wi, out_f, i):
     out_f[i, 0] = r
     out_f[i, 1] = g
     out_f[i, 2] = b
-    theta, phi, c, s, sx, sy = _frame(table.symmetry, wx, wy, wz)
+    theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
-        trees, weights = _brackets(table, theta, phi)
+        t = _node(table, theta, phi)
+        if table.projection[t] == HALF_VECTOR:
+            hx = wi[0] + wx
+            hy = wi[1] + wy
+            hz = wi[2] + wz
+            n = math.sqrt(hx * hx + hy * hy + hz * hz)
+            if n == 0.0:
+                return 0.0
+            if hz < 0.0:
+                n = -n
+            hx /= n
+            hy /= n
+            hz /= n
+            d = abs(hx * wx + hy * wy + hz * wz)
+            if d == 0.0:
+                return 0.0
+            x, y, z = _to_tree(hx, hy, hz, c, s, sx, sy)
+            return _warp_pdf(table, t, x, y, z) / (4.0 * d)
         x, y, z = _to_tree(wi[0], wi[1], wi[2], c, s, sx, sy)
-        return _warp_pdf_tree(table, trees, weights, x, y, z)
+        return _warp_pdf(table, t, x, y, z)
     norm = 0.0
-    if mode == EXACT and wz > 0.0 and theta <= table.theta_max:
-        norm = normalizer_at(table.symmetry, table.norm_s, table.norm, table.norm_log, wz, phi)
+    if mode == EXACT and wz >= table.cos_min:
+        norm = normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wz, phi)
     if norm > 0.0:
         if wi[2] <= 0.0:
             return 0.0
@@ -386,9 +434,11 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
 def normalizer_rows(table, wo, out):
     """The exact mode's ``I(wo)`` per row (0 where it draws the cosine density)."""
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
-        if wo[i, 2] > 0.0 and theta <= table.theta_max:
-            out[i] = max(normalizer_at(table.symmetry, table.norm_s, table.norm, table.norm_log, wo[i, 2], phi), 0.0)
+        theta, phi, _, _, _, _ = _view_frame(table, wo[i, 0], wo[i, 1], wo[i, 2])
+        if wo[i, 2] >= table.cos_min:
+            out[i] = max(
+                normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wo[i, 2], phi), 0.0
+            )
         else:
             out[i] = 0.0
 
@@ -397,8 +447,7 @@ def normalizer_rows(table, wo, out):
 def acceptance_rows(table, wo, out):
     """The exact mode's acceptance ``I(wo) / (c V)`` per row: ``1 / V`` of the tree serving it (``c = I``)."""
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
-        k = locate(table.theta_edges, theta)
-        t = k * table.phis.shape[0] + _phi_node(table, phi)
+        theta, phi, _, _, _, _ = _view_frame(table, wo[i, 0], wo[i, 1], wo[i, 2])
+        t = _node(table, theta, phi)
         v = table.envelope[table.root[t]]
         out[i] = 1.0 / v if v > 0.0 else 0.0

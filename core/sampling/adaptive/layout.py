@@ -22,9 +22,9 @@ FULL       anything else                                  azimuth nodes over the
 ========== ============================================= =================================================
 
 The normalizer (the exact mode's ``I(wo)``) is interpolated from the nodes' integrals: a cubic through the
-four nearest nodes in theta (Lagrange, on the non-uniform layout) and, in phi, the cosine series in ``2 phi``
-through the quadrant's equally spaced nodes (MIRROR: ``I`` is even about 0 and pi/2) or a periodic cubic
-(FULL).
+four nearest nodes in ``s = -log(cos theta)`` (Lagrange, on the non-uniform layout), tabulated finely in
+``s`` once, and in phi the cosine series in ``2 phi`` through the quadrant's equally spaced nodes (MIRROR:
+``I`` is even about 0 and pi/2) or a periodic cubic (FULL).
 """
 
 from __future__ import annotations
@@ -46,8 +46,9 @@ THETA_END = math.radians(89.9)
 """The last node. Beyond it the exact mode draws the cosine density (every model's ``I(wo)`` tends to 0 at the
 horizon, and the rejection-free mode goes on with the last node's tree)."""
 
-INITIAL_THETAS_DEG = (0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 78.0, 84.0, 87.0, 89.0, 89.9)
-"""The layout a material starts from: coarse where lobes change slowly, denser toward the horizon."""
+INITIAL_THETAS_DEG = (0.0, 30.0, 55.0, 72.0, 82.0, 87.0, 89.9)
+"""The layout a material starts from (coarse; denser toward the horizon, where lobes change fastest): a
+Lambertian material keeps it, a glossy one has its intervals halved where it asks."""
 
 
 def phi_nodes(symmetry: int, count: int) -> np.ndarray:
@@ -83,21 +84,6 @@ def series_coefficients(values: np.ndarray) -> np.ndarray:
     coef[..., 0] *= 0.5
     coef[..., -1] *= 0.5
     return coef
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _cosine_series(coef, phi):
-    """``sum_m coef[m] cos(2 m phi)`` by the Chebyshev recurrence."""
-    c2 = math.cos(2.0 * phi)
-    prev = 1.0
-    cur = c2
-    s = coef[0]
-    for m in range(1, coef.shape[0]):
-        s += coef[m] * cur
-        nxt = 2.0 * c2 * cur - prev
-        prev = cur
-        cur = nxt
-    return s
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -137,53 +123,93 @@ def locate(edges_or_nodes, x):
     return lo
 
 
-@njit(inline="always", nogil=True, cache=True)
-def _theta_cubic(thetas, values, theta):
-    """Cubic Lagrange interpolation through the four nodes nearest ``theta`` (fewer when there are fewer)."""
-    k = thetas.shape[0]
-    if k == 1:
-        return values[0]
-    i = locate(thetas, theta)
-    first = min(max(i - 1, 0), max(k - 4, 0))
-    last = min(first + 4, k)
-    s = 0.0
-    for a in range(first, last):
-        w = 1.0
-        for b in range(first, last):
-            if b != a:
-                w *= (theta - thetas[b]) / (thetas[a] - thetas[b])
-        s += w * values[a]
-    return s
-
-
 def norm_coordinate(theta: np.ndarray | float) -> np.ndarray:
     """``s = -log(cos theta)``, the coordinate the normalizer is interpolated in (see
     :func:`normalizer_at`)."""
     return -np.log(np.cos(np.asarray(theta, dtype=np.float64)))
 
 
-@njit(nogil=True, cache=True)
-def normalizer_at(symmetry, norm_s, norm, norm_log, cos_theta, phi):
-    """``I`` at ``(theta, phi)`` (``phi`` folded into the layout's range) from the nodes' ``norm (K, J)``.
+NORM_SAMPLES = 1024
+"""Rows of the normalizer's table: uniform in ``s`` from 0 to ``s(THETA_END)``."""
 
-    Interpolated in ``s = -log(cos theta)`` (``norm_s``, increasing), of ``log I`` when every node's ``I``
-    is positive (``norm_log``): a normalizer that behaves like a power of ``cos theta_o`` near the horizon
-    (Minnaert's, Ward's) is then a straight line, and one that is even in ``theta`` (all of them, at normal
-    incidence) is smooth in ``s ~ theta^2 / 2``. For MIRROR, ``norm`` holds each row's cosine-series
-    coefficients in ``2 phi``."""
-    k = norm_s.shape[0]
-    s = -math.log(max(cos_theta, 1e-300))
+
+def normalizer_table(thetas: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float]:
+    """The fine table ``(NORM_SAMPLES, J)`` of the cubic interpolant through the nodes' ``values (K, J)``
+    (Lagrange through the four nearest nodes, in ``s``), and its step in ``s``. At run time
+    :func:`normalizer_at` reads it with a Catmull-Rom cubic: no search, four rows."""
+    s_nodes = norm_coordinate(thetas)
+    s_max = float(norm_coordinate(THETA_END))
+    grid = np.linspace(0.0, s_max, NORM_SAMPLES)
+    out = np.empty((NORM_SAMPLES, values.shape[1]))
+    for r, x in enumerate(grid):
+        out[r] = _lagrange_row(s_nodes, values, float(x))
+    return out, s_max / (NORM_SAMPLES - 1)
+
+
+def _lagrange_row(nodes: np.ndarray, values: np.ndarray, x: float) -> np.ndarray:
+    k = len(nodes)
+    if k == 1:
+        return values[0].copy()
+    i = int(np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, k - 2))
+    first = min(max(i - 1, 0), max(k - 4, 0))
+    idx = range(first, min(first + 4, k))
+    row = np.zeros(values.shape[1])
+    for a in idx:
+        w = 1.0
+        for b in idx:
+            if b != a:
+                w *= (x - nodes[b]) / (nodes[a] - nodes[b])
+        row += w * values[a]
+    return row
+
+
+@njit(nogil=True, cache=True)
+def normalizer_at(symmetry, table, ds, log_scale, cos_theta, phi):
+    """``I`` at ``(theta, phi)`` (``phi`` folded into the layout's range) from the fine ``table``.
+
+    Interpolated in ``s = -log(cos theta)``, of ``log I`` when every node's ``I`` is positive
+    (``log_scale``): a normalizer that behaves like a power of ``cos theta_o`` near the horizon (Minnaert's,
+    Ward's) is then a straight line, and one that is even in ``theta`` (all of them, at normal incidence) is
+    smooth in ``s ~ theta^2 / 2``. A row holds, for MIRROR, the cosine-series coefficients in ``2 phi``; for
+    FULL, the values at equally spaced azimuths; for ISOTROPIC, the value."""
+    m = table.shape[0]
+    u = -math.log(max(cos_theta, 1e-300)) / ds
+    i = int(math.floor(u))
+    if i < 1:
+        i = 1
+    elif i > m - 3:
+        i = m - 3
+    t = min(max(u - i, -1.0), 2.0)
+    # Catmull-Rom weights of rows i-1 .. i+2
+    t2 = t * t
+    t3 = t2 * t
+    w0 = 0.5 * (-t3 + 2.0 * t2 - t)
+    w1 = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
+    w2 = 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
+    w3 = 0.5 * (t3 - t2)
+    j = table.shape[1]
     if symmetry == ISOTROPIC:
-        v = _theta_cubic(norm_s, norm[:, 0], s)
-    else:
-        row = np.empty(k)
-        for i in range(k):
-            if symmetry == MIRROR:
-                row[i] = _cosine_series(norm[i], phi)
+        v = w0 * table[i - 1, 0] + w1 * table[i, 0] + w2 * table[i + 1, 0] + w3 * table[i + 2, 0]
+    elif symmetry == MIRROR:
+        c2 = math.cos(2.0 * phi)
+        prev = 1.0
+        cur = c2
+        v = 0.0
+        for k in range(j):
+            coef = w0 * table[i - 1, k] + w1 * table[i, k] + w2 * table[i + 1, k] + w3 * table[i + 2, k]
+            if k == 0:
+                v += coef
             else:
-                row[i] = _periodic_cubic(norm[i], phi)
-        v = _theta_cubic(norm_s, row, s)
-    return math.exp(v) if norm_log else v
+                v += coef * cur
+                nxt = 2.0 * c2 * cur - prev
+                prev = cur
+                cur = nxt
+    else:
+        row = np.empty(j)
+        for k in range(j):
+            row[k] = w0 * table[i - 1, k] + w1 * table[i, k] + w2 * table[i + 1, k] + w3 * table[i + 2, k]
+        v = _periodic_cubic(row, phi)
+    return math.exp(v) if log_scale else v
 
 
 def interpolation_errors(coords: np.ndarray, values: np.ndarray) -> np.ndarray:

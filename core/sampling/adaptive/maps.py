@@ -10,17 +10,23 @@ a leaf can hold a bilinear density (the rejection-free mode).
 
 Two projections take a disk point ``X`` to a direction (both exact; a table picks one per node):
 
-============== ================== ======================================================================
-projection     ``|X|``            ``dA / d(omega)`` (the disk area per solid angle at ``wi``)
-============== ================== ======================================================================
-orthographic   ``sin(theta)``     ``cos(theta)`` (the seed's disk: area is the projected solid angle)
-equidistant    ``theta / (pi/2)`` ``theta / ((pi/2)^2 sin(theta))``: a ring of directions near the horizon
-                                  keeps its width, where the orthographic disk squeezes it by ``cos(theta)``
-============== ================== ======================================================================
+============== ======================== ================================================================
+projection     ``|X|``                  ``dA / d(omega)`` (the disk area per solid angle at ``wi``)
+============== ======================== ================================================================
+orthographic   ``sin(theta)``           ``cos(theta)`` (the seed's disk: area is the projected solid angle)
+equal-area     ``sqrt(1 - cos(theta))`` ``1/2`` (Lambert's azimuthal projection): a ring of directions near
+                                        the horizon keeps its width, where the orthographic disk squeezes
+                                        it by ``cos(theta)``; and no trigonometry, one square root each way
+============== ======================== ================================================================
 
-A density ``q`` on the square is a density ``q / pi`` on the disk and ``q / pi * dA/d(omega)`` per unit solid
-angle. The function the trees approximate is therefore ``g(s) = f(wo, wi) cos(theta_i) pi / (dA/d(omega))``,
-whose integral over the square is ``I(wo) = int f cos d(omega)``.
+Composed with the concentric map, the equal-area projection is the classic area-preserving map of the
+square onto the hemisphere. A third choice, ``half_vector``, puts the equal-area disk on the half vector
+``h`` instead of ``wi`` (``wi = 2 (wo.h) h - wo``, ``d(omega_i) = 4 (wo.h) d(omega_h)``): a microfacet lobe is
+then nearly the same for every ``wo`` (its distribution of normals does not move), so an anisotropic
+material needs few nodes (:mod:`core.sampling.adaptive.table` picks it where it holds the lobe stiller). A density ``q`` on the square is a density ``q / pi`` on the disk and
+``q / pi * dA/d(omega)`` per unit solid angle. The function the trees approximate is therefore
+``g(s) = f(wo, wi) cos(theta_i) pi / (dA/d(omega))`` (``pi f`` on the orthographic disk, ``2 pi f cos`` on the
+equal-area one), whose integral over the square is ``I(wo) = int f cos d(omega)``.
 """
 
 from __future__ import annotations
@@ -35,8 +41,9 @@ QUARTER_PI = 0.25 * math.pi
 INV_PI = 1.0 / math.pi
 
 ORTHOGRAPHIC = 0
-EQUIDISTANT = 1
-PROJECTIONS = ("orthographic", "equidistant")
+EQUAL_AREA = 1
+HALF_VECTOR = 2
+PROJECTIONS = ("orthographic", "equal_area", "half_vector")
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -88,13 +95,8 @@ def disk_to_direction(x, y, projection):
     if projection == ORTHOGRAPHIC:
         z = math.sqrt(max(0.0, 1.0 - r2))
         return x, y, z, z
-    r = math.sqrt(r2)
-    theta = r * HALF_PI
-    if r == 0.0:
-        return 0.0, 0.0, 1.0, 1.0 / (HALF_PI * HALF_PI)
-    s = math.sin(theta)
-    jac = theta / (HALF_PI * HALF_PI * s) if s > 0.0 else 0.0
-    return s * x / r, s * y / r, math.cos(theta), jac
+    t = math.sqrt(max(0.0, 2.0 - r2))
+    return x * t, y * t, 1.0 - r2, 0.5  # equal-area (of wi, or of h for HALF_VECTOR)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -102,14 +104,8 @@ def direction_to_disk(wx, wy, wz, projection):
     """The disk point of an upper-hemisphere direction and ``dA/d(omega)`` there."""
     if projection == ORTHOGRAPHIC:
         return wx, wy, max(wz, 0.0)
-    rho = math.sqrt(wx * wx + wy * wy)
-    theta = math.atan2(rho, wz)
-    r = theta / HALF_PI
-    if rho == 0.0:
-        return 0.0, 0.0, 1.0 / (HALF_PI * HALF_PI)
-    s = math.sin(theta)
-    jac = theta / (HALF_PI * HALF_PI * s) if s > 0.0 else 0.0
-    return r * wx / rho, r * wy / rho, jac
+    t = 1.0 / math.sqrt(1.0 + max(wz, 0.0))
+    return wx * t, wy * t, 0.5
 
 
 @njit(inline="always", nogil=True, cache=True)

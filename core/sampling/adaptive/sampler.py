@@ -52,7 +52,7 @@ _LOCK = threading.Lock()
 PARALLEL_MIN = 1 << 14
 """With ``threads=True``, batches at least this large are drawn on numba's threads."""
 
-_INTS = {"phi_count": (2, 64), "max_thetas": (11, 256), "base_level": (1, 6), "max_level": (2, 14),
+_INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "base_level": (1, 6), "max_level": (2, 14),
          "capacity": (64, 1 << 20)}  # fmt: skip
 _FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-4, 10.0),
            "norm_tol": (1e-9, 1e-2), "min_spacing_deg": (1e-3, 10.0)}  # fmt: skip
@@ -61,13 +61,19 @@ _FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-
 def table_options(n_max: Any = 2.0, **options: Any) -> TableOptions:
     """Validated :class:`TableOptions` (a :class:`ParameterError` names the option and its range)."""
     known = {f.name for f in fields(TableOptions)}
+    if "parameterization" in options and options["parameterization"] not in ("auto", "wi", "half"):
+        raise ParameterError(
+            f"adaptive option parameterization must be 'auto', 'wi' or 'half', got {options['parameterization']!r}"
+        )
     for name in options:
         if name not in known:
             allowed = ", ".join(sorted(known))
             raise ParameterError(f"the adaptive sampler has no option '{name}'; its options are: {allowed}")
     values: dict[str, Any] = {"n_max": _check_n_max(n_max)}
     for name, value in options.items():
-        if name in _INTS:
+        if name == "parameterization":
+            values[name] = value
+        elif name in _INTS:
             lo, hi = _INTS[name]
             values[name] = _check_int(name, value, lo, hi)
         else:
@@ -97,7 +103,9 @@ def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
     try:
         f = float(value)
     except ValueError:
-        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}") from None
+        raise ParameterError(
+            f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}"
+        ) from None
     if not math.isfinite(f) or f != int(f) or not lo <= int(f) <= hi:
         raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}")
     return int(f)
@@ -107,7 +115,9 @@ def _check_float(name: str, value: Any, lo: float, hi: float) -> float:
     try:
         f = float(value)
     except (TypeError, ValueError):
-        raise ParameterError(f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}") from None
+        raise ParameterError(
+            f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}"
+        ) from None
     if not math.isfinite(f) or not lo <= f <= hi:
         raise ParameterError(f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}")
     return f
@@ -142,7 +152,9 @@ class AdaptiveSampler(Sampler):
                  threads: bool = False, **options: Any):  # fmt: skip
         super().__init__(brdf)
         if mode not in MODES:
-            raise ParameterError(f"the adaptive sampler's mode must be one of {', '.join(MODES)}, got {mode!r}")
+            raise ParameterError(
+                f"the adaptive sampler's mode must be one of {', '.join(MODES)}, got {mode!r}"
+            )
         self.mode = mode
         self.name = "adaptive" if mode == "exact" else "adaptive_warp"
         self.options = table_options(n_max, **options)
@@ -266,6 +278,7 @@ class AdaptiveSampler(Sampler):
             "leaves_mean": leaves / max(len(table.root), 1),
             "acceptance_min": report.acceptance_min,
             "chi2_max_edge": report.chi2_max_edge,
+            "chi2_max_phi_edge": report.chi2_max_phi_edge,
             "normalizer_error": report.norm_error_max,
             "evaluations": report.evaluations,
             "bound_violations": self.violations,
@@ -286,7 +299,9 @@ def _exact(brdf: BRDF, **options: Any) -> AdaptiveSampler:
 
 def _warp(brdf: BRDF, **options: Any) -> AdaptiveSampler:
     if options.pop("mode", "warp") != "warp":
-        raise ParameterError("the sampler 'adaptive_warp' is the adaptive sampler's warp mode; use 'adaptive'")
+        raise ParameterError(
+            "the sampler 'adaptive_warp' is the adaptive sampler's warp mode; use 'adaptive'"
+        )
     return AdaptiveSampler(brdf, mode="warp", **options)
 
 

@@ -34,15 +34,18 @@ from core.sampling.adaptive.layout import (
     cell_edges,
     interpolation_errors,
     norm_coordinate,
+    normalizer_table,
     phi_nodes,
     series_coefficients,
 )
-from core.sampling.adaptive.maps import EQUIDISTANT, ORTHOGRAPHIC
+from core.sampling.adaptive.maps import EQUAL_AREA, HALF_VECTOR, ORTHOGRAPHIC
 from core.sampling.adaptive.target import g_at, make_view
 from core.sampling.adaptive.tree import ACCEPT_MARGIN, BuildSettings, TreeArrays, build_tree
 
-TABLE_FORMAT = 1
+TABLE_FORMAT = 5
 """Bumped when the stored arrays change meaning."""
+
+CELL_LUT = 512
 
 
 @dataclass(frozen=True)
@@ -65,6 +68,9 @@ class TableOptions:
     """At most this many polar nodes."""
     min_spacing_deg: float = 0.05
     """Intervals are not halved below this."""
+    parameterization: str = "auto"
+    """``"wi"`` (the equal-area disk of the incident direction), ``"half"`` (of the half vector), or
+    ``"auto"``: whichever moves the material's lobe less between neighbouring views."""
     base_level: int = 3
     max_level: int = 12
     capacity: int = 16384
@@ -83,12 +89,23 @@ class AdaptiveTable(NamedTuple):
 
     symmetry: int
     """:data:`~core.sampling.adaptive.layout.ISOTROPIC`, ``MIRROR`` or ``FULL``."""
+    follow: int
+    """1: a tree's frame is turned with ``wo``'s azimuth (``wo`` in its x-z plane); 0: trees are kept in the
+    local frame (half-vector trees of an anisotropic BRDF), ``wo`` only folded into the quadrant."""
     thetas: np.ndarray
     """``(K,)`` polar nodes (radians), increasing; ``thetas[0] = 0``."""
     phis: np.ndarray
     """``(J,)`` azimuth nodes."""
     theta_edges: np.ndarray
     """``(K + 1,)`` cells in theta (the exact mode's nearest node)."""
+    node_mu: np.ndarray
+    """``(K,)``: ``-cos(thetas)``, increasing: the draws bracket and locate ``wo`` by its ``z`` (no
+    trigonometry), and blend the two nodes around it linearly in ``cos theta``."""
+    cell_mu: np.ndarray
+    """``(K + 1,)``: ``-cos(theta_edges)``."""
+    cell_lut: np.ndarray
+    """``(CELL_LUT,)`` int32: for ``mu`` in bin ``i`` of ``[-1, 0]``, the first cell that can hold it (a
+    lookup and a step or two instead of a binary search)."""
     phi_edges: np.ndarray
     """``(J + 1,)`` cells in phi."""
     projection: np.ndarray
@@ -96,25 +113,30 @@ class AdaptiveTable(NamedTuple):
     root: np.ndarray
     """``(K * J,)`` int64: each tree's root in the node arrays."""
     child: np.ndarray
-    """``(N,)`` int64: a node's first child, or ``-1 - leaf`` (leaf index into the leaf arrays)."""
+    """``(N,)`` int32: a node's first child, or ``-1 - leaf`` (leaf index into the leaf arrays)."""
     mass: np.ndarray
-    """``(N,)``: the rejection-free density's mass under each node (a leaf's: area times its corners'
-    mean)."""
+    """``(N,)`` float32: the rejection-free density's mass under each node (a leaf's: area times its
+    corners' mean). The draws' densities are products of the stored shares, exact at any precision."""
     envelope: np.ndarray
-    """``(N,)``: the exact mode's envelope mass under each node (a leaf's: area times its bound)."""
+    """``(N,)`` float32: the exact mode's envelope mass under each node (a leaf's: its bound times its mass;
+    the leaves' relative masses must be those of ``K_L q_L``, to float32 rounding, which the bound's margin
+    covers)."""
     corners: np.ndarray
-    """``(L, 4)``: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``."""
+    """``(L, 4)`` float32: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
+    (the masses are computed from these stored values, so the density stays exact)."""
     bound: np.ndarray
-    """``(L,)``: ``M_L``, the bound of ``g / I`` on the leaf over its node's cell."""
-    norm_s: np.ndarray
-    """``(K,)``: the polar nodes as ``-log(cos theta)``, the normalizer's coordinate."""
+    """``(L,)`` float32: ``K_L``, the bound of ``(g / I) / q`` on the leaf over its node's cell, ``q`` the
+    leaf's bilinear density (rounded up)."""
     norm: np.ndarray
-    """``(K, J)``: the nodes' ``log I`` (``I`` when ``norm_log`` is 0; MIRROR: each row's cosine-series
-    coefficients), see :func:`~core.sampling.adaptive.layout.normalizer_at`."""
+    """``(M, J)``: the normalizer's fine table in ``s = -log(cos theta)`` (``log I``, or ``I`` when
+    ``norm_log`` is 0; MIRROR: cosine-series coefficients), see
+    :func:`~core.sampling.adaptive.layout.normalizer_at`."""
+    norm_ds: float
+    """The table's step in ``s``."""
     norm_log: int
     """1 when ``norm`` holds logarithms (every node's ``I > 0``)."""
-    theta_max: float
-    """The exact mode draws the cosine density beyond this polar angle."""
+    cos_min: float
+    """The exact mode draws the cosine density where ``cos theta_o`` is below this (beyond the last node)."""
 
 
 @dataclass
@@ -128,6 +150,7 @@ class TableReport:
     rounds: int = 0
     acceptance_min: float = 0.0
     chi2_max_edge: float = 0.0
+    chi2_max_phi_edge: float = 0.0
     norm_error_max: float = 0.0
     from_cache: bool = False
 
@@ -179,19 +202,79 @@ def _is_flat(mid, p, view):
     return hi > 0.0 and hi - lo <= 1e-12 * hi
 
 
-def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ...], symmetry: int) -> tuple[
-    np.ndarray, np.ndarray]:  # fmt: skip
-    """A node's views (row 0 the node) and, per view, whether it lies on the cell's theta edge."""
+@njit(nogil=True, cache=True)
+def _motion(mid, p, projection, view_a, view_b):
+    """How far the normalized ``g`` moves between two views: the total-variation distance of the two on a
+    32 x 32 grid of the square (0: the same density, 1: disjoint)."""
+    n = 32
+    ga = np.empty(n * n)
+    gb = np.empty(n * n)
+    for i in range(n):
+        for j in range(n):
+            a = (i + 0.5) / n
+            b = (j + 0.5) / n
+            ga[i * n + j] = g_at(mid, p, a, b, projection, view_a)
+            gb[i * n + j] = g_at(mid, p, a, b, projection, view_b)
+    sa = ga.sum()
+    sb = gb.sum()
+    if sa <= 0.0 or sb <= 0.0:
+        return 1.0
+    return 0.5 * np.abs(ga / sa - gb / sb).sum()
+
+
+PROBE_PAIRS_DEG = ((20.0, 0.0, 30.0, 0.0), (50.0, 0.0, 60.0, 0.0), (72.0, 0.0, 80.0, 0.0))
+PROBE_PAIRS_ANISO_DEG = ((45.0, 20.0, 45.0, 35.0), (70.0, 50.0, 70.0, 65.0), (70.0, 10.0, 78.0, 10.0))
+
+
+def choose_projection(brdf: BRDF, symmetry: int, parameterization: str = "auto") -> tuple[int, int]:
+    """``(projection, follow)`` for a material's non-flat trees: the equal-area disk of ``wi`` (turned with
+    ``wo``), or of the half vector (kept in the local frame when anisotropic), whichever moves the lobe less
+    between neighbouring views (mean total-variation distance over a few pairs of views)."""
+    half = (HALF_VECTOR, 1 if symmetry == ISOTROPIC else 0)
+    if parameterization == "wi":
+        return EQUAL_AREA, 1
+    if parameterization == "half":
+        return half
+    pairs = PROBE_PAIRS_DEG if symmetry == ISOTROPIC else PROBE_PAIRS_DEG + PROBE_PAIRS_ANISO_DEG
+    best = (EQUAL_AREA, 1)
+    best_motion = np.inf
+    for projection, follow in ((EQUAL_AREA, 1), half):
+        motion = 0.0
+        for ta, pa, tb, pb in pairs:
+            va = make_view(math.radians(ta), math.radians(pa), bool(follow))
+            vb = make_view(math.radians(tb), math.radians(pb), bool(follow))
+            motion += _motion(brdf.model.id, brdf.params, projection, va, vb)
+        if motion < 0.9 * best_motion:  # ties go to the wi disk (the seed's domain)
+            best, best_motion = (projection, follow), motion
+    return best
+
+
+def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ...], symmetry: int,
+           follow: bool) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """A node's views (row 0 the node), their weights in the cell's mixture (the trapezoidal rule over the
+    cell), and whether each lies on the cell's theta edge."""
     if symmetry == ISOTROPIC:
         ts = [theta, theta_lo, 0.5 * (theta_lo + theta), 0.5 * (theta + theta_hi), theta_hi]
+        a = theta - theta_lo
+        b = theta_hi - theta
+        w = np.array([0.25 * (a + b), 0.25 * a, 0.5 * a, 0.5 * b, 0.25 * b])
         edge = [False, True, False, False, True]
-        return np.array([make_view(t, 0.0) for t in ts]), np.array(edge)
-    rows, edge = [], []
-    for t, e in ((theta, False), (theta_lo, True), (theta_hi, True)):
-        for ph in phis:
-            rows.append(make_view(t, ph))
+        return np.array([make_view(t, 0.0) for t in ts]), _normalized(w), np.array(edge)
+    rows, weights, edge = [], [], []
+    theta_w = ((theta, (theta_hi - theta_lo), False), (theta_lo, theta - theta_lo, True),
+               (theta_hi, theta_hi - theta, True))  # fmt: skip
+    phi_w = (phis[0], phis[2] - phis[1]), (phis[1], phis[0] - phis[1]), (phis[2], phis[2] - phis[0])
+    for t, wt, e in theta_w:
+        for ph, wp in phi_w:
+            rows.append(make_view(t, ph, follow))
+            weights.append(wt * wp)
             edge.append(e)
-    return np.array(rows), np.array(edge)
+    return np.array(rows), _normalized(np.array(weights)), np.array(edge)
+
+
+def _normalized(w: np.ndarray) -> np.ndarray:
+    total = float(np.sum(w))
+    return w / total if total > 0.0 else np.full(len(w), 1.0 / len(w))
 
 
 @dataclass
@@ -203,16 +286,21 @@ class _Node:
 
 
 def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
-                phi: float, phi_cell: tuple[float, float]) -> _Node:  # fmt: skip
+                phi: float, phi_cell: tuple[float, float], projection: int, follow: int) -> _Node:  # fmt: skip
     t0 = time.perf_counter()
     if symmetry == ISOTROPIC:
         phis: tuple[float, ...] = (0.0,)
     else:
         phis = (phi, phi_cell[0], phi_cell[1])
-    views, edge = _views(cell[0], theta, cell[1], phis, symmetry)
+    views, weights, edge = _views(cell[0], theta, cell[1], phis, symmetry, bool(follow))
     mid = brdf.model.id
-    projection = ORTHOGRAPHIC if _is_flat(mid, brdf.params, views[0]) else EQUIDISTANT
-    tree = build_tree(mid, brdf.params, projection, views, options.settings())
+    if _is_flat(mid, brdf.params, views[0]):  # a Lambertian lobe: pi f is the same all over the disk
+        projection = ORTHOGRAPHIC
+    if symmetry == ISOTROPIC:
+        cell_arr = np.array([cell[0], cell[1], 0.0, 0.0, 1.0])
+    else:
+        cell_arr = np.array([cell[0], cell[1], phi_cell[0], phi_cell[1], float(follow)])
+    tree = build_tree(mid, brdf.params, projection, views, weights, cell_arr, options.settings())
     return _Node(tree, projection, edge, time.perf_counter() - t0)
 
 
@@ -230,6 +318,7 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
     else:
         phi_edges = np.array([0.0, TWO_PI])
     thetas = np.radians(np.array(INITIAL_THETAS_DEG))
+    projection, follow = choose_projection(brdf, symmetry, options.parameterization)
     nodes: dict[tuple[float, float, float, int], _Node] = {}
     report = TableReport()
     workers = threads or max(1, min(8, os.cpu_count() or 1))
@@ -241,14 +330,22 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
             edges = cell_edges(thetas, 0.0, THETA_END)
             wanted = []
             for k, theta in enumerate(thetas):
-                for j, phi in enumerate(phis):
+                for j in range(len(phis)):
                     key = (float(theta), float(edges[k]), float(edges[k + 1]), j)
                     if key not in nodes:
                         wanted.append(key)
             jobs = {
                 key: pool.submit(
-                    _build_node, brdf, options, symmetry, key[0], (key[1], key[2]), float(phis[key[3]]),
+                    _build_node,
+                    brdf,
+                    options,
+                    symmetry,
+                    key[0],
+                    (key[1], key[2]),
+                    float(phis[key[3]]),
                     (float(phi_edges[key[3]]), float(phi_edges[key[3] + 1])),
+                    projection,
+                    follow,
                 )  # fmt: skip
                 for key in wanted
             }
@@ -265,13 +362,19 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
             new = 0.5 * (thetas[:-1] + thetas[1:])[halve]
             new = new[: options.max_thetas - len(thetas)]
             thetas = np.sort(np.concatenate([thetas, new]))
-    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid)
+    table = _pack(symmetry, follow, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid)
     report.seconds = time.perf_counter() - t0
     report.trees = len(thetas) * len(phis)
     report.leaves = len(table.bound)
     report.evaluations = sum(n.tree.evaluations for n in nodes.values())
     report.acceptance_min = min(1.0 / n.tree.envelope for row in grid for n in row)
-    report.chi2_max_edge = max(float(np.max(n.tree.chi2[n.edge])) for row in grid for n in row)
+    report.chi2_max_edge = max(
+        float(np.max(n.tree.chi2[np.concatenate(_edge_views(n, len(row) > 1))])) for row in grid for n in row
+    )
+    if len(phis) > 1:
+        report.chi2_max_phi_edge = max(
+            float(np.max(n.tree.chi2[PHI_EDGE_VIEWS])) for row in grid for n in row
+        )
     report.norm_error_max = float(np.max(_norm_errors(thetas, grid)))
     return table, report
 
@@ -317,14 +420,18 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], options: Ta
 
 
 def _edge_views(node: _Node, anisotropic: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the views on the cell's lower and upper theta edge."""
+    """Indices of the views on the cell's lower and upper theta edge, at the node's azimuth (halving in theta
+    does nothing for the azimuth's edges)."""
     if not anisotropic:
         return np.array([1]), np.array([4])
-    n_phi = len(node.edge) // 3
-    return np.arange(n_phi, 2 * n_phi), np.arange(2 * n_phi, 3 * n_phi)
+    return np.array([3]), np.array([6])
 
 
-def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
+PHI_EDGE_VIEWS = np.array([1, 2])
+"""An anisotropic node's views on its cell's azimuth edges, at the node's theta (see :func:`_views`)."""
+
+
+def _pack(symmetry: int, follow: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
           phi_edges: np.ndarray, grid: list[list[_Node]]) -> AdaptiveTable:  # fmt: skip
     children, masses, envelopes, corners, bounds, roots, projections = [], [], [], [], [], [], []
     node_base = 0
@@ -336,12 +443,14 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
             inner = child >= 0
             child[inner] += node_base
             child[~inner] -= leaf_base
-            mass, env = _masses(tr)
+            corner32 = tr.corners.astype(np.float32)
+            bound32 = np.nextafter(tr.bound.astype(np.float32), np.float32(np.inf))
+            mass, env = _masses(tr.child, tr.level, corner32, bound32)
             children.append(child)
             masses.append(mass)
             envelopes.append(env)
-            corners.append(tr.corners)
-            bounds.append(tr.bound)
+            corners.append(corner32)
+            bounds.append(bound32)
             roots.append(node_base)
             projections.append(n.projection)
             node_base += len(child)
@@ -350,38 +459,49 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
     norm_log = bool(np.all(integrals > 0.0))
     values = np.log(integrals) if norm_log else integrals
     norm = series_coefficients(values) if symmetry == MIRROR else values
+    norm_fine, norm_ds = normalizer_table(thetas, norm)
+    cell_mu = -np.cos(theta_edges)
+    starts = -1.0 + np.arange(CELL_LUT) / CELL_LUT
+    lut = np.clip(np.searchsorted(cell_mu, starts, side="right") - 1, 0, len(thetas) - 1)
     return AdaptiveTable(
         symmetry=int(symmetry),
+        follow=int(follow),
         thetas=np.ascontiguousarray(thetas, dtype=np.float64),
         phis=np.ascontiguousarray(phis, dtype=np.float64),
         theta_edges=np.ascontiguousarray(theta_edges, dtype=np.float64),
+        node_mu=-np.cos(thetas),
+        cell_mu=cell_mu,
+        cell_lut=lut.astype(np.int32),
         phi_edges=np.ascontiguousarray(phi_edges, dtype=np.float64),
         projection=np.array(projections, dtype=np.int64),
         root=np.array(roots, dtype=np.int64),
-        child=np.concatenate(children),
-        mass=np.concatenate(masses),
-        envelope=np.concatenate(envelopes),
-        corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float64),
-        bound=np.concatenate(bounds),
-        norm_s=norm_coordinate(thetas),
-        norm=np.ascontiguousarray(norm, dtype=np.float64),
+        child=np.concatenate(children).astype(np.int32),
+        mass=np.concatenate(masses).astype(np.float32),
+        envelope=np.concatenate(envelopes).astype(np.float32),
+        corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float32),
+        bound=np.concatenate(bounds).astype(np.float32),
+        norm=np.ascontiguousarray(norm_fine, dtype=np.float64),
+        norm_ds=float(norm_ds),
         norm_log=int(norm_log),
-        theta_max=float(THETA_END),
+        cos_min=float(math.cos(THETA_END)),
     )
 
 
-def _masses(tree: TreeArrays) -> tuple[np.ndarray, np.ndarray]:
-    """Both densities' masses under every node (children follow their parents, so one reverse pass)."""
-    n = len(tree.child)
-    area = 0.25 ** tree.level.astype(np.float64)
+def _masses(child: np.ndarray, level: np.ndarray, corners: np.ndarray, bound: np.ndarray) -> tuple[
+        np.ndarray, np.ndarray]:  # fmt: skip
+    """Both densities' masses under every node, in float64 from the stored (float32) leaf values, so that
+    the draws' densities are exactly those of the stored values (children follow their parents: one
+    reverse pass)."""
+    n = len(child)
+    area = 0.25 ** level.astype(np.float64)
     mass = np.zeros(n)
     env = np.zeros(n)
-    leaf = tree.child < 0
-    idx = -1 - tree.child[leaf]
-    mass[leaf] = area[leaf] * tree.corners[idx].mean(axis=1)
-    env[leaf] = area[leaf] * tree.bound[idx]
+    leaf = child < 0
+    idx = -1 - child[leaf]
+    mass[leaf] = area[leaf] * corners[idx].astype(np.float64).mean(axis=1)
+    env[leaf] = mass[leaf] * bound[idx].astype(np.float64)
     for i in range(n - 1, -1, -1):
-        c = tree.child[i]
+        c = child[i]
         if c >= 0:
             mass[i] = mass[c : c + 4].sum()
             env[i] = env[c : c + 4].sum()
@@ -392,20 +512,26 @@ def _masses(tree: TreeArrays) -> tuple[np.ndarray, np.ndarray]:
 _SOURCES_HASH: dict[str, str] = {}
 
 
+def source_files(brdf: BRDF) -> list[Path]:
+    """The sources that can change a material's table: the model's own file, the shared model helpers
+    (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package. An
+    edit anywhere else (the app, the renderer, another model) keeps the stored tables."""
+    func = getattr(brdf.model.eval, "py_func", brdf.model.eval)
+    own = Path(inspect.getfile(func)).resolve()
+    core = Path(__file__).resolve().parents[2]
+    files = sorted(Path(__file__).resolve().parent.glob("*.py"))
+    files += sorted((core / "models").glob("_*.py"))
+    files += [core / "models" / "lobes.py", core / "geometry.py", core / "dispatch.py", core / "rng.py"]
+    if own not in files:
+        files.append(own)
+    return files
+
+
 def sources_hash(brdf: BRDF) -> str:
-    """Hash of the sources that can change a material's table: the model's own file, the shared model
-    helpers (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package.
-    An edit anywhere else (the app, the renderer, another model) keeps the stored tables."""
-    module = inspect.getmodule(brdf.model.eval.py_func) if hasattr(brdf.model.eval, "py_func") else None
-    own = Path(inspect.getfile(module)) if module is not None else None
-    key = str(own)
+    """Hash of :func:`source_files` (read once per process and model file)."""
+    files = source_files(brdf)
+    key = str(files[-1])
     if key not in _SOURCES_HASH:
-        core = Path(__file__).resolve().parents[2]
-        files = sorted(Path(__file__).resolve().parent.glob("*.py"))
-        files += sorted((core / "models").glob("_*.py"))
-        files += [core / "models" / "lobes.py", core / "geometry.py", core / "dispatch.py"]
-        if own is not None:
-            files.append(own)
         h = hashlib.sha256()
         for f in files:
             h.update(f.name.encode())
@@ -439,8 +565,10 @@ def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport]
             value = arrays[name]
             fields[name] = value.item() if value.ndim == 0 else np.ascontiguousarray(value)
         fields["symmetry"] = int(fields["symmetry"])
+        fields["follow"] = int(fields["follow"])
         fields["norm_log"] = int(fields["norm_log"])
-        fields["theta_max"] = float(fields["theta_max"])
+        fields["cos_min"] = float(fields["cos_min"])
+        fields["norm_ds"] = float(fields["norm_ds"])
         table = AdaptiveTable(**fields)
     except (KeyError, ValueError, TypeError):
         return None
@@ -454,4 +582,3 @@ def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport]
 
 def memory_bytes(table: AdaptiveTable) -> int:
     return int(sum(v.nbytes for v in table if isinstance(v, np.ndarray)))
-

@@ -8,8 +8,9 @@ An isotropic BRDF does not see ``phi`` (its trees serve every azimuth); an aniso
 turns with ``phi`` nearly as a whole, so a tree made for one azimuth fits its neighbours' (only the lobe's
 shape against the anisotropy's axes changes), and a few azimuth nodes serve the whole circle.
 
-Views are rows of a ``(n, 6)`` array: ``wo`` in the tree frame (3), ``cos phi``, ``sin phi``, and a scale
-``1 / c`` that divides ``g`` (the normalizer estimate of the view; bounds are kept on ``g / c``).
+Views are rows of a ``(n, 6)`` array: ``wo`` in the tree frame (3), ``cos phi``, ``sin phi`` (the frame's
+turn; 1 and 0 for trees kept in the local frame, as half-vector trees of anisotropic BRDFs are: their lobe
+does not turn with ``wo``), and 1 (unused).
 """
 
 from __future__ import annotations
@@ -20,14 +21,17 @@ import numpy as np
 from numba import njit
 
 from core.dispatch import eval_model
-from core.sampling.adaptive.maps import ORTHOGRAPHIC, PI, square_to_direction
+from core.sampling.adaptive.maps import HALF_VECTOR, ORTHOGRAPHIC, PI, square_to_direction
 
 LUM_R = 0.2126
 LUM_G = 0.7152
 LUM_B = 0.0722
 
-RIM_Z = 1e-7
-"""Where the orthographic disk's rim (the square's edge) is evaluated: ``f`` just above the horizon."""
+RIM_Z = 1e-5
+"""Where the square's edge (the disk's rim, the horizon) is evaluated: ``cos(theta) = 1e-5``. Several models
+keep ``f cos`` finite and positive up to the horizon (Phong, Schlick), and some floor a ``1 / cos`` within
+1e-6 of it; ``g`` at the rim is their limit, not the 0 of ``f`` below the horizon (which made every leaf along
+the rim look discontinuous)."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -35,40 +39,69 @@ def luminance3(r, g, b):
     return LUM_R * r + LUM_G * g + LUM_B * b
 
 
-def make_view(theta: float, phi: float, scale: float = 1.0) -> np.ndarray:
-    """One view row: ``wo`` at polar angle ``theta`` in the tree frame, the frame's azimuth ``phi``."""
-    return np.array([math.sin(theta), 0.0, math.cos(theta), math.cos(phi), math.sin(phi), scale])
+def make_view(theta: float, phi: float, follow: bool = True) -> np.ndarray:
+    """One view row: ``wo`` at polar angle ``theta`` in the tree frame, the frame turned by the azimuth
+    ``phi`` (``follow``); or, for a tree kept in the local frame, ``wo`` at ``(theta, phi)`` itself."""
+    if follow:
+        return np.array([math.sin(theta), 0.0, math.cos(theta), math.cos(phi), math.sin(phi), 1.0])
+    st = math.sin(theta)
+    return np.array([st * math.cos(phi), st * math.sin(phi), math.cos(theta), 1.0, 0.0, 1.0])
 
 
-def make_views(thetas: np.ndarray, phis: np.ndarray) -> np.ndarray:
+def make_views(thetas: np.ndarray, phis: np.ndarray, follow: bool = True) -> np.ndarray:
     """Views ``(len(thetas) * len(phis), 6)`` of every pair, theta-major."""
-    rows = [make_view(t, p) for t in np.asarray(thetas, dtype=np.float64) for p in np.asarray(phis)]
+    rows = [make_view(t, p, follow) for t in np.asarray(thetas, dtype=np.float64) for p in np.asarray(phis)]
     return np.array(rows, dtype=np.float64).reshape(-1, 6)
 
 
+@njit(inline="always", nogil=True, cache=True)
+def square_point(a, b, projection):
+    """``(x, y, z, w)``: the tree-frame direction of square point ``(a, b)`` (``wi``, or ``h`` for
+    HALF_VECTOR) and the factor ``w`` with ``g = w f_lum`` there (``pi`` on the orthographic disk, ``2 pi cos``
+    on the equal-area one; for HALF_VECTOR ``2 pi``, the rest depends on ``wo``: see :func:`g_dir`)."""
+    x, y, z, jac = square_to_direction(a, b, projection)
+    if z < RIM_Z:  # the square's edge is the horizon: take the limit of g there, not f's 0 below it
+        z = RIM_Z
+        t = math.sqrt((1.0 - z * z) / max(x * x + y * y, 1e-300))
+        x *= t
+        y *= t
+    if projection == ORTHOGRAPHIC:
+        return x, y, z, PI
+    if projection == HALF_VECTOR:
+        return x, y, z, PI / jac
+    return x, y, z, PI * z / jac
+
+
 @njit(nogil=True, cache=True)
-def g_at(mid, p, a, b, projection, view):
-    """``g`` of the view at square point ``(a, b)`` (not divided by the view's scale).
+def g_dir(mid, p, x, y, z, w, view, projection):
+    """``g`` of the view at the tree-frame direction ``(x, y, z)`` with factor ``w`` (see
+    :func:`square_point`); not divided by the view's scale. For HALF_VECTOR the direction is the half vector
+    ``h``, ``wi = 2 (wo.h) h - wo`` and ``g = w f_lum cos(theta_i) 4 (wo.h)``.
 
     Not inlined into its callers: the model switch it holds is then compiled once for all of them (the
     construction's compile time is the switch's, times the number of functions that inline it)."""
-    x, y, z, jac = square_to_direction(a, b, projection)
-    if projection == ORTHOGRAPHIC:
-        if z < RIM_Z:  # the square's edge is the disk's rim: take the limit of f there, not f's 0 below it
-            z = RIM_Z
-            t = math.sqrt((1.0 - z * z) / max(x * x + y * y, 1e-300))
-            x *= t
-            y *= t
-    elif z <= 0.0 or jac <= 0.0:
+    if w <= 0.0:
         return 0.0
     c = view[3]
     s = view[4]
     wi = (c * x - s * y, s * x + c * y, z)
     wo = (c * view[0] - s * view[1], s * view[0] + c * view[1], view[2])
+    if projection == HALF_VECTOR:
+        d = wo[0] * wi[0] + wo[1] * wi[1] + wo[2] * wi[2]  # wi holds h here
+        wz = 2.0 * d * wi[2] - wo[2]
+        if d <= 0.0 or wz <= 0.0:
+            return 0.0
+        w *= 4.0 * d * wz
+        wi = (2.0 * d * wi[0] - wo[0], 2.0 * d * wi[1] - wo[1], wz)
     r, g, bb = eval_model(mid, wi, wo, p)
     lum = luminance3(r, g, bb)
     if not lum > 0.0:  # also NaN
         return 0.0
-    if projection == ORTHOGRAPHIC:
-        return PI * lum
-    return PI * lum * z / jac
+    return w * lum
+
+
+@njit(inline="always", nogil=True, cache=True)
+def g_at(mid, p, a, b, projection, view):
+    """``g`` of the view at square point ``(a, b)`` (not divided by the view's scale)."""
+    x, y, z, w = square_point(a, b, projection)
+    return g_dir(mid, p, x, y, z, w, view, projection)

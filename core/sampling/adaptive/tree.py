@@ -35,8 +35,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from core.sampling.adaptive.maps import direction_to_square
-from core.sampling.adaptive.target import g_at
+from core.rng import next_u01, stream
+from core.sampling.adaptive.maps import HALF_VECTOR, direction_to_square
+from core.sampling.adaptive.target import g_at, g_dir, square_point
 
 FLOOR = 1e-3
 """Share of the normalizer spread evenly over the square as the rejection-free density's floor: a feature
@@ -245,21 +246,40 @@ def _max_curvature(st):
 
 
 @njit(nogil=True, cache=True)
-def _leaf_bound(mid, p, projection, views, scales, ridge, i, x0, y0, level, stv):
-    """``M_L`` of node ``i`` (its stencils at every view must be in ``stv[i]``); returns ``(M, evaluations)``."""
+def _leaf_mass(stv_i, scales, weights, x0, y0, h):
+    """The leaf's mass under the rejection-free density (its mixture corners, floor included)."""
+    mix = np.empty(9)
+    _mixture(stv_i, scales, weights, x0, y0, h, mix)
+    return h * h * (0.25 * (mix[0] + mix[2] + mix[6] + mix[8]) + FLOOR)
+
+
+@njit(nogil=True, cache=True)
+def _leaf_bound(mid, p, projection, views, scales, weights, ridge, i, x0, y0, level, stv):
+    """``K_L``, a bound of ``(g_v / I_v) / q`` on leaf ``i`` for every view of the cell, ``q`` the leaf's
+    bilinear density (its stencils at every view must be in ``stv[i]``); returns ``(K, evaluations)``."""
     h = 0.5 ** level[i]
+    mix = np.empty(9)
+    _mixture(stv[i], scales, weights, x0[i], y0[i], h, mix)
+    q = np.empty(9)
+    for k in range(9):
+        q[k] = _bilinear_at_stencil(mix, k, FLOOR)
+    ratio = np.empty(9)
     m = 0.0
     for v in range(views.shape[0]):
-        st = stv[i, v]
         top = 0.0
         for k in range(9):
-            top = max(top, st[k])
-        m = max(m, (top + CURVATURE * _max_curvature(st)) * scales[v])
+            ratio[k] = stv[i, v, k] * scales[v] / q[k]
+            top = max(top, ratio[k])
+        m = max(m, top + CURVATURE * _max_curvature(ratio))
     evals = 0
     lo_x = x0[i] - h
     hi_x = x0[i] + 2.0 * h
     lo_y = y0[i] - h
     hi_y = y0[i] + 2.0 * h
+    c0 = mix[0] + FLOOR
+    c1 = mix[2] + FLOOR
+    c2 = mix[6] + FLOOR
+    c3 = mix[8] + FLOOR
     for r in range(ridge.shape[0]):
         v = int(ridge[r, 2])
         a = ridge[r, 0]
@@ -268,9 +288,21 @@ def _leaf_bound(mid, p, projection, views, scales, ridge, i, x0, y0, level, stv)
             continue
         a = min(max(a, x0[i]), x0[i] + h)
         b = min(max(b, y0[i]), y0[i] + h)
-        m = max(m, g_at(mid, p, a, b, projection, views[v]) * scales[v])
+        tx = (a - x0[i]) / h
+        ty = (b - y0[i]) / h
+        qq = (1.0 - tx) * (1.0 - ty) * c0 + tx * (1.0 - ty) * c1 + (1.0 - tx) * ty * c2 + tx * ty * c3
+        m = max(m, g_at(mid, p, a, b, projection, views[v]) * scales[v] / qq)
         evals += 1
     return m * BOUND_SAFETY, evals
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _mirror_point(view, projection):
+    """The square point of the view's mirror direction (the normal, for half-vector trees)."""
+    if projection == HALF_VECTOR:
+        return 0.5, 0.5
+    a, b, _ = direction_to_square(-view[0], -view[1], view[2], projection)
+    return a, b
 
 
 @njit(nogil=True, cache=True)
@@ -289,12 +321,12 @@ def _ridge(projection, views, child, x0, y0, level, st, n):
             if st[i, k] > best:
                 best = st[i, k]
                 pa, pb = _point(x0[i], y0[i], h, k)
-    ma0, mb0, _ = direction_to_square(-views[0, 0], -views[0, 1], views[0, 2], projection)
+    ma0, mb0 = _mirror_point(views[0], projection)
     da = pa - ma0
     db = pb - mb0
     out = np.empty((2 * views.shape[0], 3))
     for v in range(views.shape[0]):
-        ma, mb, _ = direction_to_square(-views[v, 0], -views[v, 1], views[v, 2], projection)
+        ma, mb = _mirror_point(views[v], projection)
         out[2 * v, 0] = ma
         out[2 * v, 1] = mb
         out[2 * v, 2] = v
@@ -306,17 +338,20 @@ def _ridge(projection, views, child, x0, y0, level, st, n):
 
 @njit(nogil=True, cache=True)
 def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
-    """Node ``i``'s stencils at every view (view 0's is ``st[i]``); returns the evaluations made."""
+    """Node ``i``'s stencils at every view (view 0's is ``st[i]``): each point's direction is made once
+    for all the views. Returns the evaluations made."""
     h = 0.5 ** level[i]
     for k in range(9):
         stv[i, 0, k] = st[i, k]
-    for v in range(1, views.shape[0]):
-        _stencil(mid, p, projection, views[v], x0[i], y0[i], h, stv[i, v])
+        a, b = _point(x0[i], y0[i], h, k)
+        x, y, z, w = square_point(a, b, projection)
+        for v in range(1, views.shape[0]):
+            stv[i, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
     return 9 * (views.shape[0] - 1)
 
 
 @njit(nogil=True, cache=True)
-def bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m):
+def bound(mid, p, projection, views, weights, n, child, x0, y0, level, st, stv, m):
     """Step 2: every leaf's stencils at every view, the views' integrals, and every leaf's bound ``m``.
 
     Returns ``(scales, ridge, evaluations)``: ``scales[v] = 1 / I_v`` (the bounds are on ``g_v / I_v``)."""
@@ -326,7 +361,6 @@ def bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m):
     for i in range(n):
         if child[i] == -1:
             evals += _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv)
-            area = 0.25 ** level[i]
             for v in range(nv):
                 integral[v] += _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
     scales = np.zeros(nv)
@@ -335,14 +369,85 @@ def bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m):
     ridge = _ridge(projection, views, child, x0, y0, level, st, n)
     for i in range(n):
         if child[i] == -1:
-            m[i], e = _leaf_bound(mid, p, projection, views, scales, ridge, i, x0, y0, level, stv)
+            m[i], e = _leaf_bound(mid, p, projection, views, scales, weights, ridge, i, x0, y0, level, stv)
             evals += e
     return scales, ridge, evals
 
 
 @njit(nogil=True, cache=True)
-def refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child, x0, y0, level, st, stv, m):
-    """Step 3: split the leaves with the largest excess until ``V <= n_max / (1 + ACCEPT_MARGIN)``.
+def _mixture(stv_i, scales, weights, x0, y0, h, out):
+    """The cell's mixture on a node's stencil: ``sum_v w_v g_v / I_v`` (it integrates to 1), its corners on
+    the square's edge lifted (:func:`_rim_lift`)."""
+    for k in range(9):
+        acc = 0.0
+        for v in range(weights.shape[0]):
+            acc += weights[v] * stv_i[v, k] * scales[v]
+        out[k] = acc
+    _rim_lift(out, x0, y0, h)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _rim_lift(mix, x0, y0, h):
+    """On the square's edge (the horizon) a corner takes at least the value half a leaf inward. Where ``g``
+    vanishes at the horizon like ``cos^k`` with ``k < 1`` (Minnaert's), the bilinear interpolant of the true
+    corner values falls below it by a factor that grows without bound toward the rim, and no envelope
+    ``K q`` could cover ``g`` there; lifted, ``q`` is at least ``g`` half a leaf in, so ``g / q`` stays
+    bounded (by 2^k). Where ``g`` vanishes linearly (``f cos`` of a bounded ``f``) it costs a few samples
+    near the horizon."""
+    left = x0 == 0.0
+    right = x0 + h == 1.0
+    bottom = y0 == 0.0
+    top = y0 + h == 1.0
+    for corner in range(4):
+        k = CORNERS[corner]
+        i = k % 3
+        j = k // 3
+        di = 0
+        dj = 0
+        if i == 0 and left:
+            di = 1
+        if i == 2 and right:
+            di = -1
+        if j == 0 and bottom:
+            dj = 1
+        if j == 2 and top:
+            dj = -1
+        if di != 0 or dj != 0:
+            mix[k] = max(mix[k], mix[(j + dj) * 3 + i + di])
+
+
+@njit(nogil=True, cache=True)
+def refine_warp(mid, p, projection, views, scales, weights, ridge, warp_tol, max_level, n, child, x0, y0, level,
+                st, stv, m):  # fmt: skip
+    """Step 2b: the rejection-free density is the cell's *mixture* ``sum_v w_v g_v / I_v`` (the draws use one
+    tree for the whole cell, so it should fit every view of it, not only the node's; where the lobe moves or a
+    region becomes reachable across the cell, the mixture covers it). Leaves split while their share of the
+    mixture's warp error exceeds ``warp_tol``. Returns ``(nodes, evaluations)``."""
+    cap = child.shape[0]
+    evals = 0
+    mix = np.empty(9)
+    i = 0
+    while i < n:
+        if child[i] == -1 and level[i] < max_level and n + 4 <= cap:
+            _mixture(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i], mix)
+            if _warp_error(mix, 0.25 ** level[i], FLOOR) > warp_tol:
+                n = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
+                evals += 20
+                for c in range(n - 4, n):
+                    evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
+                    m[c], e = _leaf_bound(
+                        mid, p, projection, views, scales, weights, ridge, c, x0, y0, level, stv
+                    )
+                    evals += e
+        i += 1
+    return n, evals
+
+
+@njit(nogil=True, cache=True)
+def refine(mid, p, projection, views, scales, weights, ridge, n_max, max_level, n, child, x0, y0, level, st,
+           stv, m):  # fmt: skip
+    """Step 3: split the leaves with the largest excess ``(K_L - 1) q_L`` until the envelope's mass
+    ``V = sum K_L q_L <= n_max / (1 + ACCEPT_MARGIN)`` (``q_L`` the leaf's mass under the density).
 
     Returns ``(nodes, V, evaluations)``."""
     cap = child.shape[0]
@@ -355,11 +460,11 @@ def refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child,
         for i in range(n):
             excess[i] = 0.0
             if child[i] == -1:
-                area = 0.25 ** level[i]
-                vol = area * m[i]
+                q = _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i])
+                vol = m[i] * q
                 total += vol
                 if level[i] < max_level:
-                    excess[i] = vol - _rule(st[i], x0[i], y0[i], 0.5 ** level[i]) * scales[0]
+                    excess[i] = vol - q
                     worst = max(worst, excess[i])
         if total <= target or worst <= 0.0:
             return n, total, evals
@@ -372,15 +477,79 @@ def refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child,
                 evals += 20
                 for c in range(n - 4, n):
                     evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
-                    m[c], e = _leaf_bound(mid, p, projection, views, scales, ridge, c, x0, y0, level, stv)
+                    m[c], e = _leaf_bound(
+                        mid, p, projection, views, scales, weights, ridge, c, x0, y0, level, stv
+                    )
                     evals += e
         if n == end:
             break
     total = 0.0
     for i in range(n):
         if child[i] == -1:
-            total += 0.25 ** level[i] * m[i]
+            total += m[i] * _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i])
     return n, total, evals
+
+
+PROBES = 8
+"""Random points per leaf at which :func:`probe` checks the bounds, each at a random view of the cell."""
+
+PROBE_MARGIN = 1.25
+"""A bound that a probe finds short is raised to this times what the probe saw."""
+
+
+@njit(nogil=True, cache=True)
+def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed):
+    """Step 3b: every leaf's bound checked at ``PROBES`` random points, each at a random view of the cell
+    (``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``): between the stencils' points and between the
+    views, where no rule covers it. A bound found short is raised to ``PROBE_MARGIN`` times the ratio seen
+    (the views' scale is the largest of the sampled views', so the check errs high). Returns the number of
+    bounds raised and the evaluations made."""
+    scale = 0.0
+    for v in range(scales.shape[0]):
+        scale = max(scale, scales[v])
+    raised = 0
+    evals = 0
+    mix = np.empty(9)
+    view = np.empty(6)
+    view[5] = 1.0
+    for i in range(n):
+        if child[i] != -1:
+            continue
+        h = 0.5 ** level[i]
+        _mixture(stv[i], scales, weights, x0[i], y0[i], h, mix)
+        c0 = mix[0] + FLOOR
+        c1 = mix[2] + FLOOR
+        c2 = mix[6] + FLOOR
+        c3 = mix[8] + FLOOR
+        state = stream(seed, i)
+        worst = 0.0
+        for _ in range(PROBES):
+            state, u1 = next_u01(state)
+            state, u2 = next_u01(state)
+            state, u3 = next_u01(state)
+            state, u4 = next_u01(state)
+            theta = cell[0] + u3 * (cell[1] - cell[0])
+            phi = cell[2] + u4 * (cell[3] - cell[2])
+            st = math.sin(theta)
+            if cell[4] > 0.5:
+                view[0] = st
+                view[1] = 0.0
+                view[3] = math.cos(phi)
+                view[4] = math.sin(phi)
+            else:
+                view[0] = st * math.cos(phi)
+                view[1] = st * math.sin(phi)
+                view[3] = 1.0
+                view[4] = 0.0
+            view[2] = math.cos(theta)
+            qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
+            g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
+            worst = max(worst, g * scale / qq)
+            evals += 1
+        if worst * BOUND_SAFETY > m[i]:
+            m[i] = worst * PROBE_MARGIN
+            raised += 1
+    return raised, evals
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -480,10 +649,12 @@ def _fold_quadrature(n_keep, n, child, fine, fine_err):
 
 
 @njit(nogil=True, cache=True)
-def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
-    """Leaf numbering, corner values, the views' integrals, errors and chi^2, and the envelope."""
+def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, scales, weights):
+    """Leaf numbering, corner values (the cell's mixture, floor included), the views' integrals, errors and
+    chi^2, and the envelope."""
     nv = stv.shape[1]
-    floor = FLOOR * integral0 if integral0 > 0.0 else 1.0
+    floor = FLOOR
+    mix = np.empty(9)
     k = 0
     for i in range(n):
         if child[i] < 0:
@@ -500,11 +671,13 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
             continue
         leaf = -1 - child[i]
         area = 0.25 ** level[i]
+        _mixture(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i], mix)
         for c in range(4):
-            corners[leaf, c] = st[i, CORNERS[c]] + floor
+            corners[leaf, c] = mix[CORNERS[c]] + floor
         bounds[leaf] = m[i]
-        mass += area * 0.25 * (corners[leaf, 0] + corners[leaf, 1] + corners[leaf, 2] + corners[leaf, 3])
-        envelope += area * m[i]
+        leaf_mass = area * 0.25 * (corners[leaf, 0] + corners[leaf, 1] + corners[leaf, 2] + corners[leaf, 3])
+        mass += leaf_mass
+        envelope += m[i] * leaf_mass
         integrals[0] += fine[i]
         errors[0] += fine_err[i]
         for v in range(1, nv):
@@ -518,12 +691,13 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
         if child[i] >= 0:
             continue
         area = 0.25 ** level[i]
+        _mixture(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i], mix)
         for v in range(nv):
             if integrals[v] <= 0.0:
                 continue
             acc = 0.0
             for kk in range(9):
-                q = _bilinear_at_stencil(st[i], kk, floor) / mass
+                q = _bilinear_at_stencil(mix, kk, floor) / mass
                 g = stv[i, v, kk] / integrals[v]
                 acc += SIMPSON[kk] * g * g / q
             chi2[v] += acc * area
@@ -533,7 +707,9 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, integral0):
 
 
 @njit(nogil=True, cache=True)
-def build(mid, p, projection, views, n_max, warp_tol, quad_tol, base_level, max_level, capacity):
+def build(
+    mid, p, projection, views, weights, cell, n_max, warp_tol, quad_tol, base_level, max_level, capacity
+):
     """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there)."""
     child = np.empty(capacity, dtype=np.int32)
     x0 = np.empty(capacity)
@@ -544,10 +720,15 @@ def build(mid, p, projection, views, n_max, warp_tol, quad_tol, base_level, max_
     m = np.zeros(capacity)
     n, integral0, evals = grow(mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0,
                                level, st)  # fmt: skip
-    scales, ridge, e = bound(mid, p, projection, views, n, child, x0, y0, level, st, stv, m)
+    scales, ridge, e = bound(mid, p, projection, views, weights, n, child, x0, y0, level, st, stv, m)
     evals += e
-    n, envelope, e = refine(mid, p, projection, views, scales, ridge, n_max, max_level, n, child, x0, y0,
-                            level, st, stv, m)  # fmt: skip
+    n, e = refine_warp(mid, p, projection, views, scales, weights, ridge, warp_tol, max_level, n, child, x0, y0,
+                       level, st, stv, m)  # fmt: skip
+    evals += e
+    n, envelope, e = refine(mid, p, projection, views, scales, weights, ridge, n_max, max_level, n, child, x0,
+                            y0, level, st, stv, m)  # fmt: skip
+    evals += e
+    _, e = probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, mid)
     evals += e
     fine = np.zeros(capacity)
     fine_err = np.zeros(capacity)
@@ -558,18 +739,27 @@ def build(mid, p, projection, views, n_max, warp_tol, quad_tol, base_level, max_
     _fold_quadrature(n_keep, n, child, fine, fine_err)
     n = n_keep
     corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
-                                                                   fine_err, integral0)  # fmt: skip
+                                                                   fine_err, scales, weights)  # fmt: skip
     return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,
             errors, chi2, envelope, evals)  # fmt: skip
 
 
 def build_tree(
-    mid: int, p: np.ndarray, projection: int, views: np.ndarray, settings: BuildSettings
+    mid: int,
+    p: np.ndarray,
+    projection: int,
+    views: np.ndarray,
+    weights: np.ndarray,
+    cell: np.ndarray,
+    settings: BuildSettings,
 ) -> TreeArrays:
-    """One node's tree (``views[0]`` is the node; the others span its cell)."""
+    """One node's tree (``views[0]`` is the node; the others span its cell, with the mixture's ``weights``;
+    ``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``)."""
     out = build(
         int(mid), np.ascontiguousarray(p, dtype=np.float64), int(projection),
-        np.ascontiguousarray(views, dtype=np.float64), float(settings.n_max), float(settings.warp_tol),
+        np.ascontiguousarray(views, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(cell, dtype=np.float64),
+        float(settings.n_max), float(settings.warp_tol),
         float(settings.quad_tol),
         int(settings.base_level), int(settings.max_level), int(settings.capacity),
     )  # fmt: skip
