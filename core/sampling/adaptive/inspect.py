@@ -7,6 +7,7 @@ quads (:func:`leaf_image` rasterizes them by mapping every pixel back to the squ
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from core.sampling.adaptive.draw import _frame
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, TWO_PI
-from core.sampling.adaptive.maps import HALF_VECTOR, PROJECTIONS
+from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI
 from core.sampling.adaptive.sampler import AdaptiveSampler
 from core.sampling.adaptive.table import AdaptiveTable
 
@@ -40,7 +41,10 @@ class TreeView(NamedTuple):
     acceptance: float
     """The exact mode's acceptance per trial, ``1 / V``."""
     normalizer: float
-    """``I(wo)`` (the exact mode's; 0 beyond the last node)."""
+    """``I(wo)`` (the exact mode's; 0 beyond the last node, where it draws the cosine density)."""
+    mirror: tuple[float, float]
+    """The signs ``(sx, sy)`` applied to the local x and y before the tree's frame (-1 where a mirror-symmetric
+    table folds ``wo`` into the first quadrant; else 1)."""
 
 
 def _tree_of(table: AdaptiveTable, wo: np.ndarray) -> int:
@@ -79,6 +83,7 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
     table = sampler.table
     wo = np.asarray(wo, dtype=np.float64).reshape(3)
     t = _tree_of(table, wo)
+    *_, sx, sy = _frame(table.symmetry, float(wo[0]), float(wo[1]), float(wo[2]))
     boxes, idx = leaves_of(table, t)
     area = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
     corners = table.corners[idx].astype(np.float64)
@@ -101,7 +106,17 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
         bound=table.bound[idx].astype(np.float64),
         acceptance=float(sampler.acceptance(wo)[0]),
         normalizer=float(sampler.normalizer(wo)[0]),
+        mirror=(float(sx), float(sy)),
     )
+
+
+def _tree_frame(table: AdaptiveTable, wo: np.ndarray) -> tuple[float, float, float, float]:
+    """``(cos, sin, sx, sy)``: the turn and the mirror signs from the local frame to the tree's (as the draws'
+    ``_view_frame``: no turn when the table keeps its trees in the local frame)."""
+    _, _, c, s, sx, sy = _frame(table.symmetry, float(wo[0]), float(wo[1]), float(wo[2]))
+    if not table.follow:
+        c, s = 1.0, 0.0
+    return c, s, sx, sy
 
 
 def to_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
@@ -111,9 +126,7 @@ def to_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, wi: np.ndarray) -> np
     wo = np.asarray(wo, dtype=np.float64).reshape(3)
     wi = np.atleast_2d(np.asarray(wi, dtype=np.float64))
     t = _tree_of(table, wo)
-    _, _, c, s, sx, sy = _frame(table.symmetry, float(wo[0]), float(wo[1]), float(wo[2]))
-    if not table.follow:
-        c, s = 1.0, 0.0
+    c, s, sx, sy = _tree_frame(table, wo)
     v = wi
     if int(table.projection[t]) == HALF_VECTOR:
         h = wi + wo
@@ -123,12 +136,51 @@ def to_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, wi: np.ndarray) -> np
     x, y = c * x + s * y, -s * x + c * y
     out = np.full((len(v), 2), np.nan)
     up = z > 0
-    if int(table.projection[t]) == 0:
+    if int(table.projection[t]) == ORTHOGRAPHIC:
         out[up] = np.stack([x[up], y[up]], axis=1)
     else:
         scale = 1.0 / np.sqrt(1.0 + z[up])
         out[up] = np.stack([x[up] * scale, y[up] * scale], axis=1)
     return out
+
+
+def from_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`to_tree_disk`: directions ``wi (n, 3)`` in the local frame of the tree disk's
+    points ``(n, 2)``. On a half-vector disk the point is ``h`` and ``wi = 2 (wo.h) h - wo``. Rows are NaN for
+    points outside the disk and for ``wi`` at or below the horizon."""
+    table = sampler.table
+    wo = np.asarray(wo, dtype=np.float64).reshape(3)
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    t = _tree_of(table, wo)
+    projection = int(table.projection[t])
+    c, s, sx, sy = _tree_frame(table, wo)
+    x, y = pts[:, 0], pts[:, 1]
+    r2 = x * x + y * y
+    with np.errstate(invalid="ignore"):
+        if projection == ORTHOGRAPHIC:
+            z = np.sqrt(1.0 - r2)
+        else:
+            k = np.sqrt(2.0 - r2)
+            x, y, z = x * k, y * k, 1.0 - r2
+    v = np.stack([sx * (c * x - s * y), sy * (s * x + c * y), z], axis=1)
+    if projection == HALF_VECTOR:
+        v = 2.0 * (v @ wo)[:, None] * v - wo
+    bad = ~(r2 <= 1.0) | ~(v[:, 2] > 0.0)
+    v[bad] = np.nan
+    return v
+
+
+def square_to_disk(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The concentric map, vectorized: points of the square ``[0, 1]^2`` to the unit disk (as
+    :func:`core.sampling.adaptive.maps.square_to_disk`)."""
+    u = 2.0 * np.asarray(a, dtype=np.float64) - 1.0
+    v = 2.0 * np.asarray(b, dtype=np.float64) - 1.0
+    wide = np.abs(u) > np.abs(v)
+    r = np.where(wide, u, v)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = np.where(wide, QUARTER_PI * (v / u), HALF_PI - QUARTER_PI * (u / v))
+    phi = np.where(r == 0.0, 0.0, phi)
+    return r * np.cos(phi), r * np.sin(phi)
 
 
 def disk_to_square(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -150,36 +202,83 @@ def disk_to_square(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return np.clip(0.5 * (u + 1.0), 0.0, 1.0), np.clip(0.5 * (v + 1.0), 0.0, 1.0)
 
 
-def leaf_image(view: TreeView, values: np.ndarray, size: int) -> np.ndarray:
-    """An image ``(size, size)`` of the disk (``[-1, 1]^2``, row 0 at y = -1) holding, at each pixel inside
-    the disk, ``values[leaf]`` of the leaf the pixel maps to (NaN outside the disk)."""
+def _spread_bits(i: np.ndarray) -> np.ndarray:
+    """The bits of ``i`` (< 2^32) moved to the even positions of a 64-bit word (half of a Morton code)."""
+    i = i.astype(np.uint64) & np.uint64(0xFFFFFFFF)
+    for shift, mask in ((16, 0x0000FFFF0000FFFF), (8, 0x00FF00FF00FF00FF), (4, 0x0F0F0F0F0F0F0F0F),
+                        (2, 0x3333333333333333), (1, 0x5555555555555555)):  # fmt: skip
+        i = (i | (i << np.uint64(shift))) & np.uint64(mask)
+    return i
+
+
+DEPTH = 31
+"""Leaves are found by their Morton codes at this depth (deeper than any tree: ``max_level`` is at most 14)."""
+
+
+def _codes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The Morton codes at :data:`DEPTH` of square points (a point on an edge between cells goes to the
+    cell on its upper side, as in the draws)."""
+    n = 1 << DEPTH
+    ia = np.clip(np.floor(np.asarray(a, dtype=np.float64) * n), 0, n - 1)
+    ib = np.clip(np.floor(np.asarray(b, dtype=np.float64) * n), 0, n - 1)
+    return _spread_bits(ia) | (_spread_bits(ib) << np.uint64(1))
+
+
+def _find(boxes: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    """The rows of ``boxes (k, 4)`` (dyadic squares tiling the square) holding the points of ``codes``: a
+    leaf at depth ``l`` is one run of ``4^(DEPTH - l)`` codes starting at its corner's, and the runs of a
+    tiling partition ``[0, 4^DEPTH)``, so a sorted search of the runs' starts finds each point's leaf."""
+    level = np.rint(-np.log2(boxes[:, 2] - boxes[:, 0])).astype(np.int64)
+    if level.max() > DEPTH:
+        raise ValueError(f"leaves deeper than level {DEPTH} cannot be looked up (found {level.max()})")
+    start = _codes(boxes[:, 0], boxes[:, 1])  # (a box's corner is a whole number of cells at DEPTH)
+    order = np.argsort(start, kind="stable")
+    pos = np.searchsorted(start[order], codes, side="right") - 1
+    return order[np.maximum(pos, 0)]
+
+
+def leaf_lookup(boxes: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The leaf (row of ``boxes (k, 4)``, the dyadic squares of a tree, tiling ``[0, 1]^2``) holding each
+    square point ``(a, b)``; vectorized (Morton codes and a sorted search, no loop over leaves)."""
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not len(boxes):
+        return np.full(np.shape(a), -1, dtype=np.int64)
+    return _find(boxes, _codes(a, b))
+
+
+@functools.lru_cache(maxsize=8)
+def _disk_pixels(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(inside (size, size) bool, codes (m,))``: the pixels of a ``size``-square image of the disk whose
+    centre lies inside it, and their points' Morton codes on the square (the same for every tree)."""
     c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
     x, y = np.meshgrid(c, c)
     inside = x * x + y * y < 1.0
-    a, b = disk_to_square(x[inside], y[inside])
-    boxes = view.boxes
+    codes = _codes(*disk_to_square(x[inside], y[inside]))
+    inside.flags.writeable = False
+    codes.flags.writeable = False
+    return inside, codes
+
+
+def leaf_image(view: TreeView, values: np.ndarray, size: int) -> np.ndarray:
+    """An image ``(size, size)`` of the disk (``[-1, 1]^2``, row 0 at y = -1) holding, at each pixel inside
+    the disk, ``values[leaf]`` of the leaf its centre maps to (NaN outside the disk)."""
     img = np.full((size, size), np.nan)
-    which = np.full(a.shape, -1, dtype=np.int64)
-    for i, (a0, b0, a1, b1) in enumerate(boxes):
-        hit = (a >= a0) & (a < a1 if a1 < 1.0 else a <= a1) & (b >= b0) & (b < b1 if b1 < 1.0 else b <= b1)
-        which[hit] = i
-    vals = np.where(which >= 0, np.asarray(values, dtype=np.float64)[np.maximum(which, 0)], np.nan)
-    img[inside] = vals
+    boxes = np.asarray(view.boxes, dtype=np.float64).reshape(-1, 4)
+    if len(boxes):
+        inside, codes = _disk_pixels(int(size))
+        img[inside] = np.asarray(values, dtype=np.float64)[_find(boxes, codes)]
     return img
 
 
-def leaf_outlines(view: TreeView, points_per_edge: int = 8) -> list[np.ndarray]:
-    """Each leaf's outline on the disk, ``(4 * points_per_edge + 1, 2)`` per leaf (curved edges)."""
-    from core.sampling.adaptive.maps import square_to_disk
-
+def leaf_outlines(view: TreeView, points_per_edge: int = 8) -> np.ndarray:
+    """Each leaf's outline on the disk, ``(k, 4 * points_per_edge + 1, 2)``: the square's edges, counter-
+    clockwise from ``(a0, b0)``, through the concentric map (curved; closed)."""
+    boxes = np.asarray(view.boxes, dtype=np.float64).reshape(-1, 4)
     t = np.linspace(0.0, 1.0, points_per_edge, endpoint=False)
-    out = []
-    for a0, b0, a1, b1 in view.boxes:
-        a = np.concatenate(
-            [a0 + (a1 - a0) * t, np.full_like(t, a1), a1 - (a1 - a0) * t, np.full_like(t, a0), [a0]]
-        )
-        b = np.concatenate(
-            [np.full_like(t, b0), b0 + (b1 - b0) * t, np.full_like(t, b1), b1 - (b1 - b0) * t, [b0]]
-        )
-        out.append(np.array([square_to_disk(float(u), float(v)) for u, v in zip(a, b, strict=True)]))
-    return out
+    one, zero = np.ones_like(t), np.zeros_like(t)
+    # (fraction of the way from a0 to a1, from b0 to b1) around the square
+    fa = np.concatenate([t, one, 1.0 - t, zero, [0.0]])
+    fb = np.concatenate([zero, t, one, 1.0 - t, [0.0]])
+    a0, b0, a1, b1 = (boxes[:, i : i + 1] for i in range(4))
+    x, y = square_to_disk(a0 + (a1 - a0) * fa, b0 + (b1 - b0) * fb)
+    return np.stack([x, y], axis=-1)
