@@ -29,7 +29,7 @@ from PySide6.QtWidgets import (
 )
 
 from app import settings, snapshot_process
-from app.capabilities import albedo_available, directional_albedo, renderer_available
+from app.capabilities import ADAPTIVE_SAMPLERS, albedo_available, directional_albedo, renderer_available
 from app.editors.material import MaterialEditor
 from app.editors.scene_items import PropertiesStack, SceneItemEditor
 from app.editors.scene_tree import SceneTree
@@ -372,7 +372,7 @@ class MainWindow(QMainWindow):
         self.workers.start(worker)
         if kind == "sampling" and self.sampling_view.snapshot is None:
             self.sampling_view.show_message(
-                "Building the adaptive tree (the first time for a model also compiles its kernels) ..."
+                "Making the adaptive sampler's table (the first time for a model also compiles its kernels) ..."
             )
 
     def _job_done(self, kind: str, key, result) -> None:
@@ -631,7 +631,7 @@ class MainWindow(QMainWindow):
                 return None
         opts = self.sampling_view.options()
         name = opts["ratio_sampler"]
-        extra = {"n_max": opts["n_max"]} if name == "adaptive" else {}
+        extra = {"n_max": opts["n_max"]} if name in ADAPTIVE_SAMPLERS.values() else {}
         try:
             rows = sample_set(
                 self.document.brdf(), np.array(self.document.wo()), name, n or opts["n_samples"], 0, **extra

@@ -8,10 +8,15 @@ is also the reflected lobe for light arriving from ``wo`` when the model is reci
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from core.model import BRDF, luminance
+
+if TYPE_CHECKING:
+    from core.sampling.adaptive.inspect import TreeView
 
 
 def hemisphere_grid(n_theta: int = 40, n_phi: int = 80) -> np.ndarray:
@@ -161,47 +166,98 @@ def albedo_line(
 
 def adaptive_line(brdf: BRDF) -> str:
     """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it)."""
-    from app.capabilities import Unavailable, adaptive_table_info
+    from app.capabilities import adaptive_table_info
 
-    try:
-        info = adaptive_table_info(brdf)
-    except Unavailable as exc:
-        return f"Adaptive table: {exc}"
+    info = adaptive_table_info(brdf)
     return (
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
         f"built in {info.get('build_seconds', 0.0) * 1000:.0f} ms"
     )
 
 
-def rotate_z(w: np.ndarray, phi: float) -> np.ndarray:
-    """Rotate directions ``w (..., 3)`` by ``phi`` radians about the normal."""
-    c, s = math.cos(phi), math.sin(phi)
-    out = np.array(w, dtype=np.float64, copy=True)
-    out[..., 0] = c * w[..., 0] - s * w[..., 1]
-    out[..., 1] = s * w[..., 0] + c * w[..., 1]
-    return out
+SAMPLING_PROJECTIONS = {
+    "orthographic": "wi, orthographic disk",
+    "equal_area": "wi, equal-area disk",
+    "half_vector": "half vector h, equal-area disk",
+}
+"""What a tree's disk is, as the sampler view names it."""
 
 
-def leaf_raster(leaves: np.ndarray, size: int) -> np.ndarray:
-    """An image ``(size, size)`` over the square [-1, 1]^2 (row 0 at y = -1) holding each pixel's leaf bound
-    ``M`` (0 outside every leaf); ``leaves (k, 5)`` rows ``M, x0, y0, x1, y1``. A leaf covers the pixels
-    between its rounded edges, at least one; where leaves smaller than a pixel share one, the later wins."""
-    img = np.zeros((size, size))
-    leaves = np.asarray(leaves, dtype=np.float64).reshape(-1, 5)
-    leaves = leaves[(leaves[:, 3] > leaves[:, 1]) & (leaves[:, 4] > leaves[:, 2])]
-    if not len(leaves):
-        return img
-    px = np.rint((leaves[:, 1:] + 1.0) * 0.5 * size).astype(np.int64)  # x0, y0, x1, y1 (round half to even)
-    x0, y0 = px[:, 0], px[:, 1]
-    w = np.maximum(px[:, 2], x0 + 1) - x0
-    h = np.maximum(px[:, 3], y0 + 1) - y0
-    n = w * h
-    leaf = np.repeat(np.arange(len(leaves)), n)  # one entry per covered pixel, leaf by leaf
-    local = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
-    rows = np.clip(y0[leaf] + local // w[leaf], 0, size - 1)
-    cols = np.clip(x0[leaf] + local % w[leaf], 0, size - 1)
-    img[rows, cols] = leaves[leaf, 0]
-    return img
+@dataclass(frozen=True)
+class SamplingSnapshot:
+    """What the sampler view draws for one material, direction and set of options (made by
+    :func:`sampling_snapshot`, in the snapshot process: plain arrays, picklable).
+
+    Every point is on the disk of the tree that serves ``wo`` (``tree.projection``), in that tree's frame:
+    the local frame turned so that ``wo`` lies at phi = 0 when ``tree.follow``, else the local frame, folded
+    into the first quadrant by ``tree.mirror`` for a mirror-symmetric table.
+    """
+
+    theta_deg: float
+    phi_deg: float
+    n_max: float
+    mode: str
+    """``"exact"`` or ``"warp"``: the adaptive mode that drew ``samples`` (and whose density colours the leaves)."""
+    tree: TreeView
+    samples: np.ndarray
+    """``(n, 2)``: the mode's samples on the tree's disk (those above the horizon)."""
+    mean_trials: float
+    """Trials per sample of this draw (1 in the warp mode)."""
+    wo_disk: np.ndarray | None
+    """``(2,)``: ``wo`` on the tree's disk; None on a half-vector disk (its points are not directions ``wi``)."""
+    cosine_fallback: bool
+    """The exact mode draws the cosine density at this ``wo`` (beyond its last node)."""
+    ratio_sampler: str
+    ratio: np.ndarray | None
+    """``(grid, grid)``: ``pdf / (f cos / I)`` of ``ratio_sampler`` on the same disk (row 0 at y = -1; NaN
+    outside the disk, where ``wi`` is below the horizon and where both densities are 0)."""
+    ratio_error: str
+    weight_rel_std: float
+    """Relative standard deviation of the weight ``f cos / pdf`` (luminance) over ``ratio_sampler``'s draw."""
+    table: dict
+    """The adaptive table's facts (:meth:`~core.sampling.adaptive.AdaptiveSampler.info`)."""
+
+    @property
+    def acceptance(self) -> float:
+        """The exact mode's acceptance per trial at ``wo`` (``>= 1 / n_max``)."""
+        return self.tree.acceptance
+
+    def leaf_density(self) -> np.ndarray:
+        """``(k,)``: the density the mode proposes on each leaf, per unit square area (1 on average): the
+        rejection-free density ``q`` in the warp mode; in the exact mode the density of trials, ``K_L q``
+        normalized (``K_L q / V``)."""
+        t = self.tree
+        if self.mode == "warp":
+            return t.density
+        area = (t.boxes[:, 2] - t.boxes[:, 0]) * (t.boxes[:, 3] - t.boxes[:, 1])
+        trials = t.bound * t.density
+        v = float(np.sum(area * trials))
+        return trials / v if v > 0 else trials
+
+
+def _disk_pixels(grid: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(inside (grid, grid) bool, points (m, 2))``: the pixel centres of an image of ``[-1, 1]^2`` (row 0
+    at y = -1) that lie inside the unit disk."""
+    c = (np.arange(grid) + 0.5) / grid * 2.0 - 1.0
+    x, y = np.meshgrid(c, c)
+    inside = x * x + y * y < 1.0
+    return inside, np.stack([x[inside], y[inside]], axis=1)
+
+
+def _cosine_integral(brdf: BRDF, wo: np.ndarray, grid: int) -> float:
+    """``I(wo) = int f cos d(omega)`` (luminance) by the midpoint rule on the orthographic disk, where
+    ``cos d(omega) = dx dy`` (used where the table has no normalizer: beyond its last node)."""
+    _, p = _disk_pixels(grid)
+    wi = np.column_stack([p, np.sqrt(np.maximum(0.0, 1.0 - np.sum(p * p, axis=1)))])
+    return float(np.sum(luminance(brdf.eval(wo, wi))) * (2.0 / grid) ** 2)
+
+
+def _weight_rel_std(batch) -> float:
+    fw = luminance(batch.f) * np.maximum(batch.wi[:, 2], 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(batch.pdf > 0, fw / batch.pdf, 0.0)
+    mean = float(np.mean(w))
+    return float(np.std(w) / mean) if mean > 0 else float("nan")
 
 
 def sampling_snapshot(
@@ -209,93 +265,76 @@ def sampling_snapshot(
     theta_deg: float,
     phi_deg: float,
     n_max: float = 2.0,
+    mode: str = "exact",
     ratio_sampler: str = "adaptive",
     n_samples: int = 2000,
     seed: int = 1,
     grid: int = 96,
-) -> dict:
-    """What the sampler view draws, computed off the GUI thread.
+) -> SamplingSnapshot:
+    """What the sampler view draws, computed off the GUI thread (no Qt: it runs in the snapshot process).
 
-    Everything is in the *display frame*: the local frame rotated about the normal so that ``wo`` has
-    phi = 0 when the BRDF is isotropic (the adaptive trees are built so and rotated at sampling time), the
-    local frame itself otherwise. Keys: ``tree`` (see :func:`app.capabilities.quadtree_bin`, or ``None``),
-    ``tree_error``, ``samples (n, 2)`` disk points of adaptive samples (or ``None``), ``samples_error``,
-    ``ratio (grid, grid)`` = ``pdf / (f cos / I)`` of ``ratio_sampler`` on the disk (NaN where both are 0),
-    ``ratio_error``, ``weight_rel_std`` of ``f cos / pdf`` over the ratio sampler's samples,
-    ``acceptance`` (expected per-trial acceptance ``I / V``), ``wo_disk`` (2,).
+    The tree of the adaptive sampler's table that serves ``wo`` (both modes use the same one), ``n_samples``
+    samples of ``mode`` on its disk, and the ratio map of ``ratio_sampler``'s pdf against the ideal density
+    ``f cos / I`` on that same disk: each pixel is taken back to its direction ``wi`` (on a half-vector disk
+    the pixel is ``h``, and ``wi = 2 (wo.h) h - wo``), so the two images compare point for point. ``I`` is the
+    exact mode's normalizer ``I(wo)`` (a quadrature beyond the table's last node): the exact mode's map is 1
+    wherever ``f > 0``.
     """
-    from app.capabilities import Unavailable, from_disk, quadtree_bin, to_disk
+    from app.capabilities import ADAPTIVE_SAMPLERS, adaptive_sampler
     from core.errors import BrdfStudioError
     from core.sampling import make_sampler, sampler_names
+    from core.sampling.adaptive.inspect import from_tree_disk, to_tree_disk, tree_view
 
-    iso = brdf.model.isotropic
-    frame_phi = math.radians(phi_deg) if iso else 0.0
     t, p = math.radians(theta_deg), math.radians(phi_deg)
-    wo_true = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-    wo_disp = rotate_z(wo_true, -frame_phi)
-    out: dict = {"wo_disk": wo_disp[:2], "theta_deg": theta_deg, "phi_deg": phi_deg, "n_max": n_max}
-    out["frame_rotated"] = iso
+    wo = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+    sampler = adaptive_sampler(brdf, mode, n_max)
+    tree = tree_view(sampler, wo)
+    batch, trials = sampler.sample_with_trials(np.repeat(wo[None, :], int(n_samples), axis=0), seed)
+    points = to_tree_disk(sampler, wo, batch.wi)
+    samples = points[np.isfinite(points).all(axis=1)]
+    wo_disk = None if tree.projection == "half_vector" else to_tree_disk(sampler, wo, wo)[0]
 
-    try:
-        tree = quadtree_bin(brdf, theta_deg, phi_deg, n_max)
-        out["tree"], out["tree_error"] = tree, ""
-        v = tree["total_mass"]
-        out["acceptance"] = tree.get("acceptance", tree["integral"] / v if v > 0 else float("nan"))
-    except BrdfStudioError as exc:
-        out["tree"], out["tree_error"], out["acceptance"] = None, str(exc), float("nan")
-    projection = out["tree"]["projection"] if out["tree"] else "orthographic"
-    out["projection"] = projection
-
-    out["samples"], out["samples_error"], out["sampler_info"] = None, "", {}
-    adaptive_draw = None  # (sampler, batch): reused by the ratio map when it shows the adaptive sampler
-    if "adaptive" in sampler_names():
-        try:
-            s = make_sampler("adaptive", brdf, n_max=n_max)
-            batch = s.sample(wo_true, n_samples, seed)
-            adaptive_draw = (s, batch)
-            wi = batch.wi
-            up = wi[:, 2] > 0.0
-            out["samples"] = to_disk(rotate_z(wi[up], -frame_phi), projection)
-            out["sampler_info"] = s.info()
-        except BrdfStudioError as exc:
-            out["samples_error"] = str(exc)
-    else:
-        out["samples_error"] = str(Unavailable("adaptive samples: the adaptive sampler is not available yet"))
-
-    # ratio map of the chosen strategy against the ideal density f cos / I
-    c = (np.arange(grid) + 0.5) / grid * 2.0 - 1.0
-    x, y = np.meshgrid(c, c)  # row 0 at y = -1
-    inside = x * x + y * y < 1.0
-    wi_disp = from_disk(x[inside], y[inside], projection)
-    wi_true = rotate_z(wi_disp, frame_phi)
-    f = luminance(brdf.eval(wo_true, wi_true))
-    # without a tree, I = int f cos dw = int f dx dy on the orthographic disk (midpoint rule)
-    integral = out["tree"]["integral"] if out["tree"] else float(np.sum(f) * (2.0 / grid) ** 2)
-    target = f * wi_true[:, 2] / integral if integral > 0 else np.zeros_like(f)
-    out["ratio"], out["ratio_error"], out["weight_rel_std"] = None, "", float("nan")
-    out["ratio_sampler"] = ratio_sampler
+    # the ratio map, on the tree's disk
+    inside, pts = _disk_pixels(grid)
+    wi = from_tree_disk(sampler, wo, pts)
+    up = np.isfinite(wi[:, 0])
+    integral = tree.normalizer if tree.normalizer > 0 else _cosine_integral(brdf, wo, grid)
+    f = luminance(brdf.eval(wo, wi[up]))
+    target = f * wi[up, 2] / integral if integral > 0 else np.zeros_like(f)
+    ratio, ratio_error, rel_std = None, "", float("nan")
     if ratio_sampler in sampler_names():
         try:
-            if ratio_sampler == "adaptive" and adaptive_draw is not None:
-                s, drawn = adaptive_draw  # the same draw as the samples shown (same seed and count)
+            if ratio_sampler == ADAPTIVE_SAMPLERS[mode]:
+                other, drawn = sampler, batch  # the draw shown (same seed and count)
             else:
-                s = make_sampler(
-                    ratio_sampler, brdf, **({"n_max": n_max} if ratio_sampler == "adaptive" else {})
-                )
-                drawn = s.sample(wo_true, n_samples, seed)
-            pdf = s.pdf(np.broadcast_to(wo_true, wi_true.shape), wi_true)
+                adaptive = ratio_sampler in ADAPTIVE_SAMPLERS.values()
+                other = make_sampler(ratio_sampler, brdf, **({"n_max": n_max} if adaptive else {}))
+                drawn = other.sample(wo, n_samples, seed)
+            pdf = other.pdf(np.broadcast_to(wo, wi[up].shape), wi[up])
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = np.where((pdf > 0) | (target > 0), pdf / target, np.nan)
-            img = np.full(x.shape, np.nan)
-            img[inside] = r
-            out["ratio"] = img
-            fw = luminance(drawn.f) * np.maximum(drawn.wi[:, 2], 0.0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                w = np.where(drawn.pdf > 0, fw / drawn.pdf, 0.0)
-            mean = float(np.mean(w))
-            out["weight_rel_std"] = float(np.std(w) / mean) if mean > 0 else float("nan")
+            ratio = np.full(inside.shape, np.nan)
+            values = np.full(len(pts), np.nan)
+            values[up] = r
+            ratio[inside] = values
+            rel_std = _weight_rel_std(drawn)
         except BrdfStudioError as exc:
-            out["ratio_error"] = str(exc)
+            ratio_error = str(exc)
     else:
-        out["ratio_error"] = f"sampler '{ratio_sampler}' is not available yet"
-    return out
+        ratio_error = f"there is no sampler '{ratio_sampler}'"
+    return SamplingSnapshot(
+        theta_deg=theta_deg,
+        phi_deg=phi_deg,
+        n_max=float(n_max),
+        mode=mode,
+        tree=tree,
+        samples=samples,
+        mean_trials=float(np.mean(trials)) if len(trials) else float("nan"),
+        wo_disk=wo_disk,
+        cosine_fallback=tree.normalizer <= 0.0,
+        ratio_sampler=ratio_sampler,
+        ratio=ratio,
+        ratio_error=ratio_error,
+        weight_rel_std=rel_std,
+        table=sampler.info(),
+    )

@@ -1,37 +1,72 @@
-"""The adaptive sampler on the unit disk: the quadtree's leaves coloured by density, adaptive samples on top,
-the acceptance rate, and a ratio map comparing a strategy's pdf with the ideal ``f cos / I``."""
+"""The adaptive sampler on its disk: the tree serving ``wo`` with its leaves coloured by density and outlined,
+the selected mode's samples on top, and a ratio map comparing a strategy's pdf with the ideal ``f cos / I``
+on the same disk."""
 
 from __future__ import annotations
 
 import numpy as np
+from matplotlib import colormaps
 from matplotlib.collections import LineCollection
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Circle
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel, QSpinBox, QVBoxLayout, QWidget
 
-from app.capabilities import to_disk
-from app.view_data import leaf_raster
+from app.view_data import SAMPLING_PROJECTIONS, SamplingSnapshot
 from app.views.figure import FigureView
 from core.sampling import sampler_names
+from core.sampling.adaptive.inspect import leaf_image, leaf_outlines
 
 RASTER = 192
+"""Pixels across the tree's disk."""
+OUTLINE_POINTS = 4
+"""Points per leaf edge of the outlines (a base-level leaf's rim edge turns by ~11 degrees)."""
+DENSITY_RANGE = 1e-4
+"""The colour scale spans this factor below the densest leaf."""
+DENSITY_CMAP = colormaps["magma"]
+
+DISK_RADIUS = {
+    "orthographic": "|X| = sin theta_i",
+    "equal_area": "|X| = sqrt(1 - cos theta_i)",
+    "half_vector": "|X| = sqrt(1 - cos theta_h)",
+}
+MODE_TIPS = {
+    "exact": "exact: rejection against the leaves' bounds; pdf exactly f cos / I (the seed's sampler)",
+    "warp": "warp: rejection-free, one evaluation of f per sample; pdf approximates f cos / I",
+}
+
+
+def outline_path(outlines: np.ndarray) -> np.ndarray:
+    """The leaves' outlines ``(k, m, 2)`` as one polyline ``(k (m + 1), 2)``, a NaN row after each outline
+    (a break in the line): one path for the line collection instead of one per leaf, which is a few times
+    cheaper to set and draw, and edges shared by two leaves are not blended twice."""
+    k, m, _ = outlines.shape
+    out = np.full((k, m + 1, 2), np.nan)
+    out[:, :m] = outlines
+    return out.reshape(-1, 2)
 
 
 class SamplingView(QWidget):
-    """Draws a :func:`app.view_data.sampling_snapshot`. Emits ``options_changed`` when the user changes
-    ``n_max``, the compared strategy or the sample count."""
+    """Draws a :class:`app.view_data.SamplingSnapshot`. Emits ``options_changed`` when the user changes the
+    mode, ``n_max``, the compared strategy or the sample count."""
 
     options_changed = Signal()
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
+        self.mode = QComboBox()
+        self.mode.addItems(list(MODE_TIPS))
+        self.mode.setToolTip("The adaptive mode whose samples (and proposal density) are shown:\n" + "\n".join(
+            MODE_TIPS.values()
+        ))  # fmt: skip
         self.n_max = QDoubleSpinBox()
         self.n_max.setRange(1.05, 16.0)
         self.n_max.setSingleStep(0.1)
         self.n_max.setValue(2.0)
         self.n_max.setKeyboardTracking(False)
-        self.n_max.setToolTip("n_max: refine leaves until V <= n_max * I (the seed's one knob)")
+        self.n_max.setToolTip(
+            "n_max: the exact mode's envelope allows at most n_max trials per sample on average"
+        )
         self.strategy = QComboBox()
         self.strategy.setToolTip("The strategy whose pdf the ratio map compares with f cos / I")
         self.refresh_strategies()
@@ -41,22 +76,28 @@ class SamplingView(QWidget):
         self.n_samples.setValue(2000)
         self.n_samples.setKeyboardTracking(False)
         controls = QHBoxLayout()
-        for label, w in (("n_max", self.n_max), ("ratio map of", self.strategy), ("samples", self.n_samples)):
+        for label, w in (
+            ("mode", self.mode),
+            ("n_max", self.n_max),
+            ("ratio map of", self.strategy),
+            ("samples", self.n_samples),
+        ):
             controls.addWidget(QLabel(label))
             controls.addWidget(w)
         controls.addStretch(1)
         self.stats = QLabel("")
         self.stats.setWordWrap(True)
-        self.figure_view = FigureView(size=(8.0, 4.0))
+        self.figure_view = FigureView(size=(8.0, 4.2))
         fig = self.figure_view.figure
         fig.clear()
         self.ax_tree, self.ax_ratio = fig.subplots(1, 2)
-        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.08, top=0.92, wspace=0.2)
+        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.07, top=0.86, wspace=0.2)
         layout = QVBoxLayout(self)
         layout.addLayout(controls)
         layout.addWidget(self.figure_view, 1)
         layout.addWidget(self.stats)
-        self.snapshot: dict | None = None
+        self.snapshot: SamplingSnapshot | None = None
+        self.mode.activated.connect(lambda _: self.options_changed.emit())
         self.n_max.valueChanged.connect(lambda _: self.options_changed.emit())
         self.strategy.activated.connect(lambda _: self.options_changed.emit())
         self.n_samples.valueChanged.connect(lambda _: self.options_changed.emit())
@@ -67,12 +108,11 @@ class SamplingView(QWidget):
         self.strategy.clear()
         names = sampler_names()
         self.strategy.addItems(names)
-        self.strategy.setCurrentText(
-            current if current in names else ("adaptive" if "adaptive" in names else "cosine")
-        )
+        self.strategy.setCurrentText(current if current in names else "adaptive")
 
     def options(self) -> dict:
         return {
+            "mode": self.mode.currentText(),
             "n_max": float(self.n_max.value()),
             "ratio_sampler": self.strategy.currentText(),
             "n_samples": int(self.n_samples.value()),
@@ -84,13 +124,10 @@ class SamplingView(QWidget):
         ax.set_aspect("equal")
         ax.set_xlim(-1.02, 1.02)
         ax.set_ylim(-1.02, 1.02)
-        empty = np.ma.masked_all((RASTER, RASTER))
         self._tree_img = ax.imshow(
-            empty,
+            np.zeros((RASTER, RASTER, 4), dtype=np.uint8),
             extent=(-1, 1, -1, 1),
             origin="lower",
-            cmap="magma",
-            norm=LogNorm(vmin=1e-3, vmax=1.0),
             interpolation="nearest",
         )
         self.leaf_edges = LineCollection([], colors="white", linewidths=0.3, alpha=0.5)
@@ -98,8 +135,8 @@ class SamplingView(QWidget):
         self._samples = ax.scatter([], [], s=1.5, c="cyan", alpha=0.7, linewidths=0)
         self._tree_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         (self._wo_mark,) = ax.plot([], [], marker="x", color="red", ms=8, ls="none")
-        self._tree_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
-        ax.set_title("leaves: trial density M/V on the disk (log); samples", fontsize=9)
+        self._tree_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8, wrap=True)
+        self.tree_title = ax.set_title("", fontsize=9)
         ax = self.ax_ratio
         ax.set_aspect("equal")
         ax.set_xlim(-1.02, 1.02)
@@ -116,15 +153,16 @@ class SamplingView(QWidget):
         self._colorbar = self.figure_view.figure.colorbar(self._ratio_img, ax=ax, fraction=0.046, pad=0.04)
         self._colorbar.set_label("log2(pdf / (f cos / I))")
         self._ratio_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
-        self._ratio_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8)
-        self._ratio_title = ax.set_title("", fontsize=9)
+        self._ratio_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8, wrap=True)
+        self.ratio_title = ax.set_title("", fontsize=9)
         for a in (self.ax_tree, self.ax_ratio):  # few tick labels: text is most of a redraw's cost
             a.set_xticks([-1, 0, 1])
             a.set_yticks([-1, 0, 1])
         self._colorbar.set_ticks([-2, -1, 0, 1, 2])
-        # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, titles,
-        # colour bar): a full draw of this figure costs ~40 ms, the blit a fraction of it. The rim circles
-        # are redrawn too so that they stay above the images.
+        # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, titles, colour
+        # bar): a full draw of this figure costs ~40 ms, the blit a fraction of it. The titles (the disk and the
+        # node; the compared strategy) change only when wo enters another node's cell or the strategy changes,
+        # and then the figure is drawn in full. The rim circles are redrawn so that they stay on top.
         self.figure_view.set_animated(
             [self._tree_img, self.leaf_edges, self._samples, self._tree_rim, self._wo_mark, self._tree_msg,
              self._ratio_img, self._ratio_rim, self._ratio_msg]
@@ -136,72 +174,80 @@ class SamplingView(QWidget):
             self._make_artists()
         self.stats.setText(text)
         self._tree_msg.set_text(text)
+        self._ratio_msg.set_text("")
         self._tree_img.set_visible(False)
         self.leaf_edges.set_segments([])
         self._samples.set_offsets(np.zeros((0, 2)))
+        self._wo_mark.set_data([], [])
         self._ratio_img.set_visible(False)
         self.figure_view.update_artists()
 
-    def show_snapshot(self, snap: dict) -> None:
+    def _leaf_colours(self, snap: SamplingSnapshot) -> tuple[np.ndarray, float, float]:
+        """The tree's image as RGBA (log colour scale, transparent outside the disk and on empty leaves),
+        coloured here: an RGBA image skips matplotlib's masking and normalization on every redraw."""
+        density = leaf_image(snap.tree, snap.leaf_density(), RASTER)
+        positive = np.isfinite(density) & (density > 0)
+        rgba = np.zeros((RASTER, RASTER, 4), dtype=np.uint8)
+        if not positive.any():
+            return rgba, 0.0, 0.0
+        hi = float(density[positive].max())
+        lo = max(float(density[positive].min()), hi * DENSITY_RANGE)
+        norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 1.0001)
+        rgba[positive] = DENSITY_CMAP(norm(np.maximum(density[positive], lo)), bytes=True)
+        return rgba, lo, hi
+
+    def show_snapshot(self, snap: SamplingSnapshot) -> None:
         if not getattr(self, "_artists", False):
             self._make_artists()
         self.snapshot = snap
-        lines = []
-        tree = snap.get("tree")
-        projection = snap.get("projection", "orthographic")
-        if tree is not None:
-            leaves = tree["leaves"]
-            v = tree["total_mass"]
-            density = leaf_raster(leaves, RASTER) / v if v > 0 else np.zeros((RASTER, RASTER))
-            positive = density[density > 0]
-            if positive.size:
-                # coloured here (log scale, transparent outside the leaves): an RGBA image skips matplotlib's
-                # masking and normalization on every redraw
-                norm = LogNorm(vmin=max(positive.min(), positive.max() * 1e-6), vmax=positive.max())
-                rgba = self._tree_img.get_cmap()(norm(np.maximum(density, norm.vmin)), bytes=True)
-                rgba[density <= 0.0, 3] = 0
-                self._tree_img.set_data(rgba)
-            self._tree_img.set_visible(bool(positive.size))
-            keep = leaves[:, 3] > leaves[:, 1]
-            x0, y0, x1, y1 = (leaves[keep, k] for k in (1, 2, 3, 4))
-            segs = np.stack(
-                [np.stack(p, axis=-1) for p in ((x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0))], axis=1
-            )
-            self.leaf_edges.set_segments(segs)
-            self._tree_msg.set_text("")
-            lo, hi = tree["bin_deg"]
-            lines.append(
-                f"Tree for theta_o in [{lo:.2f}, {hi:.2f}] deg: {len(leaves)} leaves, "
-                f"{tree['nbytes'] / 1024:.1f} KiB, built in {tree['build_seconds'] * 1000:.0f} ms; "
-                f"V = {v:.4g}, I(wo) = {tree['integral']:.4g}; "
-                f"expected acceptance per trial I/V = {snap['acceptance']:.3f} (>= 1/n_max = {1 / snap['n_max']:.3f})"
-            )
+        tree = snap.tree
+        rgba, lo, hi = self._leaf_colours(snap)
+        self._tree_img.set_data(rgba)
+        self._tree_img.set_visible(True)
+        self.leaf_edges.set_segments([outline_path(leaf_outlines(tree, OUTLINE_POINTS))])
+        self._samples.set_offsets(snap.samples)
+        if snap.wo_disk is None:
+            self._wo_mark.set_data([], [])
         else:
-            self._tree_img.set_visible(False)
-            self.leaf_edges.set_segments([])
-            self._tree_msg.set_text(snap.get("tree_error", ""))
-            lines.append(f"Tree: {snap.get('tree_error', '')}")
-        samples = snap.get("samples")
-        if samples is not None:
-            self._samples.set_offsets(samples)
-            info = snap.get("sampler_info", {})
-            extra = ", ".join(
-                f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                for k, v in info.items()
-                if "accept" in k or "trial" in k or "violation" in k
-            )
-            lines.append(f"Adaptive samples: {len(samples)}" + (f" ({extra})" if extra else ""))
-        else:
-            self._samples.set_offsets(np.zeros((0, 2)))
-            lines.append(f"Samples: {snap.get('samples_error', '')}")
-        wx, wy = snap["wo_disk"]
-        if projection != "orthographic":
-            wx, wy = to_disk(np.array([[wx, wy, np.sqrt(max(0.0, 1 - wx * wx - wy * wy))]]), projection)[0]
-        self._wo_mark.set_data([wx], [wy])
+            self._wo_mark.set_data([snap.wo_disk[0]], [snap.wo_disk[1]])
+        self._tree_msg.set_text("")
+        th_lo, th_hi, ph_lo, ph_hi = tree.cell_deg
+        cell = f"node theta {tree.node_deg[0]:.1f} deg (cell {th_lo:.1f}-{th_hi:.1f})"
+        if ph_hi - ph_lo < 360.0:
+            cell += f", phi {tree.node_deg[1]:.0f} deg (cell {ph_lo:.0f}-{ph_hi:.0f})"
+        titles = (
+            f"{SAMPLING_PROJECTIONS[tree.projection]}\n{cell}",
+            f"ratio map of {snap.ratio_sampler} vs f cos / I\n(white = 1; the same disk)",
+        )
 
-        ratio = snap.get("ratio")
-        name = snap.get("ratio_sampler", "")
-        if ratio is not None:
+        table = snap.table
+        built = (
+            "loaded from the cache"
+            if table.get("from_cache")
+            else f"built in {table['build_seconds'] * 1e3:.0f} ms"
+        )
+        proposal = "density of trials K_L q / V" if snap.mode == "exact" else "rejection-free density q"
+        lines = [
+            f"Tree {tree.tree + 1} of {table['trees']}: {len(tree.boxes)} leaves, coloured by the {snap.mode} "
+            f"mode's {proposal} per unit square area (log, {lo:.3g} .. {hi:.3g}). Table: "
+            f"{table['leaves']} leaves, {table['memory_bytes'] / 1024:.1f} KiB, {built}.",
+        ]
+        if snap.cosine_fallback:
+            lines.append(
+                "Beyond the table's last node: the exact mode draws the cosine density here "
+                "(the warp mode still uses this tree)."
+            )
+        else:
+            lines.append(
+                f"Exact mode at wo: I(wo) = {tree.normalizer:.4g}, acceptance per trial 1/V = "
+                f"{tree.acceptance:.3f} (>= 1/n_max = {1 / snap.n_max:.3f})."
+            )
+        trials = f", {snap.mean_trials:.2f} trials per sample" if snap.mode == "exact" else ""
+        lines.append(f"Samples ({snap.mode} mode): {len(snap.samples)} shown{trials}.")
+
+        name = snap.ratio_sampler
+        if snap.ratio is not None:
+            ratio = snap.ratio
             with np.errstate(divide="ignore", invalid="ignore"):
                 log_ratio = np.log2(ratio)
             log_ratio = np.where(np.isinf(log_ratio), np.sign(log_ratio) * 4.0, log_ratio)
@@ -214,20 +260,27 @@ class SamplingView(QWidget):
             )
             lines.append(
                 f"Ratio map of '{name}': pdf / (f cos / I) spans {spread} (5-95 %); "
-                f"relative std of the weight f cos / pdf = {snap['weight_rel_std']:.3g}"
+                f"relative std of the weight f cos / pdf = {snap.weight_rel_std:.3g}."
             )
         else:
             self._ratio_img.set_visible(False)
-            self._ratio_msg.set_text(snap.get("ratio_error", ""))
-            lines.append(f"Ratio map: {snap.get('ratio_error', '')}")
-        title = f"ratio map: {name} vs ideal (white = 1)"
-        retitled = title != self._ratio_title.get_text()
-        self._ratio_title.set_text(title)
-        frame = "rotated so that wo has phi = 0" if snap.get("frame_rotated") else "local frame"
-        meaning = "(x, y) = (wi.x, wi.y)" if projection == "orthographic" else "radius = theta_i / 90 deg"
-        lines.append(f"Disk: {projection} projection, {meaning}; {frame}.")
+            self._ratio_msg.set_text(snap.ratio_error)
+            lines.append(f"Ratio map: {snap.ratio_error}")
+        if tree.follow:
+            frame = "turned so that wo lies at phi = 0 (red x)"
+        else:
+            frame = "the local frame"
+        flips = [axis for axis, sign in zip("xy", tree.mirror, strict=True) if sign < 0]
+        if flips:
+            frame += f", mirrored ({' and '.join(f'{a} -> -{a}' for a in flips)}) into wo's first quadrant"
+        where = "; a point is h, and wi = 2 (wo.h) h - wo" if tree.projection == "half_vector" else ""
+        lines.append(
+            f"Disk: {SAMPLING_PROJECTIONS[tree.projection]} ({DISK_RADIUS[tree.projection]}{where}); frame {frame}."
+        )
         self.stats.setText("<br>".join(lines))
-        if retitled:  # the title is part of the saved background
+        if titles != (self.tree_title.get_text(), self.ratio_title.get_text()):  # in the saved background
+            self.tree_title.set_text(titles[0])
+            self.ratio_title.set_text(titles[1])
             self.figure_view.redraw()
         else:
             self.figure_view.update_artists()

@@ -230,8 +230,12 @@ def test_polar_slice_and_sampler_view_update_by_blitting(window, qtbot):
         kd = (0.5, 0.45)  # Lambert: peaks within the kept radial limit, identical titles
         brdfs = [make_brdf("lambert", {"kd": k}) for k in kd]
         if show is None:
-            # (Lambert's normalized pictures do not depend on kd: move wo instead)
-            snaps = [sampling_snapshot(brdfs[0], t, 0.0, n_samples=200, grid=32) for t in (30.0, 40.0)]
+            # (Lambert's normalized pictures do not depend on kd: move wo instead, within the node's cell so
+            # that the titles stay)
+            first = sampling_snapshot(brdfs[0], 30.0, 0.0, n_samples=200, grid=32)
+            later = 0.5 * (30.0 + first.tree.cell_deg[1])
+            snaps = [first, sampling_snapshot(brdfs[0], later, 0.0, n_samples=200, grid=32)]
+            assert snaps[1].tree.tree == first.tree.tree
             show = lambda b, snaps=snaps, brdfs=brdfs: window.sampling_view.show_snapshot(
                 snaps[brdfs.index(b)]
             )  # noqa: E731

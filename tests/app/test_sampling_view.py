@@ -1,6 +1,6 @@
-"""The sampler view in the real window: the quadtree follows parameter, direction and n_max edits.
+"""The sampler view in the real window: the tree follows parameter, direction, n_max and mode edits.
 
-Lambert only: cheap trees, and I(wo) = kd whatever the disk projection.
+Lambert and Phong: cheap tables; Lambert's I(wo) = kd whatever the disk.
 """
 
 from __future__ import annotations
@@ -8,12 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.capabilities import quadtree_available
+from app.view_data import SAMPLING_PROJECTIONS
 
-pytestmark = [
-    pytest.mark.gui,
-    pytest.mark.skipif(not quadtree_available(), reason="core/quadtree.py is not in this build yet"),
-]
+pytestmark = [pytest.mark.gui]
 
 COMPILE_TIMEOUT_MS = 240_000
 
@@ -31,68 +28,121 @@ def _wait_snapshot(window, qtbot, predicate, timeout=COMPILE_TIMEOUT_MS):
     return window.sampling_view.snapshot
 
 
-def test_tree_follows_parameter_direction_and_n_max(window, qtbot):
+def _drawn_outlines(view) -> int:
+    """Leaves outlined: the outlines are one polyline, each leaf's closed and followed by a NaN break."""
+    (path,) = view.leaf_edges.get_paths()
+    return int(np.sum(np.isnan(path.vertices[:, 0])))
+
+
+def _use(window, model: str, name: str, params: dict) -> None:
     doc = window.document
-    if "lam" not in doc.material_names():
-        doc.add_material("lambert", name="lam", params={"kd": 0.5})
-    doc.select_material("lam")
-    doc.set_direction(30.0, 0.0)
+    if name not in doc.material_names():
+        doc.add_material(model, name=name, params=params)
+    doc.select_material(name)
+
+
+def test_tree_follows_parameter_and_direction(window, qtbot):
+    _use(window, "lambert", "lam", {"kd": 0.5})
+    window.document.set_param("kd", 0.5)
+    window.document.set_direction(30.0, 0.0)
     window.tabs.setCurrentWidget(window.sampling_panel)
-    snap = _wait_snapshot(window, qtbot, lambda s: s["tree"] is not None and s["theta_deg"] == 30.0)
-    tree = snap["tree"]
-    assert tree["bin_deg"][0] <= 30.0 <= tree["bin_deg"][1]
+    view = window.sampling_view
+    snap = _wait_snapshot(window, qtbot, lambda s: s.theta_deg == 30.0 and s.tree.normalizer > 0.4)
+    tree = snap.tree
+    assert tree.cell_deg[0] <= 30.0 <= tree.cell_deg[1]
     # Lambert: I(wo) = int f cos dw = kd, whatever the disk projection.
-    assert tree["integral"] == pytest.approx(0.5, rel=1e-6)
-    assert 1.0 / snap["n_max"] <= snap["acceptance"] <= 1.0
-    ratio = snap["ratio"]
-    if snap["ratio_sampler"] == "adaptive":
-        assert np.nanmax(np.abs(np.log2(ratio))) < 1e-6
-    drawn_leaves = len(window.sampling_view.leaf_edges.get_segments())
-    assert drawn_leaves == int(np.sum(tree["leaves"][:, 3] > tree["leaves"][:, 1]))
+    assert tree.normalizer == pytest.approx(0.5, rel=1e-6)
+    assert 1.0 / snap.n_max <= snap.acceptance <= 1.0
+    if snap.ratio_sampler == "adaptive":
+        assert np.nanmax(np.abs(np.log2(snap.ratio))) < 1e-6
+    # what is drawn: every leaf outlined, the samples, the title naming the disk and the node
+    assert _drawn_outlines(view) == len(tree.boxes)
+    assert len(view._samples.get_offsets()) == len(snap.samples) > 0
+    title = view.tree_title.get_text()
+    assert SAMPLING_PROJECTIONS[tree.projection] in title and f"{tree.node_deg[0]:.1f}" in title
+    assert view._tree_img.get_visible() and view._tree_img.get_array().shape[:2] == (192, 192)
 
-    # a parameter edit: the bounds scale with kd
-    doc.set_param("kd", 0.25)
-    new = _wait_snapshot(window, qtbot, lambda s: s["tree"]["integral"] < 0.4)
-    assert new["tree"]["integral"] == pytest.approx(0.25, rel=1e-6)
-    assert np.allclose(new["tree"]["leaves"][:, 0], 0.5 * tree["leaves"][:, 0], rtol=1e-9)
+    # a parameter edit: I scales with kd; the tree (of the normalized lobe) is the same
+    window.document.set_param("kd", 0.25)
+    new = _wait_snapshot(window, qtbot, lambda s: s.tree.normalizer < 0.4)
+    assert new.tree.normalizer == pytest.approx(0.25, rel=1e-6)
+    np.testing.assert_array_equal(new.tree.boxes, tree.boxes)
+    np.testing.assert_allclose(new.tree.density, tree.density, rtol=1e-6)
 
-    # another direction: another bin
-    doc.set_direction(60.0, 0.0)
-    far = _wait_snapshot(window, qtbot, lambda s: s["theta_deg"] == 60.0)
-    assert far["tree"]["bin_deg"][0] <= 60.0 <= far["tree"]["bin_deg"][1]
+    # another direction: the tree of another node, whose cell holds it
+    window.document.set_direction(60.0, 0.0)
+    far = _wait_snapshot(window, qtbot, lambda s: s.theta_deg == 60.0)
+    assert far.tree.cell_deg[0] <= 60.0 <= far.tree.cell_deg[1]
+    assert far.tree.tree != tree.tree
+    assert f"{far.tree.node_deg[0]:.1f}" in view.tree_title.get_text()
+    window.tabs.setCurrentIndex(0)
 
-    # a smaller n_max refines the tree
-    window.sampling_view.n_max.setValue(1.2)
-    fine = _wait_snapshot(window, qtbot, lambda s: s["n_max"] == pytest.approx(1.2))
-    assert len(fine["tree"]["leaves"]) > len(far["tree"]["leaves"])
-    assert fine["acceptance"] >= 1.0 / 1.2 - 1e-9
-    window.sampling_view.n_max.setValue(2.0)
+
+def test_view_follows_n_max_and_mode(window, qtbot):
+    """A new n_max makes (or loads) the table of that n_max, and the view shows it; the mode selector
+    switches the samples to the rejection-free mode (one trial each) and the colours to its density."""
+    _use(window, "phong", "ph", {"n": 40.0})
+    window.document.set_direction(35.0, 0.0)
+    window.tabs.setCurrentWidget(window.sampling_panel)
+    view = window.sampling_view
+    view.n_max.setValue(2.0)
+    snap = _wait_snapshot(
+        window, qtbot, lambda s: s.theta_deg == 35.0 and s.n_max == 2.0 and s.mode == "exact"
+    )
+    assert snap.table["options"]["n_max"] == 2.0
+    assert "1/n_max = 0.500" in view.stats.text()
+    before = np.asarray(view._tree_img.get_array()).copy()
+
+    view.n_max.setValue(1.2)
+    fine = _wait_snapshot(window, qtbot, lambda s: s.n_max == pytest.approx(1.2))
+    assert fine.table["options"]["n_max"] == pytest.approx(1.2)
+    assert fine.acceptance >= 1.0 / 1.2
+    assert "1/n_max = 0.833" in view.stats.text()
+    assert view.snapshot is fine
+
+    view.mode.setCurrentText("warp")
+    view.mode.activated.emit(view.mode.currentIndex())
+    warp = _wait_snapshot(window, qtbot, lambda s: s.mode == "warp")
+    assert warp.mean_trials == 1.0
+    assert not np.array_equal(warp.samples, fine.samples)
+    assert np.array_equal(view._samples.get_offsets(), warp.samples)
+    # the colours: the rejection-free density q instead of the exact mode's density of trials
+    assert not np.array_equal(np.asarray(view._tree_img.get_array()), before)
+    assert "warp mode" in view.stats.text()
+    view.mode.setCurrentText("exact")
+    view.mode.activated.emit(view.mode.currentIndex())
+    view.n_max.setValue(2.0)
+    _wait_snapshot(window, qtbot, lambda s: s.mode == "exact" and s.n_max == 2.0)
     window.tabs.setCurrentIndex(0)
 
 
 def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
-    doc = window.document
-    if "lam" not in doc.material_names():
-        doc.add_material("lambert", name="lam", params={"kd": 0.5})
-    doc.select_material("lam")
+    from app.capabilities import adaptive_sampler
+    from core.sampling.adaptive.inspect import from_tree_disk
+
+    _use(window, "lambert", "lam", {"kd": 0.5})
     window.tabs.setCurrentWidget(window.sampling_panel)
     view = window.sampling_view
     view.strategy.setCurrentText("uniform")
     view.strategy.activated.emit(view.strategy.currentIndex())
-    snap = _wait_snapshot(window, qtbot, lambda s: s["ratio_sampler"] == "uniform")
+    snap = _wait_snapshot(window, qtbot, lambda s: s.ratio_sampler == "uniform")
+    assert "uniform" in view.ratio_title.get_text()
     # uniform pdf 1/(2 pi) against the ideal cos/pi: the ratio is 1 / (2 cos theta), 1/2 at the centre
-    from app.capabilities import from_disk
-
-    r = snap["ratio"]
+    t, p = np.radians(snap.theta_deg), np.radians(snap.phi_deg)
+    wo = np.array([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
+    sampler = adaptive_sampler(window.document.brdf())
+    r = snap.ratio
     n = r.shape[0]
     for i, j in ((n // 2, n // 2), (n // 2, n // 8), (n // 5, n // 3)):
-        x, y = (np.array([j, i]) + 0.5) / n * 2.0 - 1.0
-        wi = from_disk(np.array([x]), np.array([y]), snap["projection"])[0]
-        # (the ideal uses the tree's quadrature normalizer I, exact to ~1e-8)
+        xy = (np.array([[j, i]]) + 0.5) / n * 2.0 - 1.0
+        wi = from_tree_disk(sampler, wo, xy)[0]
+        # (the ideal uses the table's normalizer I, exact to ~1e-8)
         assert r[i, j] == pytest.approx(0.5 / wi[2], rel=1e-6)
     view.strategy.setCurrentText("cosine")
     view.strategy.activated.emit(view.strategy.currentIndex())
-    snap = _wait_snapshot(window, qtbot, lambda s: s["ratio_sampler"] == "cosine")
-    assert np.nanmax(np.abs(snap["ratio"] - 1.0)) < 1e-6
-    assert snap["weight_rel_std"] < 1e-9
+    snap = _wait_snapshot(window, qtbot, lambda s: s.ratio_sampler == "cosine")
+    assert np.nanmax(np.abs(snap.ratio - 1.0)) < 1e-6
+    assert snap.weight_rel_std < 1e-9
+    view.strategy.setCurrentText("adaptive")
+    view.strategy.activated.emit(view.strategy.currentIndex())
     window.tabs.setCurrentIndex(0)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from app.view_data import (
     direction_from_disk,
@@ -12,13 +13,23 @@ from app.view_data import (
     grid_quads,
     hemisphere_grid,
     incidence_plane,
-    leaf_raster,
     light_from_disk,
     lit_sphere,
     lobe,
+    sampling_snapshot,
     to_srgb8,
 )
 from core.model import get_model
+from core.sampling.adaptive.inspect import (
+    TreeView,
+    disk_to_square,
+    from_tree_disk,
+    leaf_image,
+    leaf_lookup,
+    leaf_outlines,
+    square_to_disk,
+    to_tree_disk,
+)
 
 
 def test_lambert_lobe_is_a_sphere_of_radius_kd_over_pi():
@@ -93,56 +104,190 @@ def test_grid_normals_of_a_sphere_point_outwards_and_quads_cover_the_grid():
     assert np.all(np.sum(np.cross(b - a, c - a) * (a + b + c), axis=-1) > 0)
 
 
-def test_an_anisotropic_tree_is_shown_where_its_samples_fall_in_every_quadrant(tmp_path, monkeypatch):
-    """Mirror-symmetric anisotropic BRDFs keep trees for the first quadrant of phi_o; the sampler view shows
-    the tree mirrored to the direction's quadrant, so every drawn sample lies in a drawn leaf of the lobe
-    (a tree left unmirrored would put the other quadrants' samples in leaves where ``f`` is ~0)."""
-    from app.view_data import sampling_snapshot
+# ---- the sampler view's data -------------------------------------------------------------------------
+WARD = ("ward", {"sx": 0.05, "sy": 0.25, "kd": (0.0, 0.0, 0.0)})  # anisotropic, f ~0 away from its lobe
+CASES = [("lambert", {"kd": 0.5}), ("phong", {"n": 40.0}), ("ggx", {}), WARD]
+
+
+def _wo(theta_deg: float, phi_deg: float) -> np.ndarray:
+    t, p = math.radians(theta_deg), math.radians(phi_deg)
+    return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
+
+
+@pytest.fixture(scope="module")
+def snapshots():
+    """Snapshots of both modes for every case, at directions in all four quadrants."""
     from core.model import make_brdf
 
-    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path))
-    brdf = make_brdf("ward", {"sx": 0.05, "sy": 0.25, "kd": (0.0, 0.0, 0.0)})  # f is ~0 away from the lobe
-    for phi in (30.0, 150.0, 210.0, 330.0):
-        snap = sampling_snapshot(brdf, 50.0, phi, n_samples=400)
-        leaves, pts = snap["tree"]["leaves"], snap["samples"]
-        assert len(pts) == 400
-        inside = (
-            (pts[:, None, 0] >= leaves[None, :, 1])
-            & (pts[:, None, 0] <= leaves[None, :, 3])
-            & (pts[:, None, 1] >= leaves[None, :, 2])
-            & (pts[:, None, 1] <= leaves[None, :, 4])
-            & (leaves[None, :, 0] > 1e-3 * leaves[:, 0].max())
-        )
-        assert inside.any(axis=1).all(), (
-            f"phi={phi}: {np.sum(~inside.any(axis=1))} samples outside the leaves"
-        )
-        # the lobe sits on the mirror side of the normal: opposite quadrant to wo
-        c = math.radians(phi)
-        assert np.mean(pts @ np.array([math.cos(c), math.sin(c)])) < 0.0
+    out = {}
+    for name, params in CASES:
+        brdf = make_brdf(name, params)
+        for phi in (30.0, 150.0, 210.0, 330.0):
+            for mode in ("exact", "warp"):
+                out[name, phi, mode] = (brdf, sampling_snapshot(brdf, 50.0, phi, mode=mode, n_samples=400))
+    return out
 
 
-def test_leaf_raster_paints_each_pixel_with_the_leaf_holding_its_centre():
-    """A quadtree of the square [-1, 1]^2 (4 quadrants, one of them split in 4, and a leaf smaller than a
-    pixel): each pixel whose centre lies inside a leaf holds that leaf's M; the tiny leaf covers one pixel."""
-    leaves = np.array(
-        [
-            [1.0, -1.0, -1.0, 0.0, 0.0],
-            [2.0, 0.0, -1.0, 1.0, 0.0],
-            [3.0, -1.0, 0.0, 0.0, 1.0],
-            [4.0, 0.0, 0.0, 0.5, 0.5],
-            [5.0, 0.5, 0.0, 1.0, 0.5],
-            [6.0, 0.0, 0.5, 0.5, 1.0],
-            [7.0, 0.5, 0.5, 1.0, 1.0],
-            [0.0, 0.5, 0.5, 0.5, 0.5],  # empty (mass 0, no area): ignored
-        ]
-    )
-    size = 16
-    img = leaf_raster(leaves, size)
+def test_the_leaves_tile_the_square(snapshots):
+    """Every tree's leaves are dyadic squares in [0, 1]^2 whose areas sum to 1 and that do not overlap."""
+    projections = set()
+    for _brdf, snap in snapshots.values():
+        boxes = snap.tree.boxes
+        projections.add(snap.tree.projection)
+        side = boxes[:, 2] - boxes[:, 0]
+        assert np.array_equal(side, boxes[:, 3] - boxes[:, 1])
+        level = np.rint(-np.log2(side))
+        assert np.array_equal(side, 2.0**-level)
+        assert np.array_equal(boxes[:, :2] / side[:, None], np.rint(boxes[:, :2] / side[:, None]))
+        assert boxes.min() >= 0.0 and boxes.max() <= 1.0
+        assert np.sum(side * side) == pytest.approx(1.0, abs=1e-12)
+        w = np.minimum(boxes[:, None, 2], boxes[None, :, 2]) - np.maximum(
+            boxes[:, None, 0], boxes[None, :, 0]
+        )
+        h = np.minimum(boxes[:, None, 3], boxes[None, :, 3]) - np.maximum(
+            boxes[:, None, 1], boxes[None, :, 1]
+        )
+        overlap = np.maximum(w, 0.0) * np.maximum(h, 0.0)
+        np.fill_diagonal(overlap, 0.0)
+        assert not overlap.any()
+        assert len(snap.tree.density) == len(snap.tree.bound) == len(boxes)
+    assert {"equal_area", "half_vector"} <= projections  # the cases cover the disks of wi and of h
+
+
+def test_samples_lie_on_the_disk_in_leaves_their_mode_can_draw(snapshots):
+    """The samples shown are points of the unit disk, each in a leaf where the mode's proposal density is
+    positive (the leaf it was drawn from): tree, frame and disk agree, in every quadrant of wo, for both
+    modes and all three disks."""
+    for (name, phi, mode), (_brdf, snap) in snapshots.items():
+        pts = snap.samples
+        assert len(pts) == 400 or (mode == "warp" and snap.tree.projection == "half_vector"), (name, phi)
+        assert np.all(np.hypot(pts[:, 0], pts[:, 1]) <= 1.0 + 1e-12)
+        leaf = leaf_lookup(snap.tree.boxes, *disk_to_square(pts[:, 0], pts[:, 1]))
+        density = snap.leaf_density()
+        assert np.all(density[leaf] > 0.0), f"{name} phi={phi} {mode}: {np.sum(density[leaf] <= 0)} samples"
+        assert np.sum(density * np.prod(snap.tree.boxes[:, 2:] - snap.tree.boxes[:, :2], axis=1)) == (
+            pytest.approx(1.0, rel=1e-5)
+        )
+
+
+def test_tree_disk_points_map_back_to_their_directions(snapshots):
+    """``from_tree_disk`` inverts ``to_tree_disk`` (wi disks and the half-vector disk), and the frames put
+    the specular direction where they say: on the -x axis of a turned wi disk, at the centre of an h disk."""
+    from app.capabilities import adaptive_sampler
+
+    for name, _params in CASES:
+        brdf = snapshots[name, 30.0, "exact"][0]
+        sampler = adaptive_sampler(brdf)
+        for phi in (30.0, 150.0, 210.0, 330.0):
+            wo = _wo(50.0, phi)
+            wi = sampler.sample(wo, 300, 5).wi
+            wi = wi[wi[:, 2] > 1e-6]
+            back = from_tree_disk(sampler, wo, to_tree_disk(sampler, wo, wi))
+            np.testing.assert_allclose(back, wi, atol=1e-12)
+            mirror = np.array([-wo[0], -wo[1], wo[2]])
+            x, y = to_tree_disk(sampler, wo, mirror)[0]
+            snap = snapshots[name, phi, "exact"][1]
+            if snap.tree.projection == "half_vector":
+                assert abs(x) < 1e-12 and abs(y) < 1e-12
+                assert snap.wo_disk is None
+            else:
+                assert snap.tree.follow and x < 0.0 and abs(y) < 1e-12
+                assert snap.wo_disk[0] > 0.0 and abs(snap.wo_disk[1]) < 1e-12
+        assert np.all(np.isnan(from_tree_disk(sampler, _wo(50.0, 0.0), np.array([[0.8, 0.8]]))))
+
+
+def test_ratio_map_of_the_exact_mode_is_one_wherever_f_is_positive(snapshots):
+    """The exact mode's pdf is f cos / I(wo), so its ratio map is 1 wherever f > 0 (and undefined where
+    both densities are 0), on every disk; its weight f cos / pdf is the same for every sample."""
+    for (name, phi, mode), (_brdf, snap) in snapshots.items():
+        if mode != "exact":
+            continue
+        r = snap.ratio
+        assert r.shape == (96, 96)
+        assert np.isfinite(r).sum() > 500, (name, phi)
+        assert np.nanmax(np.abs(r - 1.0)) < 1e-9, (name, phi)
+        assert snap.weight_rel_std < 1e-9
+        assert snap.acceptance >= 1.0 / snap.n_max
+        assert 1.0 <= snap.mean_trials < 2.0 * snap.n_max
+
+
+def test_ratio_map_of_other_strategies_on_the_tree_disk():
+    """Lambert: the uniform density 1/(2 pi) against the ideal cos / pi is 1 / (2 cos theta_i) at each
+    pixel's direction; the warp mode's density is exact for Lambert on its disk; Phong's warp density is
+    close to the ideal where the lobe is."""
+    from app.capabilities import adaptive_sampler
+    from core.model import make_brdf
+
+    lam = make_brdf("lambert", {"kd": 0.5})
+    snap = sampling_snapshot(lam, 35.0, 10.0, ratio_sampler="uniform", grid=32)
+    c = (np.arange(32) + 0.5) / 32 * 2.0 - 1.0
+    x, y = np.meshgrid(c, c)
+    wi = from_tree_disk(adaptive_sampler(lam), _wo(35.0, 10.0), np.stack([x.ravel(), y.ravel()], axis=1))
+    expected = (0.5 / wi[:, 2]).reshape(32, 32)
+    assert np.array_equal(np.isnan(expected), np.isnan(snap.ratio))
+    np.testing.assert_allclose(snap.ratio, expected, rtol=1e-9)
+    assert snap.weight_rel_std > 0.1
+    warp = sampling_snapshot(lam, 35.0, 10.0, ratio_sampler="adaptive_warp", grid=32)
+    assert np.nanmax(np.abs(warp.ratio - 1.0)) < 1e-6
+    phong = sampling_snapshot(make_brdf("phong", {"n": 40.0}), 35.0, 10.0, ratio_sampler="adaptive_warp")
+    assert 0.8 < np.nanmedian(phong.ratio) < 1.25
+
+
+def test_beyond_the_last_node_the_exact_mode_draws_the_cosine_density():
+    from core.model import make_brdf
+
+    snap = sampling_snapshot(make_brdf("lambert", {"kd": 0.5}), 89.95, 0.0)
+    assert snap.cosine_fallback and snap.tree.normalizer == 0.0
+    # the cosine density is Lambert's ideal; I comes from a quadrature of the disk
+    assert np.nanmax(np.abs(snap.ratio - 1.0)) < 3e-3
+
+
+def test_leaf_image_paints_each_pixel_with_the_leaf_holding_its_centre(snapshots):
+    """A hand-made tiling (three quarters, one quarter split in four, one of those split again) and real
+    trees: each pixel inside the disk holds the value of the leaf whose square holds its centre's point,
+    found by brute force; pixels outside the disk are NaN."""
+    quads = [(0.0, 0.0, 0.5, 0.5), (0.5, 0.0, 1.0, 0.5), (0.0, 0.5, 0.5, 1.0)]
+    quads += [(0.5, 0.5, 0.75, 0.75), (0.75, 0.5, 1.0, 0.75), (0.5, 0.75, 0.75, 1.0)]
+    quads += [
+        (0.75 + i * 0.125, 0.75 + j * 0.125, 0.875 + i * 0.125, 0.875 + j * 0.125)
+        for j in (0, 1)
+        for i in (0, 1)
+    ]
+    hand = TreeView("equal_area", True, 0, (0.0, 0.0), (0.0, 1.0, 0.0, 360.0), np.array(quads), np.ones(10),
+                    np.ones(10), 1.0, 1.0, (1.0, 1.0))  # fmt: skip
+    views = [hand] + [snapshots[name, 150.0, "exact"][1].tree for name, _ in CASES]
+    size = 40
     c = (np.arange(size) + 0.5) / size * 2.0 - 1.0
-    for i, y in enumerate(c):
-        for j, x in enumerate(c):
-            holder = [m for m, x0, y0, x1, y1 in leaves if x0 < x < x1 and y0 < y < y1]
-            assert img[i, j] == holder[0]
-    tiny = leaf_raster(np.array([[9.0, 0.01, 0.01, 0.02, 0.02]]), size)
-    assert np.count_nonzero(tiny) == 1 and tiny.max() == 9.0
-    assert not leaf_raster(np.zeros((0, 5)), size).any()
+    x, y = np.meshgrid(c, c)
+    inside = x * x + y * y < 1.0
+    a, b = disk_to_square(x[inside], y[inside])
+    for view in views:
+        values = np.arange(len(view.boxes), dtype=np.float64)
+        img = leaf_image(view, values, size)
+        assert np.all(np.isnan(img[~inside]))
+        bx = view.boxes
+        holds = (a[:, None] >= bx[None, :, 0]) & (a[:, None] < bx[None, :, 2])
+        holds &= (b[:, None] >= bx[None, :, 1]) & (b[:, None] < bx[None, :, 3])
+        assert np.all(holds.sum(axis=1) == 1)
+        assert np.array_equal(img[inside], values[np.argmax(holds, axis=1)])
+    assert np.all(np.isnan(leaf_image(hand._replace(boxes=np.zeros((0, 4))), np.zeros(0), 8)))
+
+
+def test_leaf_outlines_follow_the_concentric_map(snapshots):
+    from core.sampling.adaptive import maps
+
+    view = snapshots["phong", 30.0, "exact"][1].tree
+    m = 4
+    out = leaf_outlines(view, m)
+    assert out.shape == (len(view.boxes), 4 * m + 1, 2)
+    np.testing.assert_array_equal(out[:, 0], out[:, -1])  # closed
+    a0, b0, a1, b1 = view.boxes.T
+    for k, (a, b) in enumerate(((a0, b0), (a1, b0), (a1, b1), (a0, b1))):
+        expected = np.array([maps.square_to_disk(u, v) for u, v in zip(a, b, strict=True)])
+        np.testing.assert_allclose(out[:, k * m], expected, atol=1e-12)
+    assert np.all(np.hypot(out[..., 0], out[..., 1]) <= 1.0 + 1e-12)
+    # the vectorized map is the compiled one
+    rng = np.random.default_rng(4)
+    u, v = rng.random(200), rng.random(200)
+    expected = np.array([maps.square_to_disk(p, q) for p, q in zip(u, v, strict=True)])
+    np.testing.assert_allclose(np.stack(square_to_disk(u, v), axis=1), expected, atol=1e-15)
