@@ -55,7 +55,7 @@ def test_sample_writes_directions_with_pdf_and_weight(tmp_path, capsys, suffix):
         (["--model", "lambert", "--theta", "10", "-n", "0"], "-n must be a positive"),
         (
             ["--model", "lambert", "--theta", "10", "-n", "5", "--n-max", "1"],
-            "n_max must be a number greater",
+            "n_max must be a number in (1, 1000]",
         ),
     ],
 )
