@@ -9,15 +9,17 @@
    screen*: the first flush of the window (``frameSwapped`` of the 3D view's OpenGL widget: the window is
    composed through OpenGL) after the view painted its new content:
    - ``lobe``: after the 3D lobe rendered (a VTK render that started after the edit);
-   - ``tree``: after the sampler view's canvas painted the snapshot of this edit (the quadtree, its samples and
-     the ratio map, computed in a worker and drawn on the GUI thread);
+   - ``tree``: after the sampler view's canvas painted the snapshot of this edit (the adaptive sampler's tree
+     for ``wo``, its samples and the ratio map, computed in the snapshot process and drawn on the GUI thread;
+     ``tree draw``: the drawing alone, on the GUI thread);
    - ``lobe+tree``: until both are on screen (the later of the two: the GUI thread draws the lobe while the
      worker builds the tree). Target: <= 100 ms.
    - ``all``: until lobe, tree, polar slice and lit sphere are all on screen.
-   By default the edits alternate between two values, so after the first two edits the adaptive trees come
+   By default the edits alternate between two values, so after the first two edits the adaptive tables come
    from the sampler's in-memory cache (the app's case for undo/redo or a slider going back); ``--fresh``
-   gives every edit a new value, so every edit builds its tree (the case of a slider drag: the build time is
-   core/quadtree.py's). The run has a table cache of its own, so trees stored by an earlier run are not reused.
+   gives every edit a new value, so every edit makes a new table (the case of a slider drag: a whole table,
+   every node's tree, made by ``core.sampling.adaptive.table``). The run has a table cache of its own, so
+   tables stored by an earlier run are not reused.
 2. ``stall``: a 10 ms ``QTimer`` probe on the GUI thread while the render panel renders the demo scene (two
    strategies, equal time): the stall is the largest delay of a tick beyond its interval. Target: <= 50 ms.
    ``--render-seconds 0`` skips it (as does leaving it out of ``--parts``).
@@ -148,11 +150,13 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
     rows = []
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores)")
     mode = (
-        "a new value every edit (tree built each time)" if fresh else "two values alternating (trees cached)"
+        "a new value every edit (a new table each time)"
+        if fresh
+        else "two values alternating (tables cached)"
     )
     print(f"edits: {mode}; ms from the edit until on screen")
     print(
-        f"{'model':<20} {'param':<8} {'lobe ms':>9} {'tree ms':>9} {'lobe+tree':>10} {'all views':>10}  (median / max)"
+        f"{'model':<20} {'param':<8} {'lobe ms':>9} {'tree ms':>9} {'lobe+tree':>10} {'all views':>10} {'tree draw':>10}  (median / max)"
     )
     views = ("lobe", "tree", "polar", "sphere")
     for name in models:
@@ -177,7 +181,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
             run_until(lambda: window.jobs_idle("sampling"))
         window.flush_slow_jobs()  # the albedo quadrature must not run during the timed edits
         run_until(window.jobs_idle, timeout=120.0)
-        per_view: dict[str, list[float]] = {v: [] for v in (*views, "both", "all")}
+        per_view: dict[str, list[float]] = {v: [] for v in (*views, "both", "all", "draw")}
         for k in range(edits):
             t0 = time.perf_counter()
             doc.set_param(param.name, values[k])
@@ -194,6 +198,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
             ms = {v: (clock.on_screen(v, t0) - t0) * 1e3 for v in views}
             ms["both"] = max(ms["lobe"], ms["tree"])
             ms["all"] = max(ms[v] for v in views)
+            ms["draw"] = window.timings.get("sampling_draw", float("nan")) * 1e3  # on the GUI thread
             for v, x in ms.items():
                 per_view[v].append(x)
             rows.append({"model": name, "param": param.name, "value": values[k], "edit": k,
@@ -204,7 +209,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
         med = lambda x: f"{statistics.median(x):5.0f}/{max(x):<4.0f}"  # noqa: E731
         print(
             f"{name:<20} {param.name:<8} {med(per_view['lobe']):>9} {med(per_view['tree']):>9} "
-            f"{med(per_view['both']):>10} {med(per_view['all']):>10}"
+            f"{med(per_view['both']):>10} {med(per_view['all']):>10} {med(per_view['draw']):>10}"
         )
     print(f"load average after part 1: {os.getloadavg()[0]:.2f}")
     return rows
@@ -245,7 +250,7 @@ def main() -> int:
     window.resize(1400, 900)
     window.show()
     if "latency" in parts:
-        # The lobe (Explore tab) and the quadtree (Sampling tab) on screen together: the sampler panel leaves
+        # The lobe (Explore tab) and the sampler view (Sampling tab) on screen together: the sampler panel leaves
         # its tab for a window of its own, of the tab area's size, and redraws on every edit.
         panel = window.sampling_panel
         size = window.tabs.currentWidget().size()
