@@ -1,25 +1,35 @@
-"""Benchmark of the adaptive quadtree sampler against the baselines (issue 3's targets).
+"""The adaptive sampler against its targets, side by side in one run: build, throughput with ``f``, error.
 
-Per model (seed parameters) and n_max in {1.3, 2, 3}: build time and memory per tree (trees of the bins of
-theta_o in {0, 30, 60, 80, 89} degrees), sampling throughput (``sample_each``, one different ``wo`` per row)
-against the cosine sampler's in the same run, mean rejection trials, relative std of the weight
-``f cos / pdf``, and the variance per sample of the estimator of reflected radiance
-``L_r(wo) = int f L cos dw`` under a fixed, non-constant environment ``L``, against every other registered
-sampler, at theta_o = 30 and 60 degrees.
+    .venv/bin/python bench/adaptive.py [--models phong,ward,merl] [--quick] [--runs 3] [--out results/bench]
 
-    python bench/adaptive.py [--models a,b] [--n-max 2] [--samples 200000] [--out results/bench]
-    python bench/adaptive.py --build-only [--full] [--models a,b] [--n-max 2]
-    python bench/adaptive.py --grazing
-    python bench/adaptive.py --splits
+Cases: every isotropic model at its default parameters, the synthetic measured material
+``resources/materials/red_plastic_ct.binary`` (model ``merl``), the two anisotropic cases of the targets (Ward
+``sx = 0.05, sy = 0.25``; Ashikhmin-Shirley ``nu = 10, nv = 200``) and the other anisotropic models at their
+defaults. ``--models`` keeps the cases of the named models.
 
-Prints a table; writes ``adaptive.csv`` and ``adaptive.png`` to the output folder. ``--build-only`` times the
-construction alone (per tree at theta_o in {0, 30, 60, 80, 89, 88}; ``--full``: every bin of isotropic
-materials) and writes ``adaptive_build.csv``. ``--grazing`` builds the demo scene's brushed steel (Ward
-0.05 x 0.25, the most expensive trees we know) at grazing bins with the default node budget and without one:
-time, nodes and acceptance (``adaptive_grazing.csv``). ``--splits``: at the bins one tree cannot serve
-at 1/n_max, the acceptance over the whole bin without and with split bins, the trees and the build time
-(``adaptive_splits.csv``).
+1. **Build**: a material's whole table (:func:`core.sampling.adaptive.table.build_table`) on one core, with
+   no disk cache and the in-memory tables cleared before each run; best of ``--runs``. Memory, trees,
+   leaves per tree and the table's own checks (the exact mode's least acceptance, the rejection-free
+   density's largest chi^2 at a cell's edge, the normalizer's estimated error) come from the same build.
+   The sampler's own build (all cores, the one a render gets) is reported beside it.
+2. **Throughput, f included**: ``VIEWS`` outgoing directions drawn as a render meets them (``cos theta_o``
+   distributed as ``cos``, ``phi_o`` uniform, fixed seed), interleaved over ``SAMPLES`` rows each (row ``r``
+   has view ``r mod VIEWS``, as consecutive rows of a render have different views), one ``sample_each`` call
+   over all rows per sampler, best of ``--runs`` (the samplers alternate, so a change of machine load hits
+   them alike); compilation and the table's build are not counted. ``cosine`` returns ``f`` as every
+   sampler does: it is "cosine sampling plus one evaluation", the reference of the target ratio.
+3. **Error**, from the same batches: the furnace weight ``w = lum(f) cos / pdf`` per view (its relative
+   standard deviation: 0 up to rounding for the exact mode, a few per cent for the rejection-free one), the
+   exact mode's mean trials and bound violations (must be 0), the relative error of the mean weight against
+   the quadrature reference of the directional albedo (:func:`core.analysis.albedo`, luminance) at
+   ``ALBEDO_THETAS``, and the furnace efficiency ``1 / (relative variance x seconds per sample)`` of
+   ``cosine``, ``analytic`` (where the model has one), ``adaptive`` and ``adaptive_warp``: speed against
+   error in one number (higher is better; the exact mode's is infinite up to rounding).
 
+Prints the three tables with the targets beside them and writes ``adaptive_build.csv``,
+``adaptive_throughput.csv``, ``adaptive_error.csv``, ``adaptive_albedo.csv`` (per theta_o) and
+``adaptive.png`` under ``--out`` (default ``results/bench``). ``--quick`` (a smoke test, about half a minute):
+Phong and the anisotropic Ward case, 20 views of 500 samples, one run.
 """
 
 from __future__ import annotations
@@ -28,385 +38,542 @@ import argparse
 import csv
 import math
 import sys
-import tempfile
 import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.analysis import albedo
+from core.geometry import degrees_to_dir
+from core.merl import measured_brdf
+from core.model import BRDF, LUMINANCE, all_models, make_brdf
+from core.sampling import SampleBatch, Sampler, applicable_samplers, make_sampler
+from core.sampling.adaptive import AdaptiveSampler, AdaptiveTable, TableOptions, clear_memory_cache
+from core.sampling.adaptive.table import TableReport, build_table, memory_bytes
 
-from core.geometry import degrees_to_dir  # noqa: E402
-from core.model import LUMINANCE, all_models, make_brdf  # noqa: E402
-from core.sampler import applicable_samplers, make_sampler  # noqa: E402
-from core.samplers.adaptive import clear_memory_cache  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
-THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
-VAR_THETAS = (30.0, 60.0)
-SUN = np.array([0.35, 0.2, 1.0]) / np.linalg.norm([0.35, 0.2, 1.0])
+VIEWS = 200
+SAMPLES = 5000
+"""Rows per view: ``VIEWS * SAMPLES = 10^6`` rows per ``sample_each`` call."""
+VIEW_SEED = 20261201
+ALBEDO_THETAS = (0.0, 30.0, 60.0, 80.0)
+ALBEDO_PHI = 30.0
+"""Off the mirror axes of the anisotropic materials."""
+ALBEDO_SAMPLES = 100_000
+
+BUILD_TARGET_ISOTROPIC_S = 0.2
+BUILD_TARGET_ANISOTROPIC_S = 2.0
+MEMORY_TARGET_ANISOTROPIC_KB = 1024.0
+THROUGHPUT_TARGET = 0.5
+"""Adaptive samples per second over cosine's (f included in both)."""
+ROUNDING_VARIANCE = 1e-24
+"""A relative variance of the furnace weight below this is float64 rounding (a relative std of 1e-12; the
+exact mode's is ~1e-15): its efficiency is reported as infinite rather than as 1e34."""
+
+SAMPLERS = ("cosine", "analytic", "adaptive", "adaptive_warp")
+MEASURED_FILE = "red_plastic_ct.binary"
+ANISOTROPIC_TARGETS = {"ward": {"sx": 0.05, "sy": 0.25}, "ashikhmin_shirley": {"nu": 10.0, "nv": 200.0}}
+"""The anisotropic cases the targets name (other parameters at their defaults)."""
+QUICK_MODELS = ("phong", "ward")
 
 
-def environment(wi: np.ndarray) -> np.ndarray:
-    """A sky gradient plus a soft sun: non-constant, smooth, positive on the upper hemisphere."""
-    return 0.3 + 0.7 * np.maximum(wi[:, 2], 0.0) + 4.0 * np.exp(-12.0 * (1.0 - wi @ SUN))
+@dataclass(frozen=True)
+class Case:
+    """One material of the benchmark and the targets that apply to it."""
+
+    label: str
+    brdf: BRDF
+    kind: str
+    """``isotropic``, ``measured`` or ``anisotropic``."""
+    build_target_s: float | None
+    memory_target_kb: float | None
 
 
-def estimator_variance(sampler, wo: np.ndarray, n: int, seed: int) -> tuple[float, float]:
-    """Mean and variance per sample of ``f L cos / pdf`` (luminance)."""
-    wi, pdf = sampler.sample(wo, n, seed)
-    f = sampler.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
+def cases(models: Sequence[str] | None, quick: bool) -> list[Case]:
+    """The benchmark's materials, in table order (``models``: only these model names; ``quick``: by default
+    only those of ``QUICK_MODELS``)."""
+    keep = set(models) if models else set(QUICK_MODELS) if quick else model_names()
+    out: list[Case] = []
+    for model in all_models():
+        if model.isotropic and model.name in keep:
+            out.append(Case(model.name, model.bind(), "isotropic", BUILD_TARGET_ISOTROPIC_S, None))
+    if "merl" in keep:
+        path = files("resources") / "materials" / MEASURED_FILE
+        # a MERL table is isotropic by construction (its parameterization): the isotropic target applies
+        brdf = measured_brdf(str(path))
+        out.append(Case(f"merl:{MEASURED_FILE}", brdf, "measured", BUILD_TARGET_ISOTROPIC_S, None))
+    for name, params in ANISOTROPIC_TARGETS.items():
+        if name in keep:
+            label = name + " " + " ".join(f"{k}={v:g}" for k, v in params.items())
+            out.append(
+                Case(label, make_brdf(name, params), "anisotropic", BUILD_TARGET_ANISOTROPIC_S,
+                     MEMORY_TARGET_ANISOTROPIC_KB)
+            )  # fmt: skip
+    for model in all_models():
+        if not model.isotropic and model.name not in ANISOTROPIC_TARGETS and model.name in keep:
+            out.append(Case(model.name, model.bind(), "anisotropic", None, None))
+    return out
+
+
+def model_names() -> set[str]:
+    """The names ``--models`` accepts."""
+    return {m.name for m in all_models()} | {"merl"}
+
+
+# ------------------------------------------------------------------------------------------ inputs
+def render_views(n: int, seed: int = VIEW_SEED) -> np.ndarray:
+    """``(n, 3)`` outgoing directions as a render meets them: density proportional to ``cos theta_o``
+    (``cos^2`` uniform), ``phi_o`` uniform."""
+    u = np.random.default_rng(seed).random((n, 2))
+    cos_t = np.sqrt(u[:, 0])
+    sin_t = np.sqrt(1.0 - u[:, 0])
+    phi = 2.0 * math.pi * u[:, 1]
+    return np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=1)
+
+
+def furnace_weights(batch: SampleBatch) -> np.ndarray:
+    """``(n,)``: ``lum(f) cos / pdf`` (0 where the density or the cosine is 0: such a sample adds nothing)."""
+    cos = np.maximum(batch.wi[:, 2], 0.0)
+    fcos = (batch.f @ LUMINANCE) * cos
     with np.errstate(divide="ignore", invalid="ignore"):
-        y = np.where(pdf > 0.0, f * environment(wi) * np.maximum(wi[:, 2], 0.0) / pdf, 0.0)
-    return float(y.mean()), float(y.var())
+        return np.where(batch.pdf > 0.0, fcos / batch.pdf, 0.0)
 
 
-def write_csv(rows: list[dict], path: Path) -> None:
-    """The rows as CSV, the columns of every row (sorted) as the header."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=sorted({k for r in rows for k in r}))
-        w.writeheader()
-        w.writerows(rows)
+# ------------------------------------------------------------------------------------------ 1. build
+@dataclass
+class BuildResult:
+    """Section 1 for one case."""
+
+    seconds: float
+    """Best of the runs, one core."""
+    runs_s: list[float]
+    sampler_seconds: float
+    """The sampler's own build (all cores)."""
+    memory_kb: float
+    trees: int
+    leaves: int
+    report: TableReport
+    same_table: bool
+    """The sampler's table has the leaves of the one-core build (threads must not change the table)."""
 
 
-def random_wo(n: int, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    t = np.radians(rng.choice(THETAS, n))
-    p = rng.uniform(0.0, 2.0 * math.pi, n)
-    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=1)
-
-
-def throughput(sampler, wo: np.ndarray, seed: int) -> float:
-    sampler.sample_each(wo[:1000], seed)  # warm-up: compile, build
-    t = time.perf_counter()
-    sampler.sample_each(wo, seed + 1)
-    return len(wo) / (time.perf_counter() - t)
-
-
-def whole_material(brdf, opts) -> tuple[float, int]:
-    """Seconds to build every tree of a material through its table on one thread (no disk cache), the
-    halves of split bins included; and how many bins were split."""
-    import core.quadtree_table as qt
-
-    threads, qt.BUILD_THREADS = qt.BUILD_THREADS, 1
-    try:
-        table = qt.QuadtreeTable(brdf.model, brdf.params, opts)
+def measure_build(brdf: BRDF, runs: int) -> tuple[list[float], AdaptiveTable, TableReport]:
+    """Seconds of each one-core build from empty caches, and the last table with its report."""
+    options = TableOptions()  # the sampler's defaults (n_max = 2)
+    times = []
+    table: AdaptiveTable | None = None
+    report: TableReport | None = None
+    for _ in range(runs):
+        clear_memory_cache()
         t0 = time.perf_counter()
-        while True:
-            todo = [b for b in range(table.n_slots) if table.sub[b] < 0 and b not in table.bins]
-            if not todo:
-                return time.perf_counter() - t0, table.n_split
-            table.ensure(np.array(todo))
-    finally:
-        qt.BUILD_THREADS = threads
+        table, report = build_table(brdf, options, threads=1)
+        times.append(time.perf_counter() - t0)
+    assert table is not None and report is not None
+    return times, table, report
 
 
-def build_times(models: list[str] | None, n_max: float, full: bool, out: Path) -> list[dict]:
-    """Construction only (no disk cache): per-tree time, leaves and acceptance at the bins of THETAS (plus
-    88 degrees), and for isotropic models the time to build every bin of the material (``full``).
-    One warm-up build per model first, so that compilation is not counted."""
-    from core.quadtree import BuildOptions, build_tree
-    from core.quadtree_table import QuadtreeTable
+# ------------------------------------------------------------------------------------------ 2. throughput
+def make_samplers(brdf: BRDF) -> dict[str, Sampler]:
+    """The compared samplers of ``brdf`` (no disk cache for the adaptive ones: the table is built here)."""
+    out: dict[str, Sampler] = {"cosine": make_sampler("cosine", brdf)}
+    if "analytic" in applicable_samplers(brdf):
+        out["analytic"] = make_sampler("analytic", brdf)
+    out["adaptive"] = make_sampler("adaptive", brdf, n_max=2.0, cache=False)
+    out["adaptive_warp"] = make_sampler("adaptive_warp", brdf, cache=False)
+    return out
 
-    rows = []
-    for model in all_models():
-        if models and model.name not in models:
-            continue
-        brdf = model.bind()
-        opts = BuildOptions(n_max=n_max)
-        table = QuadtreeTable(brdf.model, brdf.params, opts)
-        iso = brdf.model.isotropic
 
-        def one(b: int, brdf=brdf, iso=iso, table=table, opts=opts) -> tuple[float, dict]:
+def time_samplers(
+    samplers: dict[str, Sampler], rows: np.ndarray, runs: int
+) -> tuple[dict[str, float], dict[str, SampleBatch]]:
+    """Best seconds of ``sample_each(rows)`` per sampler and one batch of each (the last run's)."""
+    for s in samplers.values():
+        s.sample_each(rows[:1000], seed=1)  # compiled code loaded, tables made: not counted
+    best = dict.fromkeys(samplers, math.inf)
+    batches: dict[str, SampleBatch] = {}
+    for run in range(runs):
+        for name, s in samplers.items():
             t0 = time.perf_counter()
-            a = build_tree(brdf.model, brdf.params, iso, table.bin_range(b), opts)
-            return time.perf_counter() - t0, a
-
-        one(0)  # warm-up: numba compilation of the model's kernels
-        per = {}
-        for t in (*THETAS, 88.0):
-            b = int(table.locate(degrees_to_dir(t, 20.0)[None])[0][0])
-            dt, a = one(b)
-            per[t] = (dt, int((a["child"] < 0).sum()))
-        row = {
-            "model": model.name,
-            "n_max": n_max,
-            "bins_total": table.n_bins,
-            "build_ms_mean_tree": 1e3 * float(np.mean([v[0] for v in per.values()])),
-            "build_ms_max_tree": 1e3 * float(np.max([v[0] for v in per.values()])),
-            "leaves_mean": float(np.mean([v[1] for v in per.values()])),
-        }
-        for t, (dt, nl) in per.items():
-            row[f"build_ms_{t:g}"] = 1e3 * dt
-            row[f"leaves_{t:g}"] = nl
-        if full and iso:
-            row["build_s_material"], row["bins_split"] = whole_material(brdf, opts)
-        else:
-            row["build_s_material_estimate"] = row["build_ms_mean_tree"] * 1e-3 * table.n_bins
-        rows.append(row)
-        detail = " ".join(f"{t:g}:{1e3 * dt:.0f}ms/{nl}L" for t, (dt, nl) in per.items())
-        mat = (
-            f"material {row['build_s_material']:.2f} s ({table.n_bins} bins, {row['bins_split']} split)"
-            if "build_s_material" in row
-            else f"material ~{row['build_s_material_estimate']:.0f} s est. ({table.n_bins} bins)"
-        )
-        print(f"{model.name:<16} {detail}  {mat}", flush=True)
-    write_csv(rows, out / "adaptive_build.csv")
-    return rows
+            batches[name] = s.sample_each(rows, seed=100 + run)
+            best[name] = min(best[name], time.perf_counter() - t0)
+    return best, batches
 
 
-def run(models: list[str] | None, n_maxes: list[float], n: int, out: Path) -> list[dict]:
+# ------------------------------------------------------------------------------------------ 3. error
+@dataclass
+class ErrorResult:
+    """Section 3 for one sampler of one case."""
+
+    weight_rel_std_mean: float
+    """Relative standard deviation of the furnace weight within a view, mean over the views."""
+    weight_rel_std_max: float
+    rel_variance: float
+    """Relative variance of the furnace weight within a view, mean over the views."""
+    efficiency: float
+    """``1 / (rel_variance x seconds per sample)``."""
+    albedo_error_max: float
+    """Largest ``|mean weight / albedo - 1|`` over ``ALBEDO_THETAS``."""
+    albedo_sigma_max: float
+    """Largest statistical standard deviation of that relative error (``rel std / sqrt(n)``)."""
+
+
+def per_view_stats(weights: np.ndarray, views: int) -> tuple[np.ndarray, np.ndarray]:
+    """Relative std and relative variance of the weights of each view (rows interleaved by view)."""
+    w = weights.reshape(-1, views)
+    mean = w.mean(axis=0)
+    var = w.var(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_var = np.where(mean > 0.0, var / mean**2, np.nan)
+    return np.sqrt(rel_var), rel_var
+
+
+@dataclass
+class AlbedoRow:
+    """The mean furnace weight of one sampler at one ``theta_o`` against the quadrature reference."""
+
+    theta_deg: float
+    sampler: str
+    reference: float
+    reference_error: float
+    mean_weight: float
+    rel_error: float
+    rel_sigma: float
+
+
+def albedo_rows(samplers: dict[str, Sampler], brdf: BRDF, n: int) -> list[AlbedoRow]:
     rows = []
-    cache = Path(tempfile.mkdtemp(prefix="bench-adaptive-"))  # builds are timed: no disk cache hits
-    for model in all_models():
-        if models and model.name not in models:
-            continue
-        brdf = model.bind()
-        cosine = make_sampler("cosine", brdf)
-        wo_many = random_wo(n, 7)
-        cos_rate = throughput(cosine, wo_many, 1)
-        baselines = {}
-        for name in applicable_samplers(brdf):
-            if name == "adaptive":
-                continue
-            try:
-                s = make_sampler(name, brdf)
-                baselines[name] = [
-                    estimator_variance(s, degrees_to_dir(t, 20.0), n, 3)[1] for t in VAR_THETAS
-                ]
-            except Exception as exc:  # noqa: BLE001 - a baseline that cannot run is reported, not fatal
-                print(f"  {model.name}/{name}: skipped ({exc})")
-        for n_max in n_maxes:
-            clear_memory_cache()
-            s = make_sampler("adaptive", brdf, n_max=n_max, cache=cache / f"{model.name}-{n_max}")
-            build = []
-            for t in THETAS:
-                t0 = time.perf_counter()
-                s.sample(degrees_to_dir(t, 20.0), 1, 0)
-                build.append(time.perf_counter() - t0)
-            info = s.info()
-            rate = throughput(s, wo_many, 1)
-            _, _, trials = s.sample_with_trials(wo_many[: min(n, 200_000)], 5)
-            rel = []
-            accs = []
-            for t in THETAS:
-                wo = degrees_to_dir(t, 20.0)
-                wi, pdf = s.sample(wo, 20_000, 2)
-                f = s.eval(np.broadcast_to(wo, wi.shape), wi) @ LUMINANCE
-                w = f * wi[:, 2] / pdf
-                rel.append(float(w.std() / w.mean()))
-                accs.append(float(s.acceptance(wo)[0]))
-            var = [estimator_variance(s, degrees_to_dir(t, 20.0), n, 3)[1] for t in VAR_THETAS]
-            best_name, best = (
-                min(baselines.items(), key=lambda kv: sum(kv[1])) if baselines else ("-", [math.inf])
-            )
-            row = {
-                "model": model.name,
-                "n_max": n_max,
-                "build_s_per_tree": float(np.mean(build)),
-                "build_s_full_material": float(np.mean(build)) * info["bins_total"],
-                "bins_total": info["bins_total"],
-                "memory_kb_per_tree": info["memory_per_tree_bytes"] / 1024.0,
-                "samples_per_s": rate,
-                "cosine_samples_per_s": cos_rate,
-                "throughput_ratio": rate / cos_rate,
-                "mean_trials": float(trials.mean()),
-                "min_acceptance": float(min(accs)),
-                "weight_rel_std": float(max(rel)),
-                "variance_adaptive": float(sum(var)),
-                "best_baseline": best_name,
-                "variance_best_baseline": float(sum(best)),
-                "bound_violations": s.bound_violations,
-            }
-            for name, v in baselines.items():
-                row[f"variance_{name}"] = float(sum(v))
-            rows.append(row)
-            print(
-                f"{model.name:<16} n_max={n_max:<4g} build {row['build_s_per_tree'] * 1e3:7.1f} ms/tree "
-                f"mem {row['memory_kb_per_tree']:7.2f} KB/tree  {rate / 1e6:5.2f} M/s "
-                f"({row['throughput_ratio']:.2f} x cosine)  trials {row['mean_trials']:.3f}  "
-                f"min acc {row['min_acceptance']:.3f}  w std {row['weight_rel_std']:.1e}  "
-                f"var {row['variance_adaptive']:.4g} vs {best_name} {row['variance_best_baseline']:.4g}  "
-                f"viol {row['bound_violations']}",
-                flush=True,
-            )
-    out.mkdir(parents=True, exist_ok=True)
-    keys = sorted({k for r in rows for k in r}, key=lambda k: (k not in rows[0], k)) if rows else []
-    with open(out / "adaptive.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    try:
-        plot(rows, out / "adaptive.png")
-    except Exception as exc:  # noqa: BLE001
-        print(f"(no plot: {exc})")
+    for theta in ALBEDO_THETAS:
+        ref = albedo(brdf, theta, ALBEDO_PHI)
+        value = float(np.asarray(ref.value) @ LUMINANCE)
+        error = float(np.asarray(ref.error) @ LUMINANCE)
+        wo = degrees_to_dir(theta, ALBEDO_PHI)
+        for name, s in samplers.items():
+            w = furnace_weights(s.sample(wo, n, seed=7))
+            mean = float(w.mean())
+            rows.append(
+                AlbedoRow(theta, name, value, error / value if value > 0 else math.nan, mean,
+                          mean / value - 1.0 if value > 0 else math.nan,
+                          float(w.std()) / (math.sqrt(n) * value) if value > 0 else math.nan)
+            )  # fmt: skip
     return rows
 
 
-def plot(rows: list[dict], path: Path) -> None:
+# ------------------------------------------------------------------------------------------ the run
+@dataclass
+class CaseResult:
+    case: Case
+    build: BuildResult
+    seconds: dict[str, float]
+    """Best seconds of the throughput batch per sampler."""
+    rows: int
+    errors: dict[str, ErrorResult]
+    albedo: list[AlbedoRow]
+    exact_info: dict[str, Any] = field(default_factory=dict)
+    acceptance_min_views: float = math.nan
+    """The exact mode's least acceptance at the benchmark's views (the table's own guarantee: 1/n_max)."""
+
+
+def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: int) -> CaseResult:
+    times, table, report = measure_build(case.brdf, runs)
+    samplers = make_samplers(case.brdf)
+    exact = samplers["adaptive"]
+    assert isinstance(exact, AdaptiveSampler)
+    clear_memory_cache()
+    exact.preload()  # the sampler's own build (all cores); the warp mode shares its table
+    build = BuildResult(
+        seconds=min(times), runs_s=times, sampler_seconds=exact.report.seconds,
+        memory_kb=memory_bytes(table) / 1024.0, trees=report.trees, leaves=report.leaves, report=report,
+        same_table=len(exact.table.bound) == len(table.bound) and len(exact.table.root) == len(table.root),
+    )  # fmt: skip
+    view_dirs = render_views(views)
+    rows = np.ascontiguousarray(np.tile(view_dirs, (samples, 1)))
+    seconds, batches = time_samplers(samplers, rows, runs)
+    errors: dict[str, ErrorResult] = {}
+    albedo_detail = albedo_rows(samplers, case.brdf, albedo_samples)
+    for name, batch in batches.items():
+        rel_std, rel_var = per_view_stats(furnace_weights(batch), views)
+        mean_rel_var = float(np.nanmean(rel_var))
+        per_sample = seconds[name] / len(rows)
+        mine = [a for a in albedo_detail if a.sampler == name]
+        errors[name] = ErrorResult(
+            weight_rel_std_mean=float(np.nanmean(rel_std)), weight_rel_std_max=float(np.nanmax(rel_std)),
+            rel_variance=mean_rel_var,
+            efficiency=1.0 / (mean_rel_var * per_sample) if mean_rel_var > ROUNDING_VARIANCE else math.inf,
+            albedo_error_max=max(abs(a.rel_error) for a in mine),
+            albedo_sigma_max=max(a.rel_sigma for a in mine),
+        )  # fmt: skip
+    return CaseResult(
+        case, build, seconds, len(rows), errors, albedo_detail, exact.info(),
+        float(np.min(exact.acceptance(view_dirs))),
+    )  # fmt: skip
+
+
+def warm_up() -> float:
+    """Load (or compile) every kernel the measurements call, on small tables and batches: seconds."""
+    t0 = time.perf_counter()
+    small = {"max_thetas": 7, "warp_tol": 1e-2, "quad_tol": 1e-2, "phi_count": 2, "capacity": 256}
+    wo = render_views(8)
+    for brdf in (make_brdf("phong"), make_brdf("ward", {"sx": 0.1, "sy": 0.3})):
+        build_table(brdf, TableOptions(**small), threads=1)
+        for name in ("cosine", "analytic"):
+            make_sampler(name, brdf).sample_each(wo, seed=1)
+        for name in ("adaptive", "adaptive_warp"):
+            s = make_sampler(name, brdf, cache=False, **small)
+            s.sample_each(wo, seed=1)
+            s.acceptance(wo)
+    clear_memory_cache()
+    return time.perf_counter() - t0
+
+
+def run(
+    cases_: list[Case], runs: int, views: int, samples: int, albedo_samples: int, out: Path
+) -> list[CaseResult]:
+    """Measure every case, print the tables, write the CSV files and the plot."""
+    print(f"kernels loaded or compiled (not counted): {warm_up():.1f} s", flush=True)
+    results = []
+    for case in cases_:
+        t0 = time.perf_counter()
+        r = run_case(case, runs, views, samples, albedo_samples)
+        results.append(r)
+        print(f"  {case.label:<36} build {r.build.seconds:6.3f} s  "
+              f"adaptive {r.seconds['cosine'] / r.seconds['adaptive']:4.2f} x cosine  "
+              f"warp {r.seconds['cosine'] / r.seconds['adaptive_warp']:4.2f} x cosine  "
+              f"violations {r.exact_info['bound_violations']}  ({time.perf_counter() - t0:.1f} s)",
+              flush=True)  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    paths = write_csvs(results, out)
+    print()
+    print_tables(results, runs, views, samples)
+    try:
+        plot(results, out / "adaptive.png")
+        paths.append(out / "adaptive.png")
+    except Exception as exc:  # noqa: BLE001 - a plot that fails must not lose the tables
+        print(f"(no plot: {exc})")
+    print("\nwrote " + ", ".join(str(p) for p in paths))
+    return results
+
+
+# ------------------------------------------------------------------------------------------ output
+def _met(value: float, target: float | None, above: bool = False) -> str:
+    if target is None:
+        return "-"
+    return "yes" if (value >= target if above else value <= target) else "NO"
+
+
+def build_records(results: list[CaseResult]) -> list[dict[str, Any]]:
+    out = []
+    for r in results:
+        b, c = r.build, r.case
+        out.append({
+            "case": c.label, "kind": c.kind, "model": c.brdf.model.name,
+            "build_s": b.seconds, "build_s_runs": " ".join(f"{t:.4f}" for t in b.runs_s),
+            "build_s_all_cores": b.sampler_seconds, "memory_kb": b.memory_kb, "trees": b.trees,
+            "leaves": b.leaves, "leaves_per_tree": b.leaves / max(b.trees, 1),
+            "rounds": b.report.rounds, "evaluations": b.report.evaluations,
+            "acceptance_min": b.report.acceptance_min, "chi2_max_edge": b.report.chi2_max_edge,
+            "chi2_max_phi_edge": b.report.chi2_max_phi_edge, "normalizer_error": b.report.norm_error_max,
+            "same_table_all_cores": b.same_table,
+            "target_s": c.build_target_s if c.build_target_s is not None else "",
+            "target_kb": c.memory_target_kb if c.memory_target_kb is not None else "",
+            "build_met": _met(b.seconds, c.build_target_s),
+            "memory_met": _met(b.memory_kb, c.memory_target_kb),
+        })  # fmt: skip
+    return out
+
+
+def throughput_records(results: list[CaseResult]) -> list[dict[str, Any]]:
+    out = []
+    for r in results:
+        for name, seconds in r.seconds.items():
+            ratio = r.seconds["cosine"] / seconds
+            adaptive = name.startswith("adaptive")
+            out.append({
+                "case": r.case.label, "sampler": name, "rows": r.rows, "seconds": seconds,
+                "msamples_per_s": r.rows / seconds / 1e6, "ratio_to_cosine": ratio,
+                "target": THROUGHPUT_TARGET if adaptive else "",
+                "met": _met(ratio, THROUGHPUT_TARGET if adaptive else None, above=True),
+            })  # fmt: skip
+    return out
+
+
+def error_records(results: list[CaseResult]) -> list[dict[str, Any]]:
+    out = []
+    for r in results:
+        for name, e in r.errors.items():
+            rec: dict[str, Any] = {"case": r.case.label, "sampler": name, **asdict(e)}
+            exact = name == "adaptive"
+            rec["mean_trials"] = r.exact_info["mean_trials"] if exact else ""
+            rec["bound_violations"] = r.exact_info["bound_violations"] if exact else ""
+            rec["acceptance_min_views"] = r.acceptance_min_views if exact else ""
+            out.append(rec)
+    return out
+
+
+def albedo_records(results: list[CaseResult]) -> list[dict[str, Any]]:
+    return [{"case": r.case.label, **asdict(a)} for r in results for a in r.albedo]
+
+
+def write_csv(records: list[dict[str, Any]], path: Path) -> Path:
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(records[0]) if records else [])
+        w.writeheader()
+        w.writerows(records)
+    return path
+
+
+def write_csvs(results: list[CaseResult], out: Path) -> list[Path]:
+    return [
+        write_csv(build_records(results), out / "adaptive_build.csv"),
+        write_csv(throughput_records(results), out / "adaptive_throughput.csv"),
+        write_csv(error_records(results), out / "adaptive_error.csv"),
+        write_csv(albedo_records(results), out / "adaptive_albedo.csv"),
+    ]
+
+
+def format_table(header: list[str], rows: list[list[str]]) -> str:
+    """Columns right-aligned to their widest cell (the first left-aligned)."""
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows, strict=True)]
+
+    def line(cells: list[str]) -> str:
+        first = str(cells[0]).ljust(widths[0])
+        return "  ".join([first, *(str(c).rjust(w) for c, w in zip(cells[1:], widths[1:], strict=True))])
+
+    return "\n".join([line(header), "  ".join("-" * w for w in widths), *(line(r) for r in rows)])
+
+
+def _g(x: float, digits: int = 3) -> str:
+    if isinstance(x, str):
+        return x
+    if math.isnan(x):
+        return "-"
+    if math.isinf(x):
+        return "inf"
+    return f"{x:.{digits}g}"
+
+
+def print_tables(results: list[CaseResult], runs: int, views: int, samples: int) -> None:
+    targets = (
+        f"target {BUILD_TARGET_ISOTROPIC_S:g} s isotropic; {BUILD_TARGET_ANISOTROPIC_S:g} s and "
+        f"{MEMORY_TARGET_ANISOTROPIC_KB:g} KB for the named anisotropic cases"
+    )
+    print(f"1. Build of the whole table, one core, empty caches, best of {runs} ({targets})")
+    rows = []
+    for rec in build_records(results):
+        rows.append([
+            rec["case"], f"{rec['build_s']:.3f}", _g(rec["target_s"] or math.nan), rec["build_met"],
+            f"{rec['build_s_all_cores']:.3f}", f"{rec['memory_kb']:.0f}", _g(rec["target_kb"] or math.nan),
+            rec["memory_met"], str(rec["trees"]), f"{rec['leaves_per_tree']:.0f}",
+            f"{rec['acceptance_min']:.3f}", _g(rec["chi2_max_edge"]), _g(rec["normalizer_error"]),
+            "" if rec["same_table_all_cores"] else "DIFFERS",
+        ])  # fmt: skip
+    header = ["case", "s", "target", "met", "s all cores", "KB", "target", "met", "trees", "leaves/tree",
+              "acc min", "chi2 edge", "norm err", "table"]  # fmt: skip
+    print(format_table(header, rows))
+
+    print(
+        f"\n2. Throughput with f, {views} render views x {samples} samples, one sample_each call, best of "
+        f"{runs} (M samples/s; target adaptive >= {THROUGHPUT_TARGET:g} x cosine)"
+    )
+    rows = []
+    for r in results:
+        rate = {n: f"{r.rows / s / 1e6:.2f}" for n, s in r.seconds.items()}
+        ratio = {n: r.seconds["cosine"] / s for n, s in r.seconds.items()}
+        rows.append([
+            r.case.label, rate["cosine"], rate.get("analytic", "-"),
+            rate["adaptive"], f"{ratio['adaptive']:.2f}", _met(ratio["adaptive"], THROUGHPUT_TARGET, True),
+            rate["adaptive_warp"], f"{ratio['adaptive_warp']:.2f}",
+            _met(ratio["adaptive_warp"], THROUGHPUT_TARGET, True),
+        ])  # fmt: skip
+    header = ["case", "cosine", "analytic", "adaptive", "x cos", "met", "warp", "x cos", "met"]
+    print(format_table(header, rows))
+
+    thetas = ", ".join(f"{t:g}" for t in ALBEDO_THETAS)
+    print(
+        "\n3. Error in the furnace: relative std of the weight lum(f) cos / pdf within a view (mean over "
+        "the views);\n   the exact mode's mean trials and bound violations (must be 0); "
+        f"|mean weight / albedo - 1|, the worst of theta_o = {thetas} deg\n   (its statistical sigma in "
+        "brackets); the efficiency 1 / (relative variance x seconds per sample)"
+    )
+    rows = []
+    for r in results:
+        e = r.errors
+
+        def eff(name: str, e: dict[str, ErrorResult] = e) -> str:
+            return _g(e[name].efficiency) if name in e else "-"
+
+        def alb(name: str, e: dict[str, ErrorResult] = e) -> str:
+            return f"{_g(e[name].albedo_error_max, 2)} ({_g(e[name].albedo_sigma_max, 1)})"
+
+        rows.append([
+            r.case.label, _g(e["adaptive"].weight_rel_std_mean, 2),
+            _g(e["adaptive_warp"].weight_rel_std_mean, 2), f"{r.exact_info['mean_trials']:.3f}",
+            str(r.exact_info["bound_violations"]), alb("adaptive"), alb("adaptive_warp"), eff("cosine"),
+            eff("analytic"), eff("adaptive"), eff("adaptive_warp"),
+        ])  # fmt: skip
+    header = ["case", "std exact", "std warp", "trials", "viol.", "albedo err exact", "albedo err warp",
+              "eff cosine", "eff analytic", "eff exact", "eff warp"]  # fmt: skip
+    print(format_table(header, rows))
+
+
+def plot(results: list[CaseResult], path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
-    for n_max in sorted({r["n_max"] for r in rows}):
-        sub = [r for r in rows if r["n_max"] == n_max]
-        names = [r["model"] for r in sub]
-        x = np.arange(len(sub))
-        axes[0].plot(x, [r["memory_kb_per_tree"] for r in sub], "o-", label=f"n_max={n_max:g}")
-        axes[1].plot(x, [r["build_s_per_tree"] * 1e3 for r in sub], "o-", label=f"n_max={n_max:g}")
-        axes[2].plot(
-            x, [r["variance_adaptive"] / max(r["variance_best_baseline"], 1e-300) for r in sub], "o-",
-            label=f"n_max={n_max:g}",
-        )  # fmt: skip
-        for ax in axes:
-            ax.set_xticks(x, names, rotation=70, fontsize=7)
-    axes[0].set_ylabel("memory per tree (KB)")
-    axes[0].axhline(14.5, color="k", lw=0.8, ls="--")
-    axes[1].set_ylabel("build time per tree (ms)")
-    axes[2].set_ylabel("variance / best baseline's")
-    axes[2].axhline(1.0, color="k", lw=0.8, ls="--")
+    labels = [r.case.label for r in results]
+    x = np.arange(len(results))
+    fig, axes = plt.subplots(1, 3, figsize=(17, 5.5), layout="constrained")
+    ax = axes[0]
+    ax.bar(x, [r.build.seconds for r in results], color="C0")
+    ax.scatter(x, [r.case.build_target_s or np.nan for r in results], marker="_", s=300, color="k", zorder=3,
+               label="target")  # fmt: skip
+    ax.set_yscale("log")
+    ax.set_ylabel("build of the whole table, one core (s)")
+    ax.legend()
+    ax = axes[1]
+    for j, name in enumerate(("adaptive", "adaptive_warp")):
+        ax.bar(x + (j - 0.5) * 0.4, [r.seconds["cosine"] / r.seconds[name] for r in results], width=0.4,
+               label=name)  # fmt: skip
+    ax.axhline(THROUGHPUT_TARGET, color="k", lw=0.8, ls="--")
+    ax.set_ylabel("samples per second / cosine's (f included)")
+    ax.legend()
+    ax = axes[2]
+    for j, name in enumerate(("cosine", "analytic", "adaptive_warp")):
+        eff = [r.errors[name].efficiency if name in r.errors else np.nan for r in results]
+        eff = [e if math.isfinite(e) else np.nan for e in eff]  # a zero-variance density's: not drawn
+        ax.bar(x + (j - 1) * 0.27, eff, width=0.27, label=name)
+    ax.set_yscale("log")
+    ax.set_ylabel("furnace efficiency 1 / (rel. variance x s per sample)")
+    ax.set_title("adaptive (exact): infinite up to rounding, not drawn", fontsize=9)
+    ax.legend()
     for ax in axes:
-        ax.set_yscale("log")
-        ax.legend(fontsize=7)
-    fig.tight_layout()
+        ax.set_xticks(x, labels, rotation=70, ha="right", fontsize=7)
     fig.savefig(path, dpi=120)
-
-
-BRUSHED_STEEL = {
-    "sx": 0.05,
-    "sy": 0.25,
-    "ks": (0.6, 0.6, 0.6),
-    "kd": (0.05, 0.05, 0.05),
-    "bounded_albedo": True,
-}
-"""The demo scene's brushed steel (resources/materials/materials.json)."""
-
-
-def grazing(out: Path) -> list[dict]:
-    """Trees of the brushed steel at theta_o = 89 and 89.95 degrees (phi_o = 42.5, mid-bin), with the default node budget
-    and an unlimited one (200 000): build time, nodes, exact acceptance at that wo. No disk cache; one
-    warm-up tree first, so that compilation is not counted."""
-    from core.quadtree import BuildOptions
-
-    rows = []
-    default = BuildOptions().max_nodes
-    for budget in (default, 200_000):
-        clear_memory_cache()
-        s = make_sampler(
-            "adaptive", make_brdf("ward", BRUSHED_STEEL), n_max=2.0, max_nodes=budget, cache=False
-        )
-        s.acceptance(degrees_to_dir(30.0, 42.5))  # warm-up
-        for theta in (89.0, 89.95):
-            t0 = time.perf_counter()
-            acc = float(s.acceptance(degrees_to_dir(theta, 42.5))[0])
-            dt = time.perf_counter() - t0
-            tree = s.table.trees()[-1]
-            rows.append(
-                {"max_nodes": budget, "theta": theta, "build_s": dt, "nodes": tree.n_nodes, "acceptance": acc}
-            )
-            print(f"max_nodes {budget:>7}  theta {theta:6.2f}  build {dt:6.2f} s  nodes {tree.n_nodes:>6}  "
-                  f"acceptance {acc:.3f}", flush=True)  # fmt: skip
-    write_csv(rows, out / "adaptive_grazing.csv")
-    return rows
-
-
-SPLIT_CASES = [
-    ("ashikhmin_shirley", None, 88.0, 25.0, 2.0),
-    ("ashikhmin_shirley", None, 89.5, 25.0, 2.0),
-    ("lafortune", None, 89.5, 25.0, 2.0),
-    ("lafortune", None, 30.0, 2.5, 1.3),
-    ("ward", BRUSHED_STEEL, 89.2, 44.0, 2.0),
-    ("ward", {"sx": 0.005, "sy": 0.005}, 60.0, 12.0, 2.0),
-    ("ggx", {"alpha": 0.001}, 45.0, 0.0, 2.0),
-]
-"""Bins whose single tree misses 1/n_max (model, parameters, theta_o, phi_o, n_max): the known hard cases
-(docs/adaptive.md, section 9), and one near the target (Lafortune at n_max 1.3: a halving gains only 7 %)."""
-
-
-def splits(out: Path, depths: list[int | None], n_rows: int = 400) -> list[dict]:
-    """Per hard case and ``max_splits`` of ``depths`` (None: the default for the case's ``n_max``): the
-    acceptance over the whole base bin (``n_rows`` directions spread over it, its edges included), the trees
-    built, the bins split and the build time (split trees included). No disk cache; one warm-up tree per
-    model first."""
-    from core.quadtree import angles_to_wo, default_max_splits
-
-    rows = []
-    for name, params, theta, phi, n_max in SPLIT_CASES:
-        for depth in depths:
-            max_splits = default_max_splits(n_max) if depth is None else depth
-            clear_memory_cache()
-            s = make_sampler(
-                "adaptive", make_brdf(name, params), n_max=n_max, max_splits=max_splits, cache=False
-            )
-            s.acceptance(degrees_to_dir(20.0, phi))  # warm-up: compilation
-            t = s.table
-            base = int(t.locate(degrees_to_dir(theta, phi)[None])[0][0])
-            t_lo, t_hi, f_lo, f_hi = t.bin_range(base)
-            r = np.random.default_rng(5)
-            th = np.r_[t_lo, np.nextafter(t_hi, t_lo), r.uniform(t_lo, t_hi, n_rows - 2)]
-            ph = np.r_[f_lo, np.nextafter(f_hi, f_lo), r.uniform(f_lo, f_hi, n_rows - 2)]
-            wo = angles_to_wo(th, ph)
-            before = (len(t.bins), t.build_seconds())
-            t0 = time.perf_counter()
-            acc = s.acceptance(wo)
-            wall = time.perf_counter() - t0
-            row = {
-                "model": name,
-                "params": params or "defaults",
-                "theta": theta,
-                "phi": phi,
-                "n_max": n_max,
-                "max_splits": max_splits,
-                "acc_min": float(acc.min()),
-                "acc_mean": float(acc.mean()),
-                "trees": len(t.bins) - before[0],
-                "bins_split": t.n_split,
-                "build_s": t.build_seconds() - before[1],
-                "wall_s": wall,
-            }
-            rows.append(row)
-            print(f"{name:<18} {str(params or ''):<28} {theta:5.1f}/{phi:4.1f}  n_max {n_max:g}  "
-                  f"max_splits {max_splits}  "
-                  f"acceptance min {row['acc_min']:.3f} mean {row['acc_mean']:.3f}  trees {row['trees']:>3}  "
-                  f"split {row['bins_split']:>3}  build {row['build_s']:6.2f} s  wall {wall:6.2f} s",
-                  flush=True)  # fmt: skip
-    write_csv(rows, out / "adaptive_splits.csv")
-    return rows
+    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--models", help="comma-separated model names (default: all)")
-    ap.add_argument("--n-max", type=float, action="append", help="default: 1.3, 2, 3")
-    ap.add_argument("--samples", type=int, default=200_000)
-    ap.add_argument("--out", default="results/bench")
-    ap.add_argument("--build-only", action="store_true", help="construction times only (adaptive_build.csv)")
-    ap.add_argument(
-        "--full", action="store_true", help="with --build-only: build every bin of isotropic models"
-    )
-    ap.add_argument("--grazing", action="store_true", help="node budget at the brushed steel's grazing bins")
-    ap.add_argument("--splits", action="store_true", help="split bins at the known hard cases")
-    ap.add_argument(
-        "--max-splits",
-        type=int,
-        action="append",
-        help="with --splits: the values compared (default: 0 and the default)",
-    )
+    ap.add_argument("--models", default="", help="comma-separated model names (merl: the measured material)")
+    ap.add_argument("--quick", action="store_true", help="few models, small counts, one run (a smoke test)")
+    ap.add_argument("--runs", type=int, help="timed runs, the best kept (default 3; 1 with --quick)")
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench", help="folder for CSV and PNG")
     a = ap.parse_args(argv)
-    if a.splits:
-        splits(Path(a.out), a.max_splits or [0, None])
-        return 0
-    if a.grazing:
-        grazing(Path(a.out))
-        return 0
-    if a.build_only:
-        models = a.models.split(",") if a.models else None
-        for n_max in a.n_max or [2.0]:
-            build_times(models, n_max, a.full, Path(a.out))
-        return 0
-    run(a.models.split(",") if a.models else None, a.n_max or [1.3, 2.0, 3.0], a.samples, Path(a.out))
+    models = [m for m in a.models.split(",") if m]
+    unknown = sorted(set(models) - model_names())
+    if unknown:
+        ap.error(f"unknown model(s): {', '.join(unknown)}; known: {', '.join(sorted(model_names()))}")
+    runs = a.runs if a.runs is not None else (1 if a.quick else 3)
+    if runs < 1:
+        ap.error(f"--runs must be positive, got {runs}")
+    views, samples, albedo_samples = (20, 500, 5000) if a.quick else (VIEWS, SAMPLES, ALBEDO_SAMPLES)
+    run(cases(models, a.quick), runs, views, samples, albedo_samples, a.out)
     return 0
 
 
