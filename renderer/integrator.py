@@ -306,8 +306,7 @@ class PathTracer:
             if len(j) == 0:
                 continue
             rt = w.materials_by_index[m]
-            f[j] = rt.brdf.eval(wo_l[j], wi_l[j], threads=len(j) > PARALLEL_MIN)
-            pdf_brdf[j] = rt.sampler.pdf(wo_l[j], wi_l[j])
+            f[j], pdf_brdf[j] = rt.sampler.eval_pdf(wo_l[j], wi_l[j])
         contrib, need = light_contributions(
             beta, f, le, pdf_light, pdf_brdf, wi_l, delta, cand, self.mis == "power"
         )

@@ -107,6 +107,11 @@ class Sampler:
         """The BRDF being sampled, ``(n, 3)``."""
         return self.brdf.eval(wo, wi)
 
+    def eval_pdf(self, wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(f (n, 3), pdf (n,))`` at the pairs ``(wo, wi)``: what MIS needs of a light sample. A strategy
+        whose density is made of ``f`` (the adaptive sampler's exact mode) computes both in one pass."""
+        return self.eval(wo, wi), self.pdf(wo, wi)
+
     def info(self) -> dict[str, Any]:
         """Precomputation facts (memory in bytes, build seconds, ...) for reports."""
         return {"sampler": self.name, "memory_bytes": 0, "build_seconds": 0.0}
@@ -140,6 +145,7 @@ class Sampler:
 SamplerFactory = Callable[..., Sampler]
 _SAMPLERS: dict[str, SamplerFactory] = {}
 _loaded = False
+
 
 def register_sampler(name: str, factory: SamplerFactory) -> None:
     """Make ``factory(brdf, **options) -> Sampler`` available as ``make_sampler(name, brdf, **options)``

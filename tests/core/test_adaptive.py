@@ -19,13 +19,13 @@ from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, all_models, make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive import AdaptiveSampler
+from core.sampling.adaptive.inspect import disk_to_square
 from core.sampling.adaptive.layout import ISOTROPIC, MIRROR
 from core.sampling.adaptive.maps import (
     EQUAL_AREA,
     HALF_VECTOR,
     ORTHOGRAPHIC,
     direction_to_square,
-    disk_to_square,
     square_to_direction,
     square_to_disk,
 )
@@ -34,16 +34,20 @@ from core.sampling.adaptive.table import symmetry_of
 pytestmark = pytest.mark.usefixtures("private_tables")
 
 CHI2_CASES = [
-    ("lambert", {}, 30.0, 0.0),
-    ("phong", {}, 60.0, 0.0),
-    ("ggx", {"alpha": 0.08}, 85.0, 0.0),
-    ("cook_torrance", {"m": 0.2}, 30.0, 0.0),
-    ("minnaert", {}, 89.0, 0.0),
-    ("ward", {"sx": 0.05, "sy": 0.25}, 70.0, 100.0),
-    ("ashikhmin_shirley", {"nu": 10.0, "nv": 200.0}, 89.0, 17.0),
-    ("poulin_fournier", {}, 10.0, 0.0),
+    ("lambert", {}, 30.0, 0.0, "exact"),
+    ("phong", {}, 60.0, 0.0, "exact"),
+    ("ggx", {"alpha": 0.08}, 85.0, 0.0, "exact"),
+    ("cook_torrance", {"m": 0.2}, 30.0, 0.0, "exact"),
+    ("minnaert", {}, 89.0, 0.0, "exact"),
+    ("ward", {"sx": 0.05, "sy": 0.25}, 70.0, 100.0, "exact"),
+    ("ashikhmin_shirley", {"nu": 10.0, "nv": 200.0}, 89.0, 17.0, "exact"),
+    ("phong", {}, 10.0, 0.0, "warp"),
+    ("ward", {"sx": 0.05, "sy": 0.25}, 30.0, 17.0, "warp"),
 ]
-ALPHA = sidak_alpha(0.01, 2 * len(CHI2_CASES))
+"""The fast suite's chi^2 cases. The rejection-free density is piecewise (discontinuous at the leaves'
+edges), which makes the expected counts slow to integrate (~15 s a case): two cases here, every model in
+the slow sweep."""
+ALPHA = sidak_alpha(0.01, len(CHI2_CASES))
 
 
 def _wo(theta: float, phi: float = 0.0) -> np.ndarray:
@@ -68,7 +72,10 @@ def test_the_maps_invert_each_other_and_keep_their_stated_jacobian(projection, r
     # element is (1 / (pi jac)) d(omega): finite differences over small squares
     h = 1e-4
     for x, y in zip(a[:200] * 0.98 + 0.01, b[:200] * 0.98 + 0.01, strict=True):
-        p = [np.array(square_to_direction(x + dx, y + dy, projection)[:3]) for dx, dy in ((0, 0), (h, 0), (0, h))]
+        p = [
+            np.array(square_to_direction(x + dx, y + dy, projection)[:3])
+            for dx, dy in ((0, 0), (h, 0), (0, h))
+        ]
         solid = np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0]))
         jac = square_to_direction(x + h / 3, y + h / 3, projection)[3]
         if jac > 1e-3:
@@ -83,13 +90,12 @@ def test_the_concentric_map_is_inverted_in_numpy_too(rng):
 
 
 # ------------------------------------------------------------------------------------------ chi^2
-@pytest.mark.parametrize("mode", ["exact", "warp"])
-@pytest.mark.parametrize(("name", "params", "theta", "phi"), CHI2_CASES)
+@pytest.mark.parametrize(("name", "params", "theta", "phi", "mode"), CHI2_CASES)
 def test_draws_follow_the_reported_density(name, params, theta, phi, mode):
     brdf = make_brdf(name, params)
     sampler = AdaptiveSampler(brdf, mode=mode)
     sample, pdf = sampler_functions(sampler, _wo(theta, phi))
-    result = chi2_test(sample, pdf, n_samples=300_000, seed=11, alpha=ALPHA)
+    result = chi2_test(sample, pdf, n_samples=300_000, seed=11, alpha=ALPHA, cell_tol=1e-2 / 300_000)
     assert result.passed, result.summary()
     assert sampler.bound_violations == 0
 
@@ -111,11 +117,11 @@ def test_the_exact_modes_weight_is_the_albedo_for_every_sample(name, params, the
     assert sampler.bound_violations == 0
 
 
-@pytest.mark.parametrize("n_max", [1.3, 2.0, 3.0])
 @pytest.mark.parametrize(
-    ("name", "params"),
-    [("phong", {}), ("cook_torrance", {}), ("ashikhmin_shirley", {"nu": 10.0, "nv": 200.0}), ("minnaert", {})],
-)
+    ("name", "params", "n_max"),
+    [("phong", {}, 1.3), ("cook_torrance", {}, 2.0), ("minnaert", {}, 2.0), ("minnaert", {}, 3.0),
+     ("ashikhmin_shirley", {"nu": 10.0, "nv": 200.0}, 2.0), ("ggx", {}, 1.3)],
+)  # fmt: skip
 def test_bounds_hold_and_acceptance_meets_n_max_over_whole_cells(name, params, n_max, rng):
     """Random outgoing directions over the whole hemisphere (so every cell, its edges included, and every
     azimuth): no trial finds f above its bound, and the acceptance is at least 1 / n_max."""
@@ -190,21 +196,25 @@ def test_an_anisotropic_model_at_isotropic_parameters_is_laid_out_as_isotropic()
     assert symmetry_of(make_brdf("ward", {"sx": 0.1, "sy": 0.2})) == MIRROR
 
 
-def test_a_sharper_lobe_gets_more_nodes_and_a_lambertian_one_the_fewest():
-    trees = {}
-    for name, params in (("lambert", {}), ("phong", {"n": 10.0}), ("phong", {"n": 1000.0})):
-        trees[(name, params.get("n"))] = make_sampler("adaptive", make_brdf(name, params)).info()["trees"]
-    assert trees[("lambert", None)] <= trees[("phong", 10.0)] <= trees[("phong", 1000.0)]
-    assert trees[("lambert", None)] < trees[("phong", 1000.0)]
+def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_for_more():
+    from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
+    from core.sampling.adaptive.maps import ORTHOGRAPHIC as ORTHO
+
+    flat = make_sampler("adaptive", make_brdf("lambert")).table
+    assert len(flat.thetas) == len(INITIAL_THETAS_DEG)
+    assert np.all(flat.projection == ORTHO)  # pi f is flat on the seed's disk: one level of leaves
+    glossy = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.1})).table
+    assert len(glossy.thetas) > len(INITIAL_THETAS_DEG)
+    assert np.all(glossy.projection != ORTHO)
 
 
 # ------------------------------------------------------------------------------------------ hard cases
 @pytest.mark.parametrize(
-    ("name", "params"),
-    [("phong", {"n": 10000.0}), ("ggx", {"alpha": 0.001}), ("cook_torrance", {"m": 0.005}),
-     ("lambert", {"kd": 0.0}), ("ward", {"sx": 0.005, "sy": 0.005}), ("minnaert", {"k": 0.1})],
+    ("name", "params", "mode"),
+    [("phong", {"n": 10000.0}, "exact"), ("ggx", {"alpha": 0.001}, "warp"), ("cook_torrance", {"m": 0.005}, "exact"),
+     ("lambert", {"kd": 0.0}, "exact"), ("lambert", {"kd": 0.0}, "warp"), ("ward", {"sx": 0.005, "sy": 0.005}, "exact"),
+     ("minnaert", {"k": 0.1}, "warp")],
 )  # fmt: skip
-@pytest.mark.parametrize("mode", ["exact", "warp"])
 def test_hard_materials_and_grazing_directions_give_finite_densities(name, params, mode):
     brdf = make_brdf(name, params)
     sampler = AdaptiveSampler(brdf, mode=mode)

@@ -36,7 +36,7 @@ def test_the_closure_holds_what_a_module_imports_when_imported(tmp_path):
     assert "core/models/__init__.py" in _closure(tmp_path, "core/other.py")
     assert "core/models/model.py" in _closure(tmp_path, "core/other.py")
     assert _closure(tmp_path, "renderer/kernels.py") == [
-        "core/models/_helper.py", "core/models/model.py", "renderer/kernels.py"
+        "core/models/__init__.py", "core/models/_helper.py", "core/models/model.py", "renderer/kernels.py"
     ]  # fmt: skip
 
 
