@@ -19,7 +19,9 @@ class FigureView(QWidget):
     Two ways to show a change: :meth:`redraw` draws the whole figure (axes, ticks, text: tens of ms), and
     :meth:`update_artists` redraws only the artists declared with :meth:`set_animated` over a saved copy of
     the rest (blitting: a few ms; shown with the window's next paint), falling back to a full draw when the
-    saved copy is missing or stale.
+    saved copy is missing or stale. Artists that change now and then but cost too much to draw on every
+    update (titles: text is slow to draw) can be declared as *overlay*: they are drawn into the saved copy
+    when they change (:meth:`update_overlay`), not on every update and without a full draw.
     """
 
     def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None):
@@ -37,16 +39,22 @@ class FigureView(QWidget):
         layout.addWidget(self.canvas, 1)
         layout.addWidget(self.status)
         self._animated: list[Artist] = []
+        self._overlay: list[Artist] = []
         self._background = None
+        self._composed = None
+        """The saved background with the overlay drawn on it (what updates restore)."""
         self._background_bounds: tuple[float, ...] | None = None
         self.full_draws = 0
         """Full figure draws so far (tests check that data updates avoid them)."""
 
-    def set_animated(self, artists: Iterable[Artist]) -> None:
+    def set_animated(self, artists: Iterable[Artist], overlay: Iterable[Artist] = ()) -> None:
         """Declare the artists whose data changes: full draws leave them out of the saved background and
-        :meth:`update_artists` redraws only them (in z-order, so give them the layering they need)."""
+        :meth:`update_artists` redraws only them (in z-order, so give them the layering they need). The
+        ``overlay`` artists are drawn over the saved background once per change (:meth:`update_overlay`);
+        they must not overlap the animated ones (they are drawn below them)."""
         self._animated = sorted(artists, key=lambda a: a.get_zorder())
-        for a in self._animated:
+        self._overlay = list(overlay)
+        for a in (*self._animated, *self._overlay):
             a.set_animated(True)
         if not hasattr(self, "_draw_cid"):
             self._draw_cid = self.canvas.mpl_connect("draw_event", self._on_full_draw)
@@ -55,11 +63,22 @@ class FigureView(QWidget):
     def _on_full_draw(self, event) -> None:
         self.full_draws += 1
         if self.canvas.is_saving():  # an export draws at another size: the saved copy would not match
-            self._background = None
+            self._background = None  # (an axes draws its animated artists too when saving)
             return
         self._background = self.canvas.copy_from_bbox(self.figure.bbox)
         self._background_bounds = tuple(self.figure.bbox.bounds)
+        self._compose()
         self._draw_animated()
+
+    def _compose(self) -> None:
+        """Draw the overlay over the saved background and keep the result."""
+        if not self._overlay:
+            self._composed = self._background
+            return
+        self.canvas.restore_region(self._background)
+        for a in self._overlay:
+            self.figure.draw_artist(a)
+        self._composed = self.canvas.copy_from_bbox(self.figure.bbox)
 
     def _draw_animated(self) -> None:
         for a in self._animated:
@@ -72,26 +91,36 @@ class FigureView(QWidget):
         # (seen after an export: the canvas then kept "a draw is pending" and ignored further requests).
         self.canvas.update()
 
-    def update_artists(self) -> None:
-        """Show new data of the animated artists now, by blitting over the saved background; a full draw
-        (at the next event-loop turn) when there is no usable background."""
+    def _usable(self) -> bool:
+        """The saved background matches the canvas (else a full draw is needed)."""
         renderer = getattr(self.canvas, "renderer", None)
-        usable = (
+        return (
             self._background is not None
             and renderer is not None
             and self._background_bounds == tuple(self.figure.bbox.bounds)
             and (renderer.width, renderer.height)
             == (int(self.figure.bbox.width), int(self.figure.bbox.height))
         )
-        if not usable:
+
+    def update_artists(self) -> None:
+        """Show new data of the animated artists now, by blitting over the saved background; a full draw
+        (at the next event-loop turn) when there is no usable background."""
+        if not self._usable():
             self.redraw()
             return
-        self.canvas.restore_region(self._background)
+        self.canvas.restore_region(self._composed)
         self._draw_animated()
         # Shown at the next paint, not now: ``canvas.blit`` repaints at once, and a synchronous repaint of a
         # widget in a window composed through OpenGL (the lobe view's) flushes the whole window, 20-40 ms
         # under a software renderer, on top of the flush that the lobe's own redraw makes a moment later.
         self.canvas.update()
+
+    def update_overlay(self) -> None:
+        """Show changed overlay artists (and the animated ones): the overlay is drawn again over the saved
+        background, which costs the overlay's own drawing instead of a full draw."""
+        if self._usable():
+            self._compose()
+        self.update_artists()
 
     def export(self, path: str | Path) -> Path:
         """Save the figure; the format follows the suffix (``.png`` or ``.svg``)."""

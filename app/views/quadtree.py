@@ -9,18 +9,24 @@ from matplotlib import colormaps
 from matplotlib.collections import LineCollection
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Circle
-from PySide6.QtCore import Signal
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel, QSpinBox, QVBoxLayout, QWidget
 
 from app.view_data import SAMPLING_PROJECTIONS, SamplingSnapshot
 from app.views.figure import FigureView
 from core.sampling import sampler_names
-from core.sampling.adaptive.inspect import leaf_image, leaf_outlines
+from core.sampling.adaptive.inspect import TreeView, leaf_image, leaf_outlines
 
 RASTER = 192
 """Pixels across the tree's disk."""
 OUTLINE_POINTS = 4
-"""Points per leaf edge of the outlines (a base-level leaf's rim edge turns by ~11 degrees)."""
+"""Points per edge of a leaf's outline (a base-level leaf's rim edge turns by ~11 degrees)."""
+STRAIGHT_SIDE = 1.0 / 32.0
+"""Leaves this small or smaller are outlined by straight chords (their edges bend by a fraction of a pixel)."""
+OUTLINE_LEVEL = 7
+"""Leaves deeper than this are outlined as their ancestor at this level (1/128 of the square, two or three
+pixels on screen): a sharp lobe's thousands of tiny leaves would cost tens of ms to outline and show as a
+solid patch."""
 DENSITY_RANGE = 1e-4
 """The colour scale spans this factor below the densest leaf."""
 DENSITY_CMAP = colormaps["magma"]
@@ -44,6 +50,31 @@ def outline_path(outlines: np.ndarray) -> np.ndarray:
     out = np.full((k, m + 1, 2), np.nan)
     out[:, :m] = outlines
     return out.reshape(-1, 2)
+
+
+def outline_boxes(boxes: np.ndarray, max_level: int = OUTLINE_LEVEL) -> np.ndarray:
+    """The boxes ``(m, 4)`` to outline for the leaves ``boxes (k, 4)``: each leaf deeper than ``max_level``
+    replaced by its ancestor at that level, once."""
+    side = boxes[:, 2] - boxes[:, 0]
+    deep = side < 2.0**-max_level
+    if not deep.any():
+        return boxes
+    n = 1 << max_level
+    ij = np.floor(boxes[deep, :2] * n).astype(np.int64)
+    cell = np.unique(ij[:, 0] * n + ij[:, 1])
+    corner = np.stack([cell // n, cell % n], axis=1) / n
+    return np.concatenate([boxes[~deep], np.hstack([corner, corner + 1.0 / n])])
+
+
+def leaf_edges(tree: TreeView) -> np.ndarray:
+    """The polyline :func:`outline_path` that outlines the tree's leaves on its disk (:func:`outline_boxes`;
+    small leaves by chords)."""
+    boxes = outline_boxes(tree.boxes)
+    small = boxes[:, 2] - boxes[:, 0] <= STRAIGHT_SIDE
+    return np.concatenate([
+        outline_path(leaf_outlines(tree._replace(boxes=boxes[~small]), OUTLINE_POINTS)),
+        outline_path(leaf_outlines(tree._replace(boxes=boxes[small]), 1)),
+    ])  # fmt: skip
 
 
 class SamplingView(QWidget):
@@ -87,6 +118,10 @@ class SamplingView(QWidget):
         controls.addStretch(1)
         self.stats = QLabel("")
         self.stats.setWordWrap(True)
+        # room for the usual five or six lines whatever they say: a label that grew or shrank with its text
+        # would resize the figure, and a resized figure is drawn in full instead of blitted
+        self.stats.setMinimumHeight(7 * self.stats.fontMetrics().lineSpacing())
+        self.stats.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
         self.figure_view = FigureView(size=(8.0, 4.2))
         fig = self.figure_view.figure
         fig.clear()
@@ -130,7 +165,9 @@ class SamplingView(QWidget):
             origin="lower",
             interpolation="nearest",
         )
-        self.leaf_edges = LineCollection([], colors="white", linewidths=0.3, alpha=0.5)
+        self.leaf_edges = LineCollection(
+            [], colors="0.75", linewidths=0.3, alpha=0.7
+        )  # seen on dark and on white
         ax.add_collection(self.leaf_edges)
         self._samples = ax.scatter([], [], s=1.5, c="cyan", alpha=0.7, linewidths=0)
         self._tree_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
@@ -159,13 +196,16 @@ class SamplingView(QWidget):
             a.set_xticks([-1, 0, 1])
             a.set_yticks([-1, 0, 1])
         self._colorbar.set_ticks([-2, -1, 0, 1, 2])
-        # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, titles, colour
-        # bar): a full draw of this figure costs ~40 ms, the blit a fraction of it. The titles (the disk and the
-        # node; the compared strategy) change only when wo enters another node's cell or the strategy changes,
-        # and then the figure is drawn in full. The rim circles are redrawn so that they stay on top.
+        # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, colour bar): a
+        # full draw of this figure costs ~40 ms, the blit a fraction of it. The rim circles are redrawn so that
+        # they stay on top. The tree's title (the disk and the node) changes now and then (wo in another node's
+        # cell, another layout of the nodes after an edit) and text is slow to draw (~5-15 ms a title): it is
+        # drawn into the saved background when it changes, not on every update. The ratio map's title changes
+        # with the strategy only (a click): then the figure is drawn in full.
         self.figure_view.set_animated(
             [self._tree_img, self.leaf_edges, self._samples, self._tree_rim, self._wo_mark, self._tree_msg,
-             self._ratio_img, self._ratio_rim, self._ratio_msg]
+             self._ratio_img, self._ratio_rim, self._ratio_msg],
+            overlay=[self.tree_title],
         )  # fmt: skip
         self._artists = True
 
@@ -183,17 +223,20 @@ class SamplingView(QWidget):
         self.figure_view.update_artists()
 
     def _leaf_colours(self, snap: SamplingSnapshot) -> tuple[np.ndarray, float, float]:
-        """The tree's image as RGBA (log colour scale, transparent outside the disk and on empty leaves),
-        coloured here: an RGBA image skips matplotlib's masking and normalization on every redraw."""
+        """The tree's image as RGBA, coloured here (an RGBA image skips matplotlib's masking and normalization
+        on every redraw): a log scale over :data:`DENSITY_RANGE` below the densest leaf; transparent outside
+        the disk and on leaves below the range (where the lobe is not: a half-vector disk's ``h`` that no
+        ``wi`` above the horizon reaches, say)."""
         density = leaf_image(snap.tree, snap.leaf_density(), RASTER)
-        positive = np.isfinite(density) & (density > 0)
         rgba = np.zeros((RASTER, RASTER, 4), dtype=np.uint8)
+        positive = np.isfinite(density) & (density > 0)
         if not positive.any():
             return rgba, 0.0, 0.0
         hi = float(density[positive].max())
         lo = max(float(density[positive].min()), hi * DENSITY_RANGE)
+        shown = positive & (density >= lo)
         norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 1.0001)
-        rgba[positive] = DENSITY_CMAP(norm(np.maximum(density[positive], lo)), bytes=True)
+        rgba[shown] = DENSITY_CMAP(norm(density[shown]), bytes=True)
         return rgba, lo, hi
 
     def show_snapshot(self, snap: SamplingSnapshot) -> None:
@@ -204,7 +247,7 @@ class SamplingView(QWidget):
         rgba, lo, hi = self._leaf_colours(snap)
         self._tree_img.set_data(rgba)
         self._tree_img.set_visible(True)
-        self.leaf_edges.set_segments([outline_path(leaf_outlines(tree, OUTLINE_POINTS))])
+        self.leaf_edges.set_segments([leaf_edges(tree)])
         self._samples.set_offsets(snap.samples)
         if snap.wo_disk is None:
             self._wo_mark.set_data([], [])
@@ -229,7 +272,7 @@ class SamplingView(QWidget):
         proposal = "density of trials K_L q / V" if snap.mode == "exact" else "rejection-free density q"
         lines = [
             f"Tree {tree.tree + 1} of {table['trees']}: {len(tree.boxes)} leaves, coloured by the {snap.mode} "
-            f"mode's {proposal} per unit square area (log, {lo:.3g} .. {hi:.3g}). Table: "
+            f"mode's {proposal} per unit square area (log, {lo:.3g} .. {hi:.3g}; blank below). Table: "
             f"{table['leaves']} leaves, {table['memory_bytes'] / 1024:.1f} KiB, {built}.",
         ]
         if snap.cosine_fallback:
@@ -267,7 +310,7 @@ class SamplingView(QWidget):
             self._ratio_msg.set_text(snap.ratio_error)
             lines.append(f"Ratio map: {snap.ratio_error}")
         if tree.follow:
-            frame = "turned so that wo lies at phi = 0 (red x)"
+            frame = "turned so that wo lies at phi = 0" + (" (red x)" if snap.wo_disk is not None else "")
         else:
             frame = "the local frame"
         flips = [axis for axis, sign in zip("xy", tree.mirror, strict=True) if sign < 0]
@@ -278,10 +321,13 @@ class SamplingView(QWidget):
             f"Disk: {SAMPLING_PROJECTIONS[tree.projection]} ({DISK_RADIUS[tree.projection]}{where}); frame {frame}."
         )
         self.stats.setText("<br>".join(lines))
-        if titles != (self.tree_title.get_text(), self.ratio_title.get_text()):  # in the saved background
+        if titles[1] != self.ratio_title.get_text():  # in the saved background
             self.tree_title.set_text(titles[0])
             self.ratio_title.set_text(titles[1])
             self.figure_view.redraw()
+        elif titles[0] != self.tree_title.get_text():
+            self.tree_title.set_text(titles[0])
+            self.figure_view.update_overlay()
         else:
             self.figure_view.update_artists()
 

@@ -69,12 +69,15 @@ def test_tree_follows_parameter_and_direction(window, qtbot):
     np.testing.assert_array_equal(new.tree.boxes, tree.boxes)
     np.testing.assert_allclose(new.tree.density, tree.density, rtol=1e-6)
 
-    # another direction: the tree of another node, whose cell holds it
+    # another direction: the tree of another node, whose cell holds it; the new title is drawn into the
+    # saved background, with no full draw of the figure
+    full = view.figure_view.full_draws
     window.document.set_direction(60.0, 0.0)
     far = _wait_snapshot(window, qtbot, lambda s: s.theta_deg == 60.0)
     assert far.tree.cell_deg[0] <= 60.0 <= far.tree.cell_deg[1]
     assert far.tree.tree != tree.tree
     assert f"{far.tree.node_deg[0]:.1f}" in view.tree_title.get_text()
+    assert view.figure_view.full_draws == full
     window.tabs.setCurrentIndex(0)
 
 
@@ -146,3 +149,49 @@ def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
     view.strategy.setCurrentText("adaptive")
     view.strategy.activated.emit(view.strategy.currentIndex())
     window.tabs.setCurrentIndex(0)
+
+
+def test_outlines_of_deep_leaves_are_their_ancestors_and_still_tile_the_square():
+    """Leaves deeper than OUTLINE_LEVEL are outlined as their ancestor at that level: what is outlined is
+    still a tiling of the square (areas sum to 1, no overlaps), with nothing deeper than that level; one
+    polyline holds every outline, each closed and followed by a break."""
+    from app.views.quadtree import OUTLINE_LEVEL, leaf_edges, outline_boxes
+    from core.sampling.adaptive.inspect import TreeView
+
+    rng = np.random.default_rng(2)
+    boxes = [(0.0, 0.0, 1.0, 1.0)]
+    lobe = np.array([0.3, 0.7])
+    for k in range(400):  # every other split at the "lobe" (down to level 10), the others anywhere
+        if k % 2:
+            i = int(rng.integers(len(boxes)))
+        else:
+            i = next(
+                n for n, (a0, b0, a1, b1) in enumerate(boxes) if a0 <= lobe[0] < a1 and b0 <= lobe[1] < b1
+            )
+            if boxes[i][2] - boxes[i][0] <= 2.0**-10:
+                lobe = rng.random(2)
+                continue
+        a0, b0, a1, b1 = boxes.pop(i)
+        h = 0.5 * (a1 - a0)
+        boxes += [
+            (a0, b0, a0 + h, b0 + h),
+            (a0 + h, b0, a1, b0 + h),
+            (a0, b0 + h, a0 + h, b1),
+            (a0 + h, b0 + h, a1, b1),
+        ]
+    boxes = np.array(boxes)
+    assert (boxes[:, 2] - boxes[:, 0]).min() < 2.0**-OUTLINE_LEVEL  # the case is deep enough
+    out = outline_boxes(boxes)
+    side = out[:, 2] - out[:, 0]
+    assert side.min() == 2.0**-OUTLINE_LEVEL and len(out) < len(boxes)
+    assert np.sum(side * side) == pytest.approx(1.0, abs=1e-12)
+    w = np.minimum(out[:, None, 2], out[None, :, 2]) - np.maximum(out[:, None, 0], out[None, :, 0])
+    h = np.minimum(out[:, None, 3], out[None, :, 3]) - np.maximum(out[:, None, 1], out[None, :, 1])
+    overlap = np.maximum(w, 0.0) * np.maximum(h, 0.0)
+    np.fill_diagonal(overlap, 0.0)
+    assert not overlap.any()
+    view = TreeView("equal_area", True, 0, (0.0, 0.0), (0.0, 1.0, 0.0, 360.0), boxes, np.ones(len(boxes)),
+                    np.ones(len(boxes)), 1.0, 1.0, (1.0, 1.0))  # fmt: skip
+    line = leaf_edges(view)
+    assert int(np.sum(np.isnan(line[:, 0]))) == len(out)
+    assert np.all(np.hypot(line[:, 0], line[:, 1])[~np.isnan(line[:, 0])] <= 1.0 + 1e-12)
