@@ -87,8 +87,13 @@ def render_events(
         for name in strategies:
             steps: list[str] = []
             yield {"kind": "status", "text": f"Preparing '{name}': geometry, kernels, sampler tables ..."}
+            options = dict(scene.render.sampler_options) if name == scene.render.sampler else {}
+            if name.startswith("adaptive"):
+                # a coarse table at once and the full one in the background, swapped in between passes: the
+                # first image comes in seconds (core.sampling.adaptive.sampler, "progressive")
+                options["progressive"] = True
             jobs[name] = prepare(
-                scene, sampler=name, width=width, height=height, seed=seed,
+                scene, sampler=name, sampler_options=options, width=width, height=height, seed=seed,
                 on_step=lambda label, i, n, steps=steps: on_step(label, i, n, steps),
             )  # fmt: skip
             report = jobs[name].prepare_report

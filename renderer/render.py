@@ -81,6 +81,7 @@ class RenderJob:
                 return
             batch = self.batch if spp is None else min(self.batch, spp - self.film.spp)
             t0 = time.perf_counter()
+            self.world.refresh_samplers()  # better tables built in the background, between passes only
             radiance = self.tracer.render_pass(self.passes_done, batch)
             self.passes_done += 1
             self.film.add_pass(radiance, batch)

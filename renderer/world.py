@@ -194,6 +194,11 @@ class World:
         # the choice between light types (and RIS for the sky) belongs to the integrator
 
     # ------------------------------------------------------------------------------------- materials
+    def refresh_samplers(self) -> int:
+        """Let every material's sampler swap in a better table built in the background (see
+        :meth:`core.sampling.Sampler.refresh`); returns how many changed."""
+        return sum(bool(rt.sampler.refresh()) for rt in self.materials_by_index if rt is not None)
+
     def compile(self, on_step: StepCallback | None = None, parallel: bool = False) -> dict[str, Any]:
         """Bind each used material's BRDF and sampler, load (or compile) the kernels they use and build sampler
         tables. Reports each step through ``on_step``. ``parallel`` also loads the multi-threaded evaluation

@@ -116,6 +116,12 @@ class Sampler:
         """Precomputation facts (memory in bytes, build seconds, ...) for reports."""
         return {"sampler": self.name, "memory_bytes": 0, "build_seconds": 0.0}
 
+    def refresh(self, wait: bool = False) -> bool:
+        """Swap in better precomputed tables built in the background, if any are ready; True when the
+        density changed. A renderer calls it between passes (never within one: MIS needs one density per
+        pass). Samplers without such tables never change."""
+        return False
+
     def preload(self) -> int:
         """Load precomputed tables a disk cache holds (a render's preparation calls it, so that its timed
         passes do not); returns how many. Samplers without such tables have nothing to load."""

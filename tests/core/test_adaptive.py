@@ -208,6 +208,25 @@ def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_fo
     assert np.all(glossy.projection != ORTHO)
 
 
+def test_a_progressive_sampler_starts_coarse_and_swaps_in_the_full_table_when_asked():
+    from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
+
+    brdf = make_brdf("ggx", {"alpha": 0.1})
+    sampler = make_sampler("adaptive", brdf, progressive=True)
+    wo = np.repeat(_wo(50.0)[None, :], 2000, axis=0)
+    assert len(sampler.table.thetas) == len(INITIAL_THETAS_DEG)
+    coarse = sampler.sample_each(wo, seed=1)
+    np.testing.assert_allclose(sampler.pdf(wo, coarse.wi), coarse.pdf, rtol=1e-9)
+    assert sampler.refresh(wait=True)
+    assert sampler.complete and len(sampler.table.thetas) > len(INITIAL_THETAS_DEG)
+    assert not sampler.refresh()
+    full = sampler.sample_each(wo, seed=1)
+    np.testing.assert_allclose(sampler.pdf(wo, full.wi), full.pdf, rtol=1e-9)
+    weight = (full.f @ LUMINANCE) * full.wi[:, 2] / full.pdf
+    assert np.std(weight) / np.mean(weight) < 1e-3  # exact with either table
+    assert sampler.bound_violations == 0
+
+
 # ------------------------------------------------------------------------------------------ hard cases
 @pytest.mark.parametrize(
     ("name", "params", "mode"),

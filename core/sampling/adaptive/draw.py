@@ -257,6 +257,16 @@ def _cosine(state):
 def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
     """One draw for row ``i``; writes ``out_wi[i]``, ``out_f[i]``; returns ``(pdf, trials, violations)``."""
     wo = (wx, wy, wz)
+    if table.flat:  # a Lambertian BRDF: the trees' density is the cosine-weighted hemisphere's
+        state, x, y, z = _cosine(state)
+        out_wi[i, 0] = x
+        out_wi[i, 1] = y
+        out_wi[i, 2] = z
+        r, g, b = eval_model(mid, (x, y, z), wo, p)
+        out_f[i, 0] = r
+        out_f[i, 1] = g
+        out_f[i, 2] = b
+        return z * INV_PI, 1, 0
     theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
         t = _node(table, theta, phi)
@@ -389,6 +399,8 @@ def _pdf_row(table, mid, p, mode, wo, wi, out_f, i):
     out_f[i, 0] = r
     out_f[i, 1] = g
     out_f[i, 2] = b
+    if table.flat:
+        return wi[2] * INV_PI if wi[2] > 0.0 else 0.0
     theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
         t = _node(table, theta, phi)

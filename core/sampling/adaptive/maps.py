@@ -47,19 +47,32 @@ PROJECTIONS = ("orthographic", "equal_area", "half_vector")
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _sincos(t):
+    """``(sin t, cos t)`` for ``|t| <= pi/4`` by their Taylor polynomials to degree 16-17 (error below 2e-17,
+    under rounding): a few multiply-adds where the library's sin and cos cost ~20 ns each, and the draws
+    make one pair per sample."""
+    t2 = t * t
+    s = 1.0 + t2 * (-1.0 / 6.0 + t2 * (1.0 / 120.0 + t2 * (-1.0 / 5040.0 + t2 * (1.0 / 362880.0 + t2 * (
+        -1.0 / 39916800.0 + t2 * (1.0 / 6227020800.0 + t2 * (-1.0 / 1307674368000.0
+                                                           + t2 * (1.0 / 355687428096000.0))))))))
+    c = 1.0 + t2 * (-0.5 + t2 * (1.0 / 24.0 + t2 * (-1.0 / 720.0 + t2 * (1.0 / 40320.0 + t2 * (
+        -1.0 / 3628800.0 + t2 * (1.0 / 479001600.0 + t2 * (-1.0 / 87178291200.0
+                                                          + t2 * (1.0 / 20922789888000.0))))))))
+    return t * s, c  # fmt: skip
+
+
+@njit(inline="always", nogil=True, cache=True)
 def square_to_disk(a, b):
     """Shirley-Chiu concentric map of ``(a, b)`` in ``[0, 1]^2`` onto the unit disk."""
     u = 2.0 * a - 1.0
     v = 2.0 * b - 1.0
     if u == 0.0 and v == 0.0:
         return 0.0, 0.0
-    if abs(u) > abs(v):
-        r = u
-        phi = QUARTER_PI * (v / u)
-    else:
-        r = v
-        phi = HALF_PI - QUARTER_PI * (u / v)
-    return r * math.cos(phi), r * math.sin(phi)
+    if abs(u) > abs(v):  # phi = pi/4 v/u
+        sn, cs = _sincos(QUARTER_PI * (v / u))
+        return u * cs, u * sn
+    sn, cs = _sincos(QUARTER_PI * (u / v))  # phi = pi/2 - pi/4 u/v
+    return v * sn, v * cs
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from typing import Any
 
 import numpy as np
@@ -47,12 +47,14 @@ from core.sampling.base import SampleBatch, Sampler, check_direction, register_s
 
 _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
 """Tables in memory by key (model, parameters, options, sources): one per material per process."""
+_BUILDING: dict[str, threading.Thread] = {}
+"""Full tables being built in the background for progressive samplers, by key."""
 _LOCK = threading.Lock()
 
 PARALLEL_MIN = 1 << 14
 """With ``threads=True``, batches at least this large are drawn on numba's threads."""
 
-_INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "base_level": (1, 6), "max_level": (2, 14),
+_INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
          "capacity": (64, 1 << 20)}  # fmt: skip
 _FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-4, 10.0),
            "norm_tol": (1e-9, 1e-2), "min_spacing_deg": (1e-3, 10.0)}  # fmt: skip
@@ -143,13 +145,17 @@ class AdaptiveSampler(Sampler):
     cache : True (default folder, ``$BRDF_STUDIO_CACHE`` or ``~/.cache/brdf-studio``), False, or a folder
     threads : draw large batches on numba's threads (same samples); off by default, as callers that run their
         own threads (the renderer) should not nest them
+    progressive : when the material's full table is neither in memory nor on disk, start with a coarse one
+        (the initial layout only: a fraction of the time, exact all the same) and build the full one on a
+        background thread; :meth:`refresh` swaps it in. A renderer calls ``refresh`` between passes, so
+        that a first image comes quickly (every density within a pass stays that of one table).
     **options : further :class:`~core.sampling.adaptive.table.TableOptions`
     """
 
     name = "adaptive"
 
     def __init__(self, brdf: BRDF, n_max: Any = 2.0, mode: str = "exact", cache: Any = True,
-                 threads: bool = False, **options: Any):  # fmt: skip
+                 threads: bool = False, progressive: bool = False, **options: Any):  # fmt: skip
         super().__init__(brdf)
         if mode not in MODES:
             raise ParameterError(
@@ -162,6 +168,8 @@ class AdaptiveSampler(Sampler):
         self.threads = bool(threads)
         self.cache = _store(cache)
         self.key = table_cache_key(brdf, self.options)
+        self.progressive = bool(progressive)
+        self._current: tuple[AdaptiveTable, TableReport] | None = None
         self.violations = 0
         self.trials = 0
         self.samples = 0
@@ -176,19 +184,74 @@ class AdaptiveSampler(Sampler):
         return self._entry()[1]
 
     def _entry(self) -> tuple[AdaptiveTable, TableReport]:
+        if self._current is not None:
+            return self._current
         entry = _TABLES.get(self.key)
-        if entry is not None:
-            return entry
-        with _LOCK:
-            entry = _TABLES.get(self.key)
-            if entry is None:
-                entry = load_table(self.cache, self.key) if self.cache is not None else None
+        if entry is None:
+            with _LOCK:
+                entry = _TABLES.get(self.key)
                 if entry is None:
-                    entry = build_table(self.brdf, self.options)
-                    if self.cache is not None:
-                        save_table(self.cache, self.key, *entry)
-                _TABLES[self.key] = entry
+                    entry = load_table(self.cache, self.key) if self.cache is not None else None
+                    if entry is not None:
+                        _TABLES[self.key] = entry
+            if entry is None and self.progressive:
+                entry = self._coarse()
+            if entry is None:
+                with _LOCK:
+                    entry = _TABLES.get(self.key)
+                    if entry is None:
+                        entry = self._build_full()
+        self._current = entry
         return entry
+
+    def _build_full(self) -> tuple[AdaptiveTable, TableReport]:
+        entry = build_table(self.brdf, self.options)
+        if self.cache is not None:
+            save_table(self.cache, self.key, *entry)
+        _TABLES[self.key] = entry
+        return entry
+
+    def _coarse(self) -> tuple[AdaptiveTable, TableReport]:
+        """The initial layout's table now, the full one on a background thread (once per key)."""
+        coarse_key = self.key + ":coarse"
+        with _LOCK:
+            if self.key not in _BUILDING:
+                thread = threading.Thread(target=self._build_in_background, name="adaptive-table", daemon=True)
+                _BUILDING[self.key] = thread
+                thread.start()
+            entry = _TABLES.get(coarse_key)
+            if entry is None:
+                entry = build_table(self.brdf, replace(self.options, rounds=1))
+                _TABLES[coarse_key] = entry
+        return entry
+
+    def _build_in_background(self) -> None:
+        try:
+            entry = build_table(self.brdf, self.options)
+            if self.cache is not None:
+                save_table(self.cache, self.key, *entry)
+            _TABLES[self.key] = entry
+        finally:
+            with _LOCK:
+                _BUILDING.pop(self.key, None)
+
+    def refresh(self, wait: bool = False) -> bool:
+        """Swap in the full table if it is ready (``wait``: block until it is); True when the table changed.
+        Call it between batches whose densities must agree (a renderer's passes)."""
+        if wait:
+            thread = _BUILDING.get(self.key)
+            if thread is not None:
+                thread.join()
+        full = _TABLES.get(self.key)
+        if full is not None and self._current is not full:
+            self._current = full
+            return True
+        return False
+
+    @property
+    def complete(self) -> bool:
+        """Whether the sampler draws from the material's full table (not a progressive coarse one)."""
+        return self._entry() is _TABLES.get(self.key)
 
     def preload(self) -> int:
         """Make (or load) the material's table now; returns the number of trees."""
@@ -289,7 +352,9 @@ class AdaptiveSampler(Sampler):
 
 
 def clear_memory_cache() -> None:
-    """Forget the in-memory tables (tests, benchmarks)."""
+    """Forget the in-memory tables (tests, benchmarks); background builds are waited for first."""
+    for thread in list(_BUILDING.values()):
+        thread.join()
     _TABLES.clear()
 
 
