@@ -7,11 +7,17 @@ Cases: every isotropic model at its default parameters, the synthetic measured m
 ``sx = 0.05, sy = 0.25``; Ashikhmin-Shirley ``nu = 10, nv = 200``) and the other anisotropic models at their
 defaults. ``--models`` keeps the cases of the named models.
 
-1. **Build**: a material's whole table (:func:`core.sampling.adaptive.table.build_table`) on one core, with
-   no disk cache and the in-memory tables cleared before each run; best of ``--runs``. Memory, trees,
-   leaves per tree and the table's own checks (the exact mode's least acceptance, the rejection-free
-   density's largest chi^2 at a cell's edge, the normalizer's estimated error) come from the same build.
-   The sampler's own build (all cores, the one a render gets) is reported beside it.
+1. **Build**, one row per mode: each mode builds its own table, the exact mode's (``adaptive``,
+   ``TableOptions()``: with the rejection bounds) and the rejection-free mode's (``adaptive_warp``,
+   ``TableOptions(bounds=False)``: without the bounds' refinement and probes). A material's whole table
+   (:func:`core.sampling.adaptive.table.build_table`) on one core, with no disk cache and the in-memory
+   tables cleared before each run; best of ``--runs`` (the modes alternate, so a change of machine load hits
+   them alike). Memory, trees, leaves per tree and the table's own checks come from the same build: the
+   least acceptance (exact mode only: a warp table has no bounds), the rejection-free density's largest
+   chi^2 at a cell's edge, and the normalizer's estimated error (exact mode only: the warp mode draws
+   without the normalizer). The sampler's own build (``make_sampler(..., cache=False).preload()`` after
+   :func:`~core.sampling.adaptive.clear_memory_cache`: all cores, the one a render gets) is reported beside
+   it, with whether its table has the one-core build's leaves. The targets are judged for each mode's row.
 2. **Throughput, f included**: ``VIEWS`` outgoing directions drawn as a render meets them (``cos theta_o``
    distributed as ``cos``, ``phi_o`` uniform, fixed seed), interleaved over ``SAMPLES`` rows each (row ``r``
    has view ``r mod VIEWS``, as consecutive rows of a render have different views), one ``sample_each`` call
@@ -26,9 +32,9 @@ defaults. ``--models`` keeps the cases of the named models.
    ``cosine``, ``analytic`` (where the model has one), ``adaptive`` and ``adaptive_warp``: speed against
    error in one number (higher is better; the exact mode's is infinite up to rounding).
 
-Prints the three tables with the targets beside them and writes ``adaptive_build.csv``,
-``adaptive_throughput.csv``, ``adaptive_error.csv``, ``adaptive_albedo.csv`` (per theta_o) and
-``adaptive.png`` under ``--out`` (default ``results/bench``). ``--quick`` (a smoke test, about half a minute):
+Prints the three tables with the targets beside them and writes ``adaptive_build.csv`` (one row per case
+and mode), ``adaptive_throughput.csv``, ``adaptive_error.csv``, ``adaptive_albedo.csv`` (per theta_o) and
+``adaptive.png`` under ``--out`` (default ``results/bench``). ``--quick`` (a smoke test, under a minute):
 Phong and the anisotropic Ward case, 20 views of 500 samples, one run.
 """
 
@@ -80,6 +86,11 @@ MEASURED_FILE = "red_plastic_ct.binary"
 ANISOTROPIC_TARGETS = {"ward": {"sx": 0.05, "sy": 0.25}, "ashikhmin_shirley": {"nu": 10.0, "nv": 200.0}}
 """The anisotropic cases the targets name (other parameters at their defaults)."""
 QUICK_MODELS = ("phong", "ward")
+MODES = {"exact": "adaptive", "warp": "adaptive_warp"}
+"""The adaptive sampler's modes and the names of their samplers."""
+MODE_OPTIONS = {"exact": TableOptions(), "warp": TableOptions(bounds=False)}
+"""Each mode's table as its sampler builds it at the defaults (``n_max = 2``; the warp sampler sets
+``bounds=False`` itself)."""
 
 
 @dataclass(frozen=True)
@@ -147,8 +158,10 @@ def furnace_weights(batch: SampleBatch) -> np.ndarray:
 # ------------------------------------------------------------------------------------------ 1. build
 @dataclass
 class BuildResult:
-    """Section 1 for one case."""
+    """Section 1 for one case and one mode."""
 
+    mode: str
+    """A key of ``MODES``."""
     seconds: float
     """Best of the runs, one core."""
     runs_s: list[float]
@@ -162,19 +175,32 @@ class BuildResult:
     """The sampler's table has the leaves of the one-core build (threads must not change the table)."""
 
 
-def measure_build(brdf: BRDF, runs: int) -> tuple[list[float], AdaptiveTable, TableReport]:
-    """Seconds of each one-core build from empty caches, and the last table with its report."""
-    options = TableOptions()  # the sampler's defaults (n_max = 2)
-    times = []
-    table: AdaptiveTable | None = None
-    report: TableReport | None = None
+def measure_builds(brdf: BRDF, runs: int) -> dict[str, tuple[list[float], AdaptiveTable, TableReport]]:
+    """Per mode: seconds of each one-core build of its table from empty caches, and the last table with its
+    report (the modes alternate within a run)."""
+    times: dict[str, list[float]] = {mode: [] for mode in MODES}
+    last: dict[str, tuple[AdaptiveTable, TableReport]] = {}
     for _ in range(runs):
-        clear_memory_cache()
-        t0 = time.perf_counter()
-        table, report = build_table(brdf, options, threads=1)
-        times.append(time.perf_counter() - t0)
-    assert table is not None and report is not None
-    return times, table, report
+        for mode in MODES:
+            clear_memory_cache()
+            t0 = time.perf_counter()
+            last[mode] = build_table(brdf, MODE_OPTIONS[mode], threads=1)
+            times[mode].append(time.perf_counter() - t0)
+    return {mode: (times[mode], *last[mode]) for mode in MODES}
+
+
+def sampler_build(sampler: Sampler, mode: str, times: list[float], table: AdaptiveTable,
+                  report: TableReport) -> BuildResult:  # fmt: skip
+    """Section 1 for one mode: the one-core builds beside ``sampler``'s own (all cores, from empty caches)."""
+    assert isinstance(sampler, AdaptiveSampler) and sampler.mode == mode
+    clear_memory_cache()
+    sampler.preload()
+    mine = sampler.table
+    return BuildResult(
+        mode=mode, seconds=min(times), runs_s=times, sampler_seconds=sampler.report.seconds,
+        memory_kb=memory_bytes(table) / 1024.0, trees=report.trees, leaves=report.leaves, report=report,
+        same_table=len(mine.bound) == len(table.bound) and len(mine.root) == len(table.root),
+    )  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------ 2. throughput
@@ -267,7 +293,8 @@ def albedo_rows(samplers: dict[str, Sampler], brdf: BRDF, n: int) -> list[Albedo
 @dataclass
 class CaseResult:
     case: Case
-    build: BuildResult
+    builds: dict[str, BuildResult]
+    """Section 1 per mode (the keys of ``MODES``)."""
     seconds: dict[str, float]
     """Best seconds of the throughput batch per sampler."""
     rows: int
@@ -279,17 +306,12 @@ class CaseResult:
 
 
 def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: int) -> CaseResult:
-    times, table, report = measure_build(case.brdf, runs)
+    measured = measure_builds(case.brdf, runs)
     samplers = make_samplers(case.brdf)
+    # each sampler keeps the table it built: clearing the memory cache for the next mode does not drop it
+    builds = {mode: sampler_build(samplers[MODES[mode]], mode, *measured[mode]) for mode in MODES}
     exact = samplers["adaptive"]
     assert isinstance(exact, AdaptiveSampler)
-    clear_memory_cache()
-    exact.preload()  # the sampler's own build (all cores); the warp mode shares its table
-    build = BuildResult(
-        seconds=min(times), runs_s=times, sampler_seconds=exact.report.seconds,
-        memory_kb=memory_bytes(table) / 1024.0, trees=report.trees, leaves=report.leaves, report=report,
-        same_table=len(exact.table.bound) == len(table.bound) and len(exact.table.root) == len(table.root),
-    )  # fmt: skip
     view_dirs = render_views(views)
     rows = np.ascontiguousarray(np.tile(view_dirs, (samples, 1)))
     seconds, batches = time_samplers(samplers, rows, runs)
@@ -308,7 +330,7 @@ def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: in
             albedo_sigma_max=max(a.rel_sigma for a in mine),
         )  # fmt: skip
     return CaseResult(
-        case, build, seconds, len(rows), errors, albedo_detail, exact.info(),
+        case, builds, seconds, len(rows), errors, albedo_detail, exact.info(),
         float(np.min(exact.acceptance(view_dirs))),
     )  # fmt: skip
 
@@ -340,7 +362,8 @@ def run(
         t0 = time.perf_counter()
         r = run_case(case, runs, views, samples, albedo_samples)
         results.append(r)
-        print(f"  {case.label:<36} build {r.build.seconds:6.3f} s  "
+        print(f"  {case.label:<36} build exact {r.builds['exact'].seconds:6.3f} s  "
+              f"warp {r.builds['warp'].seconds:6.3f} s  "
               f"adaptive {r.seconds['cosine'] / r.seconds['adaptive']:4.2f} x cosine  "
               f"warp {r.seconds['cosine'] / r.seconds['adaptive_warp']:4.2f} x cosine  "
               f"violations {r.exact_info['bound_violations']}  ({time.perf_counter() - t0:.1f} s)",
@@ -366,23 +389,28 @@ def _met(value: float, target: float | None, above: bool = False) -> str:
 
 
 def build_records(results: list[CaseResult]) -> list[dict[str, Any]]:
+    """One record per case and mode; the checks a mode's table does not have are blank (the warp table has
+    no bounds, hence no acceptance, and its mode draws without the normalizer)."""
     out = []
     for r in results:
-        b, c = r.build, r.case
-        out.append({
-            "case": c.label, "kind": c.kind, "model": c.brdf.model.name,
-            "build_s": b.seconds, "build_s_runs": " ".join(f"{t:.4f}" for t in b.runs_s),
-            "build_s_all_cores": b.sampler_seconds, "memory_kb": b.memory_kb, "trees": b.trees,
-            "leaves": b.leaves, "leaves_per_tree": b.leaves / max(b.trees, 1),
-            "rounds": b.report.rounds, "evaluations": b.report.evaluations,
-            "acceptance_min": b.report.acceptance_min, "chi2_max_edge": b.report.chi2_max_edge,
-            "chi2_max_phi_edge": b.report.chi2_max_phi_edge, "normalizer_error": b.report.norm_error_max,
-            "same_table_all_cores": b.same_table,
-            "target_s": c.build_target_s if c.build_target_s is not None else "",
-            "target_kb": c.memory_target_kb if c.memory_target_kb is not None else "",
-            "build_met": _met(b.seconds, c.build_target_s),
-            "memory_met": _met(b.memory_kb, c.memory_target_kb),
-        })  # fmt: skip
+        c = r.case
+        for mode, b in r.builds.items():
+            exact = mode == "exact"
+            out.append({
+                "case": c.label, "kind": c.kind, "model": c.brdf.model.name, "mode": mode,
+                "build_s": b.seconds, "build_s_runs": " ".join(f"{t:.4f}" for t in b.runs_s),
+                "build_s_all_cores": b.sampler_seconds, "memory_kb": b.memory_kb, "trees": b.trees,
+                "leaves": b.leaves, "leaves_per_tree": b.leaves / max(b.trees, 1),
+                "rounds": b.report.rounds, "evaluations": b.report.evaluations,
+                "acceptance_min": b.report.acceptance_min if exact else "",
+                "chi2_max_edge": b.report.chi2_max_edge, "chi2_max_phi_edge": b.report.chi2_max_phi_edge,
+                "normalizer_error": b.report.norm_error_max if exact else "",
+                "same_table_all_cores": b.same_table,
+                "target_s": c.build_target_s if c.build_target_s is not None else "",
+                "target_kb": c.memory_target_kb if c.memory_target_kb is not None else "",
+                "build_met": _met(b.seconds, c.build_target_s),
+                "memory_met": _met(b.memory_kb, c.memory_target_kb),
+            })  # fmt: skip
     return out
 
 
@@ -456,23 +484,31 @@ def _g(x: float, digits: int = 3) -> str:
     return f"{x:.{digits}g}"
 
 
+def _blank(x: float | str) -> float:
+    """A record's value, NaN where it is blank (printed ``-``)."""
+    return math.nan if x == "" else float(x)
+
+
 def print_tables(results: list[CaseResult], runs: int, views: int, samples: int) -> None:
     targets = (
         f"target {BUILD_TARGET_ISOTROPIC_S:g} s isotropic; {BUILD_TARGET_ANISOTROPIC_S:g} s and "
         f"{MEMORY_TARGET_ANISOTROPIC_KB:g} KB for the named anisotropic cases"
     )
-    print(f"1. Build of the whole table, one core, empty caches, best of {runs} ({targets})")
+    print(
+        f"1. Build of each mode's whole table (exact: with the rejection bounds; warp: without), one core, "
+        f"empty caches, best of {runs};\n   s all cores: the sampler's own build ({targets})"
+    )
     rows = []
     for rec in build_records(results):
         rows.append([
-            rec["case"], f"{rec['build_s']:.3f}", _g(rec["target_s"] or math.nan), rec["build_met"],
-            f"{rec['build_s_all_cores']:.3f}", f"{rec['memory_kb']:.0f}", _g(rec["target_kb"] or math.nan),
+            rec["case"], rec["mode"], f"{rec['build_s']:.3f}", _g(_blank(rec["target_s"])), rec["build_met"],
+            f"{rec['build_s_all_cores']:.3f}", f"{rec['memory_kb']:.0f}", _g(_blank(rec["target_kb"]), 4),
             rec["memory_met"], str(rec["trees"]), f"{rec['leaves_per_tree']:.0f}",
-            f"{rec['acceptance_min']:.3f}", _g(rec["chi2_max_edge"]), _g(rec["normalizer_error"]),
+            _g(_blank(rec["acceptance_min"])), _g(rec["chi2_max_edge"]), _g(_blank(rec["normalizer_error"])),
             "" if rec["same_table_all_cores"] else "DIFFERS",
         ])  # fmt: skip
-    header = ["case", "s", "target", "met", "s all cores", "KB", "target", "met", "trees", "leaves/tree",
-              "acc min", "chi2 edge", "norm err", "table"]  # fmt: skip
+    header = ["case", "mode", "s", "target", "met", "s all cores", "KB", "target", "met", "trees",
+              "leaves/tree", "acc min", "chi2 edge", "norm err", "table"]  # fmt: skip
     print(format_table(header, rows))
 
     print(
@@ -530,11 +566,13 @@ def plot(results: list[CaseResult], path: Path) -> None:
     x = np.arange(len(results))
     fig, axes = plt.subplots(1, 3, figsize=(17, 5.5), layout="constrained")
     ax = axes[0]
-    ax.bar(x, [r.build.seconds for r in results], color="C0")
+    for j, mode in enumerate(MODES):
+        ax.bar(x + (j - 0.5) * 0.4, [r.builds[mode].seconds for r in results], width=0.4,
+               label=f"{MODES[mode]} ({mode})")  # fmt: skip
     ax.scatter(x, [r.case.build_target_s or np.nan for r in results], marker="_", s=300, color="k", zorder=3,
                label="target")  # fmt: skip
     ax.set_yscale("log")
-    ax.set_ylabel("build of the whole table, one core (s)")
+    ax.set_ylabel("build of each mode's table, one core (s)")
     ax.legend()
     ax = axes[1]
     for j, name in enumerate(("adaptive", "adaptive_warp")):

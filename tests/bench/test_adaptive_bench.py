@@ -1,5 +1,5 @@
-"""``bench/adaptive.py --quick``: the script runs, prints its three tables, writes its files, and the exact
-mode reports no bound violation."""
+"""``bench/adaptive.py --quick``: the script runs, prints its three tables, writes its files (the build's
+with a row per mode), and the exact mode reports no bound violation."""
 
 from __future__ import annotations
 
@@ -39,8 +39,25 @@ def test_quick_run_writes_its_tables(bench, tmp_path, monkeypatch, capsys):
     assert (tmp_path / "adaptive.png").stat().st_size > 0
 
     build = _read(tmp_path / "adaptive_build.csv")
-    assert [r["case"] for r in build] == ["phong", "ward sx=0.05 sy=0.25"]
+    cases = ["phong", "ward sx=0.05 sy=0.25"]
+    # one row per case and mode: each mode builds its own table
+    assert [(r["case"], r["mode"]) for r in build] == [(c, m) for c in cases for m in ("exact", "warp")]
     assert all(float(r["build_s"]) > 0.0 and int(r["trees"]) > 0 for r in build)
+    assert all(r["same_table_all_cores"] == "True" for r in build)
+    for row in build:
+        assert float(row["chi2_max_edge"]) >= 0.0
+        assert row["build_met"] in ("yes", "NO")  # both cases have a build target, judged per mode
+        if row["mode"] == "exact":
+            assert 0.0 < float(row["acceptance_min"]) <= 1.0
+            assert float(row["normalizer_error"]) >= 0.0
+        else:  # a warp table has no bounds (no acceptance), and its mode reads no normalizer
+            assert row["acceptance_min"] == "" and row["normalizer_error"] == ""
+    ward = [r for r in build if r["case"] == cases[1]]
+    assert all(r["memory_met"] in ("yes", "NO") for r in ward)
+    section1 = printed.split("1. Build")[1].split("2. Throughput")[0].splitlines()
+    for case in cases:
+        for mode in ("exact", "warp"):
+            assert any(line.startswith(case) and f" {mode} " in line for line in section1), (case, mode)
 
     errors = {(r["case"], r["sampler"]): r for r in _read(tmp_path / "adaptive_error.csv")}
     for case in ("phong", "ward sx=0.05 sy=0.25"):
