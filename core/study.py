@@ -35,6 +35,7 @@ DEFAULT_SAMPLERS = (
     "cosine",
     "analytic",
     "adaptive",
+    "adaptive_warp",
     "uniform_cdf",
     "compress_cdf",
     "factored",

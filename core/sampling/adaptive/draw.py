@@ -95,12 +95,14 @@ def _frame(symmetry, wx, wy, wz):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _view_frame(table, wx, wy, wz):
-    """:func:`_frame`, with no turn when the table keeps its trees in the local frame."""
+def _tree_frame(table, wx, wy, wz):
+    """The tree serving ``wo`` and its frame: ``(t, mu, phi, cos, sin, sx, sy)`` (no turn for a tree kept in
+    the local frame)."""
     mu, phi, c, s, sx, sy = _frame(table.symmetry, wx, wy, wz)
-    if table.follow == 0:
-        return mu, phi, 1.0, 0.0, sx, sy
-    return mu, phi, c, s, sx, sy
+    t = _node(table, mu, phi)
+    if table.follow[t] == 0:
+        return t, mu, phi, 1.0, 0.0, sx, sy
+    return t, mu, phi, c, s, sx, sy
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -275,9 +277,8 @@ def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
         out_f[i, 1] = g
         out_f[i, 2] = b
         return z * INV_PI, 1, 0
-    theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
+    t, theta, phi, c, s, sx, sy = _tree_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
-        t = _node(table, theta, phi)
         root = table.root[t]
         state, u = next_u01(state)
         leaf, x0, y0, h, prob = _descend(table.mass, table.child, root, u)
@@ -311,7 +312,6 @@ def _sample_row(table, mid, p, mode, wx, wy, wz, state, out_wi, out_f, i):
     if mode == EXACT and wz >= table.cos_min:
         norm = normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wz, phi)
     if norm > 0.0:
-        t = _node(table, theta, phi)
         proj = table.projection[t]
         violations = 0
         for trial in range(1, MAX_TRIALS + 1):
@@ -394,9 +394,8 @@ def _pdf_row(table, mid, p, mode, wo, wi, out_f, i):
     out_f[i, 2] = b
     if table.flat:
         return wi[2] * INV_PI if wi[2] > 0.0 else 0.0
-    theta, phi, c, s, sx, sy = _view_frame(table, wx, wy, wz)
+    t, theta, phi, c, s, sx, sy = _tree_frame(table, wx, wy, wz)
     if mode == WARP and wz > 0.0:
-        t = _node(table, theta, phi)
         if table.projection[t] == HALF_VECTOR:
             hx = wi[0] + wx
             hy = wi[1] + wy
@@ -439,7 +438,7 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
 def normalizer_rows(table, wo, out):
     """The exact mode's ``I(wo)`` per row (0 where it draws the cosine density)."""
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _view_frame(table, wo[i, 0], wo[i, 1], wo[i, 2])
+        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
         if wo[i, 2] >= table.cos_min:
             out[i] = max(
                 normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wo[i, 2], phi), 0.0
@@ -452,7 +451,7 @@ def normalizer_rows(table, wo, out):
 def acceptance_rows(table, wo, out):
     """The exact mode's acceptance ``I(wo) / (c V)`` per row: ``1 / V`` of the tree serving it (``c = I``)."""
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _view_frame(table, wo[i, 0], wo[i, 1], wo[i, 2])
+        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
         t = _node(table, theta, phi)
         v = table.envelope[table.root[t]]
         out[i] = 1.0 / v if v > 0.0 else 0.0

@@ -97,7 +97,7 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
         ph_lo, ph_hi = np.degrees(table.phi_edges[j : j + 2])
     return TreeView(
         projection=PROJECTIONS[int(table.projection[t])],
-        follow=bool(table.follow),
+        follow=bool(table.follow[t]),
         tree=t,
         node_deg=(float(np.degrees(table.thetas[k])), float(np.degrees(table.phis[j]))),
         cell_deg=(float(th_lo), float(th_hi), float(ph_lo), float(ph_hi)),
@@ -112,9 +112,9 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
 
 def _tree_frame(table: AdaptiveTable, wo: np.ndarray) -> tuple[float, float, float, float]:
     """``(cos, sin, sx, sy)``: the turn and the mirror signs from the local frame to the tree's (as the draws'
-    ``_view_frame``: no turn when the table keeps its trees in the local frame)."""
+    ``_tree_frame``: no turn for a tree kept in the local frame)."""
     _, _, c, s, sx, sy = _frame(table.symmetry, float(wo[0]), float(wo[1]), float(wo[2]))
-    if not table.follow:
+    if not table.follow[_tree_of(table, wo)]:
         c, s = 1.0, 0.0
     return c, s, sx, sy
 

@@ -66,7 +66,7 @@ _FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-
 
 def table_options(n_max: Any = 2.0, **options: Any) -> TableOptions:
     """Validated :class:`TableOptions` (a :class:`ParameterError` names the option and its range)."""
-    known = {f.name for f in fields(TableOptions)}
+    known = {f.name for f in fields(TableOptions)} - {"bounds"}
     if "parameterization" in options and options["parameterization"] not in ("auto", "wi", "half"):
         raise ParameterError(
             f"adaptive option parameterization must be 'auto', 'wi' or 'half', got {options['parameterization']!r}"
@@ -168,6 +168,8 @@ class AdaptiveSampler(Sampler):
         self.mode = mode
         self.name = "adaptive" if mode == "exact" else "adaptive_warp"
         self.options = table_options(n_max, **options)
+        if mode == "warp":  # its own tables, without the exact mode's bounds (see TableOptions.bounds)
+            self.options = replace(self.options, bounds=False)
         self.n_max = self.options.n_max
         self.threads = bool(threads)
         self.cache = _store(cache)

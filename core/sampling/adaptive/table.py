@@ -40,9 +40,15 @@ from core.sampling.adaptive.layout import (
 )
 from core.sampling.adaptive.maps import EQUAL_AREA, HALF_VECTOR, ORTHOGRAPHIC
 from core.sampling.adaptive.target import g_at, make_view
-from core.sampling.adaptive.tree import ACCEPT_MARGIN, BuildSettings, TreeArrays, build_tree
+from core.sampling.adaptive.tree import (
+    ACCEPT_MARGIN,
+    ANISOTROPIC_BOUND_SAFETY,
+    BuildSettings,
+    TreeArrays,
+    build_tree,
+)
 
-TABLE_FORMAT = 6
+TABLE_FORMAT = 7
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -75,6 +81,10 @@ class TableOptions:
     parameterization: str = "auto"
     """``"wi"`` (the equal-area disk of the incident direction), ``"half"`` (of the half vector), or
     ``"auto"``: whichever moves the material's lobe less between neighbouring views."""
+    bounds: bool = True
+    """Whether the trees carry the exact mode's bounds (steps 3 and 3b of the construction). The rejection-free
+    mode never reads them, and its tables are built without: the bounds' refinement and probes are most of an
+    anisotropic material's build. Set by the sampler from its mode, not a user's option."""
     base_level: int = 3
     max_level: int = 12
     capacity: int = 16384
@@ -97,9 +107,10 @@ class AdaptiveTable(NamedTuple):
     """1: the BRDF is Lambertian (``f`` the same for every pair of directions): every tree is one uniform
     level on the orthographic disk, whose density is the cosine-weighted hemisphere's, so both modes draw
     that density directly (the same density; no tree to descend)."""
-    follow: int
-    """1: a tree's frame is turned with ``wo``'s azimuth (``wo`` in its x-z plane); 0: trees are kept in the
-    local frame (half-vector trees of an anisotropic BRDF), ``wo`` only folded into the quadrant."""
+    follow: np.ndarray
+    """``(K * J,)`` int64, per tree: 1, the tree's frame is turned with ``wo``'s azimuth (``wo`` in its x-z
+    plane); 0, the tree is kept in the local frame, ``wo`` only folded into the quadrant (half-vector trees of
+    an anisotropic BRDF)."""
     thetas: np.ndarray
     """``(K,)`` polar nodes (radians), increasing; ``thetas[0] = 0``."""
     phis: np.ndarray
@@ -267,13 +278,16 @@ def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ..
         w = np.array([0.25 * (a + b), 0.25 * a, 0.5 * a, 0.5 * b, 0.25 * b])
         edge = [False, True, False, False, True]
         return np.array([make_view(t, 0.0) for t in ts]), _normalized(w), np.array(edge)
-    # the node and the middles of the cell's four edges (the corners are left to the ridge and the probes:
-    # 5 views instead of 9 nearly halves an anisotropic tree's evaluations)
+    # the node, the middles of the cell's four edges and its four corners: the lobe turns and the horizon's
+    # front moves across an anisotropic cell, and their extremes are at its corners (with the edges' middles
+    # only, a bound there fell short 1.2x on wi disks and 1800x beyond a half-vector disk's front)
     phi, phi_lo, phi_hi = phis
-    pairs = ((theta, phi), (theta, phi_lo), (theta, phi_hi), (theta_lo, phi), (theta_hi, phi))
+    pairs = ((theta, phi), (theta, phi_lo), (theta, phi_hi), (theta_lo, phi), (theta_hi, phi),
+             (theta_lo, phi_lo), (theta_lo, phi_hi), (theta_hi, phi_lo), (theta_hi, phi_hi))  # fmt: skip
     rows = [make_view(t, ph, follow) for t, ph in pairs]
-    weights = np.array([2.0, 1.0, 1.0, 1.0, 1.0])
-    return np.array(rows), _normalized(weights), np.array([False, False, False, True, True])
+    weights = np.array([4.0, 2.0, 2.0, 2.0, 2.0, 1.0, 1.0, 1.0, 1.0])
+    edge = [False, False, False, True, True, True, True, True, True]
+    return np.array(rows), _normalized(weights), np.array(edge)
 
 
 RIDGE_STEPS = 17
@@ -299,8 +313,16 @@ def _normalized(w: np.ndarray) -> np.ndarray:
 class _Node:
     tree: TreeArrays
     projection: int
+    follow: int
     edge: np.ndarray
     seconds: float
+
+
+HALF_VECTOR_LIMIT = math.radians(80.0)
+"""Half-vector trees stop at cells reaching beyond 80 degrees (those nodes get ``wi`` trees, turned with
+``wo``): near the horizon the region of half vectors whose ``wi`` is above it moves across the disk with
+``wo``, a front that the stencils and the bounds follow badly (Ashikhmin-Shirley at 89 degrees: bounds 2.5x
+short at the front); the ``wi`` disk has no such front."""
 
 
 def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
@@ -311,15 +333,22 @@ def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, 
         phis: tuple[float, ...] = (0.0,)
     else:
         phis = (phi, phi_cell[0], phi_cell[1])
+    if projection == HALF_VECTOR and cell[1] > HALF_VECTOR_LIMIT:
+        projection, follow = EQUAL_AREA, 1
     views, weights, edge = _views(cell[0], theta, cell[1], phis, symmetry, bool(follow))
     mid = brdf.model.id
     if symmetry == ISOTROPIC:
         cell_arr = np.array([cell[0], cell[1], 0.0, 0.0, 1.0])
     else:
         cell_arr = np.array([cell[0], cell[1], phi_cell[0], phi_cell[1], float(follow)])
-    tree = build_tree(mid, brdf.params, projection, views, weights, cell_arr, options.settings(),
+    settings = options.settings()
+    if not options.bounds:
+        settings = settings._replace(bound_safety=0.0)
+    elif symmetry != ISOTROPIC:
+        settings = settings._replace(bound_safety=ANISOTROPIC_BOUND_SAFETY)
+    tree = build_tree(mid, brdf.params, projection, views, weights, cell_arr, settings,
                       _ridge_views(cell_arr, symmetry, bool(follow)))  # fmt: skip
-    return _Node(tree, projection, edge, time.perf_counter() - t0)
+    return _Node(tree, projection, follow, edge, time.perf_counter() - t0)
 
 
 # ------------------------------------------------------------------------------------------ the table
@@ -376,20 +405,22 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
                 [nodes[(float(theta), float(edges[k]), float(edges[k + 1]), j)] for j in range(len(phis))]
                 for k, theta in enumerate(thetas)
             ]
-            halve = _intervals_to_halve(thetas, grid, options, target)
+            halve = _intervals_to_halve(thetas, grid, symmetry, options, target)
             halve &= np.diff(thetas) > 2.0 * min_spacing
             if not np.any(halve) or len(thetas) >= options.max_thetas or report.rounds >= options.rounds:
                 break
             new = 0.5 * (thetas[:-1] + thetas[1:])[halve]
             new = new[: options.max_thetas - len(thetas)]
             thetas = np.sort(np.concatenate([thetas, new]))
-    table = _pack(symmetry, follow, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid)
+    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid, options.bounds)
     report.seconds = time.perf_counter() - t0
     report.trees = len(thetas) * len(phis)
     report.leaves = len(table.bound)
     report.evaluations = sum(n.tree.evaluations for n in nodes.values())
-    report.acceptance_min = min(
-        1.0 / n.tree.envelope if n.tree.envelope > 0 else 0.0 for row in grid for n in row
+    report.acceptance_min = (
+        min(1.0 / n.tree.envelope if n.tree.envelope > 0 else 0.0 for row in grid for n in row)
+        if options.bounds
+        else math.nan
     )
     report.chi2_max_edge = max(
         float(np.max(n.tree.chi2[np.concatenate(_edge_views(n, len(row) > 1))])) for row in grid for n in row
@@ -398,19 +429,35 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
         report.chi2_max_phi_edge = max(
             float(np.max(n.tree.chi2[PHI_EDGE_VIEWS])) for row in grid for n in row
         )
-    report.norm_error_max = float(np.max(_norm_errors(thetas, grid)))
+    report.norm_error_max = float(np.max(_norm_errors(thetas, grid, symmetry, options.bounds)))
     return table, report
 
 
-def _node_integrals(grid: list[list[_Node]]) -> np.ndarray:
-    return np.array([[n.tree.integrals[0] for n in row] for row in grid])
+def _node_integrals(grid: list[list[_Node]], symmetry: int, exact: bool) -> np.ndarray:
+    """``(K, J')``: the normalizer's values at the polar nodes and equally spaced azimuths. For an anisotropic
+    table with bounds (``exact``), the azimuths are the nodes' and their cells' edges between them (each tree
+    integrates the views on its cell's azimuth edges to ``quad_tol`` as well; neighbours share an edge and
+    their two integrals of it are averaged): ``2 J - 1`` values over the mirror's quadrant, ``2 J`` around the
+    circle. Otherwise the nodes' ``J``."""
+    nodes = np.array([[n.tree.integrals[0] for n in row] for row in grid])
+    j = nodes.shape[1]
+    if symmetry == ISOTROPIC or not exact or j == 1:
+        return nodes
+    count = 2 * j if symmetry == FULL else 2 * j - 1
+    out = np.empty((nodes.shape[0], count))
+    out[:, 0::2] = nodes
+    for k, row in enumerate(grid):
+        for a in range(count // 2):
+            b = (a + 1) % j
+            out[k, 2 * a + 1] = 0.5 * (row[a].tree.integrals[2] + row[b].tree.integrals[1])
+    return out
 
 
-def _norm_errors(thetas: np.ndarray, grid: list[list[_Node]]) -> np.ndarray:
+def _norm_errors(thetas: np.ndarray, grid: list[list[_Node]], symmetry: int, exact: bool) -> np.ndarray:
     """``(K,)``: the normalizer's estimated interpolation error at each polar node (relative, the worst
     azimuth). The nodes' own quadrature errors are the trees' business (``quad_tol``): halving an interval
     does not change them."""
-    values = _node_integrals(grid)
+    values = _node_integrals(grid, symmetry, exact)
     s = norm_coordinate(thetas)
     if np.all(values > 0.0):
         cols = [interpolation_errors(s, np.log(values[:, j])) for j in range(values.shape[1])]
@@ -420,12 +467,12 @@ def _norm_errors(thetas: np.ndarray, grid: list[list[_Node]]) -> np.ndarray:
     return np.max(cols, axis=0)
 
 
-def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], options: TableOptions,
+def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], symmetry: int, options: TableOptions,
                         target: float) -> np.ndarray:  # fmt: skip
     """``(K - 1,)``: the intervals the material asks to halve (see :mod:`core.sampling.adaptive.layout`)."""
     k = len(thetas)
     halve = np.zeros(k - 1, dtype=bool)
-    norm_err = _norm_errors(thetas, grid)
+    norm_err = _norm_errors(thetas, grid, symmetry, options.bounds)
     for i in range(k):
         row = grid[i]
         weak = any(n.tree.envelope > 0 and 1.0 / n.tree.envelope < target for n in row)
@@ -434,7 +481,8 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], options: Ta
             views_lo, views_hi = _edge_views(n, len(row) > 1)
             rough_lo |= bool(np.max(n.tree.chi2[views_lo]) > options.warp_chi2)
             rough_hi |= bool(np.max(n.tree.chi2[views_hi]) > options.warp_chi2)
-        inexact = norm_err[i] > options.norm_tol
+        # the normalizer serves the exact mode only
+        inexact = options.bounds and norm_err[i] > options.norm_tol
         if i > 0 and (weak or rough_lo or inexact):
             halve[i - 1] = True
         if i < k - 1 and (weak or rough_hi or inexact):
@@ -454,8 +502,8 @@ PHI_EDGE_VIEWS = np.array([1, 2])
 """An anisotropic node's views on its cell's azimuth edges, at the node's theta (see :func:`_views`)."""
 
 
-def _pack(symmetry: int, follow: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
-          phi_edges: np.ndarray, grid: list[list[_Node]]) -> AdaptiveTable:  # fmt: skip
+def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
+          phi_edges: np.ndarray, grid: list[list[_Node]], exact: bool) -> AdaptiveTable:  # fmt: skip
     children, masses, envelopes, corners, bounds, roots, projections = [], [], [], [], [], [], []
     node_base = 0
     leaf_base = 0
@@ -478,7 +526,7 @@ def _pack(symmetry: int, follow: int, thetas: np.ndarray, phis: np.ndarray, thet
             projections.append(n.projection)
             node_base += len(child)
             leaf_base += len(tr.bound)
-    integrals = _node_integrals(grid)
+    integrals = _node_integrals(grid, symmetry, exact)
     norm_log = bool(np.all(integrals > 0.0))
     values = np.log(integrals) if norm_log else integrals
     norm = series_coefficients(values) if symmetry == MIRROR else values
@@ -489,7 +537,7 @@ def _pack(symmetry: int, follow: int, thetas: np.ndarray, phis: np.ndarray, thet
     return AdaptiveTable(
         symmetry=int(symmetry),
         flat=int(all(n.projection == ORTHOGRAPHIC for row in grid for n in row)),
-        follow=int(follow),
+        follow=np.array([n.follow for row in grid for n in row], dtype=np.int64),
         thetas=np.ascontiguousarray(thetas, dtype=np.float64),
         phis=np.ascontiguousarray(phis, dtype=np.float64),
         theta_edges=np.ascontiguousarray(theta_edges, dtype=np.float64),
@@ -589,7 +637,6 @@ def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport]
             value = arrays[name]
             fields[name] = value.item() if value.ndim == 0 else np.ascontiguousarray(value)
         fields["symmetry"] = int(fields["symmetry"])
-        fields["follow"] = int(fields["follow"])
         fields["flat"] = int(fields["flat"])
         fields["norm_log"] = int(fields["norm_log"])
         fields["cos_min"] = float(fields["cos_min"])

@@ -43,8 +43,18 @@ FLOOR = 1e-3
 """Share of the normalizer spread evenly over the square as the rejection-free density's floor: a feature
 that the stencils missed still gets a positive density (unbiased estimates), at 0.1 % of the samples."""
 
-BOUND_SAFETY = 1.05
+BOUND_SAFETY = 1.1
 """Factor on each leaf's bound (covers what lies between the stencils' points and the views)."""
+
+ANISOTROPIC_BOUND_SAFETY = 1.1
+"""The same for an anisotropic material, whose cells span azimuths as well (the lobe turns across them)."""
+
+RIM_BOUND_SAFETY = 1.5
+"""A further factor on the bound of a leaf on the square's edge, the horizon, where lobes sharpen and turn
+fastest with ``wo`` (Ashikhmin-Shirley nu=10 nv=200 at 74 degrees: a rim leaf's ratio between the nine views
+was 1.3x what they saw). Rim leaves hold little of the density (``cos theta_i`` vanishes there), so a
+generous factor costs little acceptance, where 1.5 on every leaf of an anisotropic table filled its trees
+(1.5 M leaves)."""
 
 CURVATURE = 0.25
 """A leaf's bound adds this times the largest second difference of a stencil (twice a parabola's rise)."""
@@ -66,6 +76,9 @@ class BuildSettings(NamedTuple):
     max_level: int
     capacity: int
     """Nodes a tree may have."""
+    bound_safety: float = BOUND_SAFETY
+    """Factor on each leaf's bound (:data:`ANISOTROPIC_BOUND_SAFETY` for an anisotropic material's trees);
+    0: no bounds at all (steps 3 and 3b skipped: a table for the rejection-free mode only)."""
 
 
 class TreeArrays(NamedTuple):
@@ -329,9 +342,14 @@ def _leaf_mass(stv_i, scales, weights, x0, y0, h):
 
 
 @njit(nogil=True, cache=True)
-def _leaf_bound(mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv):
+def _leaf_bound(
+    mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
+):
     """``K_L``, a bound of ``(g_v / I_v) / q`` on leaf ``i`` for every view of the cell, ``q`` the leaf's
-    bilinear density (its stencils at every view must be in ``stv[i]``); returns ``(K, evaluations)``."""
+    bilinear density (its stencils at every view must be in ``stv[i]``); returns ``(K, evaluations)``
+    (``(1, 0)`` when ``safety`` is 0: a table without bounds)."""
+    if safety <= 0.0:
+        return 1.0, 0
     h = 0.5 ** level[i]
     mix = np.empty(9)
     _mixture(stv[i], scales, weights, x0[i], y0[i], h, mix)
@@ -371,7 +389,11 @@ def _leaf_bound(mid, p, projection, views, scales, weights, ridge, ridge_views, 
         qq = (1.0 - tx) * (1.0 - ty) * c0 + tx * (1.0 - ty) * c1 + (1.0 - tx) * ty * c2 + tx * ty * c3
         m = max(m, g_at(mid, p, a, b, projection, ridge_views[v]) * top_scale / qq)
         evals += 1
-    return m * BOUND_SAFETY, evals
+    if x0[i] == 0.0 or y0[i] == 0.0 or x0[i] + h == 1.0 or y0[i] + h == 1.0:
+        safety *= RIM_BOUND_SAFETY
+    # at least the density itself: where g was 0 at every point seen (beyond a front, such as the horizon's
+    # through a half-vector disk), it may not be between them at another view of the cell
+    return max(m * safety, 1.0), evals
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -430,7 +452,7 @@ def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
 
 
 @njit(nogil=True, cache=True)
-def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m):
+def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety):
     """Step 2: every leaf's stencils at every view, the views' integrals, and every leaf's bound ``m``.
 
     Returns ``(scales, ridge, evaluations)``: ``scales[v] = 1 / I_v`` (the bounds are on ``g_v / I_v``)."""
@@ -449,7 +471,7 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
     for i in range(n):
         if child[i] == -1:
             m[i], e = _leaf_bound(
-                mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv
+                mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
             )
             evals += e
     return scales, ridge, evals
@@ -499,7 +521,7 @@ def _rim_lift(mix, x0, y0, h):
 
 @njit(nogil=True, cache=True)
 def refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, warp_tol, max_level, n, child,
-                x0, y0, level, st, stv, m):  # fmt: skip
+                x0, y0, level, st, stv, m, safety):  # fmt: skip
     """Step 2b: the rejection-free density is the cell's *mixture* ``sum_v w_v g_v / I_v`` (the draws use one
     tree for the whole cell, so it should fit every view of it, not only the node's; where the lobe moves or a
     region becomes reachable across the cell, the mixture covers it). Leaves split, the largest errors first,
@@ -525,7 +547,7 @@ def refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, 
         for c in range(start, n):
             evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
             m[c], e = _leaf_bound(
-                mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0, y0, level, stv
+                mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0, y0, level, stv, safety
             )
             evals += e
         if split == 0:
@@ -535,7 +557,7 @@ def refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, 
 
 @njit(nogil=True, cache=True)
 def refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max, max_level, n, child, x0, y0,
-           level, st, stv, m):  # fmt: skip
+           level, st, stv, m, safety):  # fmt: skip
     """Step 3: split the leaves with the largest excess ``(K_L - 1) q_L`` until the envelope's mass
     ``V = sum K_L q_L <= n_max / (1 + ACCEPT_MARGIN)`` (``q_L`` the leaf's mass under the density).
 
@@ -567,9 +589,8 @@ def refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max
                 evals += 20
                 for c in range(n - 4, n):
                     evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
-                    m[c], e = _leaf_bound(
-                        mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0, y0, level, stv
-                    )
+                    m[c], e = _leaf_bound(mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0,
+                                          y0, level, stv, safety)  # fmt: skip
                     evals += e
         if n == end:
             break
@@ -580,15 +601,31 @@ def refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max
     return n, total, evals
 
 
-PROBES = 8
-"""Random points per leaf at which :func:`probe` checks the bounds, each at a random view of the cell."""
+PROBES = 24
+"""Random points per leaf at which :func:`probe` checks the bounds, each at a random view of the cell; a leaf
+above level 5 gets four times as many per level (a large leaf can hide a front that moves across the cell,
+as the horizon's boundary does through a half-vector disk at grazing angles)."""
 
 PROBE_MARGIN = 1.25
 """A bound that a probe finds short is raised to this times what the probe saw."""
 
 
 @njit(nogil=True, cache=True)
-def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed):
+def _has_front(stv_i):
+    """Whether ``g`` is 0 at some of the leaf's stencil points (at some view): a front where ``g`` starts
+    (the horizon's boundary through a half-vector disk, which turns with ``wo``'s azimuth) may cross the
+    leaf at a view between the sampled ones, where the density, fitted to 0 there, holds only its floor."""
+    for v in range(stv_i.shape[0]):
+        for k in range(9):
+            if not stv_i[v, k] > 0.0:
+                return True
+    return False
+
+
+@njit(nogil=True, cache=True)
+def probe(
+    mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed, safety
+):
     """Step 3b: every leaf's bound checked at ``PROBES`` random points, each at a random view of the cell
     (``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``): between the stencils' points and between the
     views, where no rule covers it. A bound found short is raised to ``PROBE_MARGIN`` times the ratio seen
@@ -614,7 +651,10 @@ def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, le
         c3 = mix[8] + FLOOR
         state = stream(seed, i)
         worst = 0.0
-        for _ in range(PROBES):
+        count = min(PROBES * 4 ** max(0, 5 - level[i]), 8 * PROBES)
+        if _has_front(stv[i]):
+            count = 8 * PROBES
+        for _ in range(count):
             state, u1 = next_u01(state)
             state, u2 = next_u01(state)
             state, u3 = next_u01(state)
@@ -637,7 +677,7 @@ def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, le
             g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
             worst = max(worst, g * scale / qq)
             evals += 1
-        if worst * BOUND_SAFETY > m[i]:
+        if worst * safety > m[i]:
             m[i] = worst * PROBE_MARGIN
             raised += 1
     return raised, evals
@@ -814,6 +854,7 @@ def build(
     base_level,
     max_level,
     capacity,
+    safety,
 ):
     """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there)."""
     child = np.empty(capacity, dtype=np.int32)
@@ -826,19 +867,22 @@ def build(
     n, integral0, evals = grow(mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0,
                                level, st)  # fmt: skip
     scales, ridge, e = bound(
-        mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m
+        mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety
     )
     evals += e
     n, e = refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, warp_tol, max_level, n,
-                       child, x0, y0, level, st, stv, m)  # fmt: skip
+                       child, x0, y0, level, st, stv, m, safety)  # fmt: skip
     evals += e
     probed = np.zeros(capacity, dtype=np.bool_)
-    for _ in range(4):  # the acceptance, then the probes; a raised bound may call for more leaves
+    rounds = 5 if safety > 0.0 else 0  # no bounds: no acceptance to refine for, nothing to probe
+    for r in range(rounds):  # the acceptance, then the probes; a raised bound may call for more leaves
         n, envelope, e = refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max, max_level, n,
-                                child, x0, y0, level, st, stv, m)  # fmt: skip
+                                child, x0, y0, level, st, stv, m, safety)  # fmt: skip
         evals += e
+        if r == rounds - 1:  # the last step is a refinement: the acceptance holds for the bounds as raised
+            break
         raised, e = probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, mid,
-                          probed)  # fmt: skip
+                          probed, safety)  # fmt: skip
         evals += e
         if raised == 0:
             break
@@ -852,6 +896,31 @@ def build(
     n = n_keep
     corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
                                                                    fine_err, scales, weights)  # fmt: skip
+    if safety > 0.0 and cell[3] > cell[2]:
+        # an anisotropic exact table: the views on the cell's azimuth edges (1 and 2) to quad_tol as well, for
+        # the normalizer's azimuth series (the nodes alone left it 0.3 % off between them at grazing angles)
+        for v in range(1, 3):
+            st_v = np.zeros((capacity, 9))
+            st_v[:n_keep] = stv[:n_keep, v]
+            for i in range(n_keep):  # summarize numbered the leaves; quadrature wants them as -1
+                if child[i] < 0:
+                    child[i] = -1
+            n, e = quadrature(mid, p, projection, views[v], quad_tol, max_level, n_keep, child, x0, y0, level,
+                              st_v, fine, fine_err)  # fmt: skip
+            evals += e
+            _fold_quadrature(n_keep, n, child, fine, fine_err)
+            integrals[v] = 0.0
+            errors[v] = 0.0
+            for i in range(n_keep):
+                if child[i] == -1:
+                    integrals[v] += fine[i]
+                    errors[v] += fine_err[i]
+        k = 0
+        for i in range(n_keep):  # number the leaves again
+            if child[i] < 0:
+                child[i] = -1 - k
+                k += 1
+        n = n_keep
     return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,
             errors, chi2, envelope, evals)  # fmt: skip
 
@@ -879,6 +948,7 @@ def build_tree(
         float(settings.n_max), float(settings.warp_tol),
         float(settings.quad_tol),
         int(settings.base_level), int(settings.max_level), int(settings.capacity),
+        float(settings.bound_safety),
     )  # fmt: skip
     return TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
 
