@@ -12,7 +12,11 @@
 A :class:`SampleBatch` carries, as pbrt's ``BSDFSample`` does, everything computed for the draw: the
 directions ``wi``, their density ``pdf`` and the BRDF value ``f`` there, so no caller evaluates the BRDF again.
 All in the local frame (z = normal), reproducible for a given seed. A strategy may return directions below the
-horizon (a lobe that spills over); they carry no energy (``f = 0``), and ``pdf`` accounts for them.
+horizon (a lobe that spills over, a reflection about a half vector that leans away from ``wo``); they carry no
+energy (``f = 0``), and ``pdf`` accounts for them: ``pdf(wo, .)`` is the density of the draws over the whole
+sphere (it integrates to 1 there for ``wo`` above the horizon), and each draw carries ``pdf(wo, wi)`` at its
+``wi``. A draw a strategy could not make is flagged by ``pdf = 0`` (and ``f = 0``); callers skip it
+(``tests/core/test_sampler_horizon.py``).
 
 Strategies live in the modules and subpackages of :mod:`core.sampling` and call :func:`register_sampler` when
 imported; :func:`make_sampler` imports them all on first use, so adding a strategy is adding a module.
@@ -38,7 +42,8 @@ class SampleBatch(NamedTuple):
     wi: np.ndarray
     """``(n, 3)`` float64: incident directions, unit vectors in the local frame (possibly below the horizon)."""
     pdf: np.ndarray
-    """``(n,)`` float64: their density per unit solid angle, equal to :meth:`Sampler.pdf` there."""
+    """``(n,)`` float64: their density per unit solid angle, equal to :meth:`Sampler.pdf` there (below the
+    horizon too); 0 flags a draw that could not be made."""
     f: np.ndarray
     """``(n, 3)`` float64: the BRDF's RGB value at ``(wo, wi)``; 0 where ``wi`` is below the horizon."""
 

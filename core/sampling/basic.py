@@ -32,9 +32,10 @@ def sample_uniform_rows(u, wi_out, pdf_out):
 
 @njit(nogil=True, cache=True)
 def pdf_uniform_rows(wi, out):
-    """``out (n,)``: the uniform hemisphere density at every row of ``wi (n, 3)`` (0 below the horizon)."""
+    """``out (n,)``: the uniform hemisphere density at every row of ``wi (n, 3)`` (0 below the horizon; the
+    horizon itself, where ``u = 0`` puts a draw, is included)."""
     for i in range(wi.shape[0]):
-        out[i] = INV_TWO_PI if wi[i, 2] > 0.0 else 0.0
+        out[i] = INV_TWO_PI if wi[i, 2] >= 0.0 else 0.0
 
 
 @njit(nogil=True, cache=True)

@@ -9,8 +9,10 @@ again as ``sum_k u_jk(theta_p) v_jk(phi_p)``. Sampling picks a term ``(j, k)`` w
 
 ``pdf_p(theta_p, phi_p) = sum_jk P(j, k | wo) u_jk(theta_p) v_jk(phi_p) / sin(theta_p)``,
 
-converted to ``wi`` by the half-vector Jacobian ``1 / (4 |wo . h|)`` when reparameterized. Every 1-D factor
-is floored at ``defensive`` of its mean so the density is positive wherever the BRDF can be.
+converted to ``wi`` by the half-vector Jacobian ``1 / (4 |wo . h|)`` when reparameterized; ``wo`` reflected about
+a half vector can then fall below the horizon, and ``pdf`` reports the density of those draws too. Every draw
+carries the density ``pdf`` gives at it. Every 1-D factor is floored at ``defensive`` of its mean so the density
+is positive wherever the BRDF can be.
 
 Resolutions and ``J x K`` per model follow the seed's table (slide "We adjust manually the seven parameters");
 isotropic BRDFs use outgoing bins over ``theta_o`` only (rotated by ``phi_o``) instead of the seed's 16 x 16.
@@ -97,6 +99,37 @@ def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
 
 
 @njit(nogil=True, cache=True)
+def _pdf_at(wo, wi, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
+    """Density per unit solid angle of ``wi`` (either hemisphere) for ``wo`` (above the horizon, in bin ``b``,
+    table azimuth ``phi_ref``). Reparameterized, the sampler reflects ``wo`` about half vectors, which can send
+    ``wi`` below the horizon: the density is reported there too, so that it integrates to 1 over the sphere."""
+    if reparam:
+        hx = wi[0] + wo[0]
+        hy = wi[1] + wo[1]
+        hz = wi[2] + wo[2]
+        norm = math.sqrt(hx * hx + hy * hy + hz * hz)
+        if norm == 0.0:
+            return 0.0
+        hx /= norm
+        hy /= norm
+        hz /= norm
+        if hz < 0.0:  # a half vector with wo.h < 0 reflects to this wi too
+            hx, hy, hz = -hx, -hy, -hz
+        dh = hx * wo[0] + hy * wo[1] + hz * wo[2]
+        d = (hx, hy, hz)
+        jac = 1.0 / (4.0 * abs(dh)) if dh != 0.0 else 0.0
+    else:
+        if wi[2] <= 0.0:
+            return 0.0
+        d = (wi[0], wi[1], wi[2])
+        jac = 1.0
+    theta_p = math.acos(min(1.0, d[2]))
+    phi_p = math.atan2(d[1], d[0]) - phi_ref
+    phi_p = phi_p - TWO_PI * math.floor(phi_p / TWO_PI)
+    return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
+
+
+@njit(nogil=True, cache=True)
 def _factored_sample_rows(
     wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, wi_out, pdf_out
 ):
@@ -134,20 +167,18 @@ def _factored_sample_rows(
         sin_p = math.sqrt(max(0.0, 1.0 - cos_p * cos_p))
         phi_w = phi_p + phi_ref
         d = (sin_p * math.cos(phi_w), sin_p * math.sin(phi_w), cos_p)
-        pdf_d = _param_pdf(math.acos(min(1.0, cos_p)), phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
         if reparam:
             dh = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
-            x = 2.0 * dh * d[0] - w[0]
-            y = 2.0 * dh * d[1] - w[1]
-            z = 2.0 * dh * d[2] - w[2]
-            pdf = pdf_d / (4.0 * abs(dh)) if dh != 0.0 else 0.0
+            wi = (2.0 * dh * d[0] - w[0], 2.0 * dh * d[1] - w[1], 2.0 * dh * d[2] - w[2])
         else:
-            x, y, z = d
-            pdf = pdf_d
-        wi_out[i, 0] = x
-        wi_out[i, 1] = y
-        wi_out[i, 2] = z
-        pdf_out[i] = pdf
+            wi = d
+        wi_out[i, 0] = wi[0]
+        wi_out[i, 1] = wi[1]
+        wi_out[i, 2] = wi[2]
+        # The density ``pdf`` reports at the direction returned, by the same routine: through the drawn h the
+        # Jacobian differed from it by up to ~1e-8 relative near wi = -wo. A d rounded onto the horizon gets
+        # density 0, as ``pdf`` gives it there: that draw is not returned (pdf 0, f 0).
+        pdf_out[i] = _pdf_at(w, wi, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
 @njit(nogil=True, cache=True)
@@ -158,32 +189,8 @@ def _factored_pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_p
             out[i] = 0.0
             continue
         b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
-        if reparam:
-            hx = wi[i, 0] + w[0]
-            hy = wi[i, 1] + w[1]
-            hz = wi[i, 2] + w[2]
-            norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-            if norm == 0.0:
-                out[i] = 0.0
-                continue
-            hx /= norm
-            hy /= norm
-            hz /= norm
-            if hz < 0.0:  # a half vector with wo.h < 0 reflects to this wi too
-                hx, hy, hz = -hx, -hy, -hz
-            dh = hx * w[0] + hy * w[1] + hz * w[2]
-            d = (hx, hy, hz)
-            jac = 1.0 / (4.0 * abs(dh)) if dh != 0.0 else 0.0
-        else:
-            if wi[i, 2] <= 0.0:
-                out[i] = 0.0
-                continue
-            d = (wi[i, 0], wi[i, 1], wi[i, 2])
-            jac = 1.0
-        theta_p = math.acos(min(1.0, d[2]))
-        phi_p = math.atan2(d[1], d[0]) - phi_ref
-        phi_p = phi_p - TWO_PI * math.floor(phi_p / TWO_PI)
-        out[i] = _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
+        d = (wi[i, 0], wi[i, 1], wi[i, 2])
+        out[i] = _pdf_at(w, d, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
 class FactoredSampler(Sampler):

@@ -138,7 +138,8 @@ def _cdf_sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, co
 def _cdf_pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, out):
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
-        if w[2] <= 0.0 or wi[i, 2] <= 0.0:
+        # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
+        if w[2] <= 0.0 or wi[i, 2] < 0.0:
             out[i] = 0.0
             continue
         b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
