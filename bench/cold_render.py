@@ -1,4 +1,4 @@
-"""Seconds from an empty table cache to a finished small render of the demo scene: adaptive against uniform.
+"""Seconds from an empty table cache to a finished small render of the demo scene: both adaptive modes against uniform.
 
     .venv/bin/python bench/cold_render.py [--spp 4] [--size 288x192] [--out results/bench] [--keep DIR]
 
@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-SAMPLERS = ("adaptive", "uniform")
+SAMPLERS = ("adaptive_warp", "adaptive", "uniform")
 
 
 def render(sampler: str, cache: Path, spp: int, width: int, height: int, out_exr: Path) -> dict[str, Any]:
@@ -71,13 +71,13 @@ def main(argv: list[str] | None = None) -> int:
     if a.keep is not None and a.keep.exists() and any(a.keep.glob("*/*.npz")):
         ap.error(f"{a.keep} already holds tables: the first run would not be cold")
     rows = []
-    print("sampler   case   wall s  prepare s  tables s  loaded  render s")
+    print("sampler       case   wall s  prepare s  tables s  loaded  render s")
     with tempfile.TemporaryDirectory(prefix="bench-cold-") as tmp_name:
         tmp = Path(tmp_name)
         for sampler in SAMPLERS:
             kernels = render(sampler, tmp / f"throwaway-{sampler}", 1, 32, 24, tmp / "kernels.exr")
             print(
-                f"{sampler:<9} (kernels compiled or loaded, not counted: {kernels['wall_s']:.1f} s)",
+                f"{sampler:<13} (kernels compiled or loaded, not counted: {kernels['wall_s']:.1f} s)",
                 flush=True,
             )
             keep = a.keep is not None and sampler == "adaptive"
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(
                     {"sampler": sampler, "case": case, "spp": a.spp, "size": f"{width}x{height}", **r}
                 )
-                print(f"{sampler:<9} {case:<5} {r['wall_s']:7.2f} {r['prepare_s']:10.2f} "
+                print(f"{sampler:<13} {case:<5} {r['wall_s']:7.2f} {r['prepare_s']:10.2f} "
                       f"{r['tables_build_s']:9.2f} {r['tables_loaded']:7d} {r['render_s']:9.2f}",
                       flush=True)  # fmt: skip
     a.out.mkdir(parents=True, exist_ok=True)
