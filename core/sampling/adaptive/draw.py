@@ -149,33 +149,31 @@ def _sample_linear(u, a, b):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _descend(masses, child, root, u):
-    """A leaf chosen by ``masses`` from ``root``: ``(leaf, x0, y0, h, prob)``, ``prob`` its probability."""
+def _descend(masses, child, root, state):
+    """A leaf chosen by ``masses`` from ``root``, one uniform per level: ``(state, leaf, x0, y0, h, prob)``,
+    ``prob`` its probability, the product of the chosen children's masses over the product of the levels'
+    totals (float64 sums of the stored float32 masses, the same arithmetic as :func:`_leaf_at`: the pdf is
+    the density of the draws whatever the masses' precision). No division per level: a fresh uniform replaces
+    the rescaled one, and the shares are divided once at the leaf (a Phong draw: ~70 -> ~35 ns of descent)."""
     node = root
     x0 = 0.0
     y0 = 0.0
     h = 1.0
-    prob = 1.0
+    num = 1.0
+    den = 1.0
     while True:
         c = child[node]
         if c < 0:
-            return -1 - c, x0, y0, h, prob
-        m0 = np.float64(masses[c])  # float64 sums of float32 masses are exact: the shares are the stored ones
+            return state, -1 - c, x0, y0, h, num / den
+        state, u = next_u01(state)
+        m0 = np.float64(masses[c])
         m1 = m0 + np.float64(masses[c + 1])
         m2 = m1 + np.float64(masses[c + 2])
         m3 = m2 + np.float64(masses[c + 3])
-        t = u * m3
+        t = u * m3  # < m3, so a child of zero mass is never chosen
         q = int(t >= m0) + int(t >= m1) + int(t >= m2)
-        if q == 0:
-            u = t / m0
-        elif q == 1:
-            u = (t - m0) / (m1 - m0)
-        elif q == 2:
-            u = (t - m1) / (m2 - m1)
-        else:
-            d = m3 - m2
-            u = min((t - m2) / d, 0.9999999999999999) if d > 0.0 else 0.5
-        prob *= (m1 - m0 if q == 1 else m2 - m1 if q == 2 else m3 - m2 if q == 3 else m0) / m3
+        num *= np.float64(masses[c + q])
+        den *= m3
         h *= 0.5
         x0 += h * (q & 1)
         y0 += h * (q >> 1)
@@ -191,11 +189,12 @@ def _leaf_at(masses, child, root, a, b):
     x0 = 0.0
     y0 = 0.0
     h = 1.0
-    prob = 1.0
+    num = 1.0
+    den = 1.0
     while True:
         c = child[node]
         if c < 0:
-            return -1 - c, x0, y0, h, prob
+            return -1 - c, x0, y0, h, num / den
         h *= 0.5
         qi = int(a >= x0 + h)
         qj = int(b >= y0 + h)
@@ -204,7 +203,8 @@ def _leaf_at(masses, child, root, a, b):
         q = qi + 2 * qj
         total = np.float64(masses[c]) + np.float64(masses[c + 1]) + np.float64(masses[c + 2])
         total += np.float64(masses[c + 3])
-        prob *= np.float64(masses[c + q]) / total
+        num *= np.float64(masses[c + q])
+        den *= total
         node = c + q
 
 
@@ -294,8 +294,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                 symmetry, follow, cell_lut, cell_mu, phis, phi_edges, wx, wy, wz
             )
             if mode == WARP and wz > 0.0:
-                state, u = next_u01(state)
-                leaf, x0, y0, h, prob = _descend(mass, child, root[t], u)
+                state, leaf, x0, y0, h, prob = _descend(mass, child, root[t], state)
                 v0 = corners[leaf, 0]
                 v1 = corners[leaf, 1]
                 v2 = corners[leaf, 2]
@@ -334,8 +333,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                 proj = projection[t]
                 accepted = False
                 for trial in range(1, MAX_TRIALS + 1):
-                    state, u = next_u01(state)
-                    leaf, x0, y0, h, _ = _descend(envelope, child, root[t], u)
+                    state, leaf, x0, y0, h, _ = _descend(envelope, child, root[t], state)
                     v0 = corners[leaf, 0]
                     v1 = corners[leaf, 1]
                     v2 = corners[leaf, 2]
