@@ -1,11 +1,13 @@
 """The adaptive sampler against its targets, side by side in one run: build, throughput with ``f``, error.
 
     .venv/bin/python bench/adaptive.py [--models phong,ward,merl] [--quick] [--runs 3] [--out results/bench]
+                                       [--option warp_chi2=0.2 ...]
 
 Cases: every isotropic model at its default parameters, the synthetic measured material
 ``resources/materials/red_plastic_ct.binary`` (model ``merl``), the two anisotropic cases of the targets (Ward
 ``sx = 0.05, sy = 0.25``; Ashikhmin-Shirley ``nu = 10, nv = 200``) and the other anisotropic models at their
-defaults. ``--models`` keeps the cases of the named models.
+defaults. ``--models`` keeps the cases of the named models; ``--option K=V`` sets an adaptive table option
+(:class:`~core.sampling.adaptive.TableOptions`) for both modes' tables and samplers.
 
 1. **Build**, one row per mode: each mode builds its own table, the exact mode's (``adaptive``,
    ``TableOptions()``: with the rejection bounds) and the rejection-free mode's (``adaptive_warp``,
@@ -46,7 +48,7 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -54,11 +56,13 @@ from typing import Any
 import numpy as np
 
 from core.analysis import albedo
+from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.merl import measured_brdf
 from core.model import BRDF, LUMINANCE, all_models, make_brdf
 from core.sampling import SampleBatch, Sampler, applicable_samplers, make_sampler
 from core.sampling.adaptive import AdaptiveSampler, AdaptiveTable, TableOptions, clear_memory_cache
+from core.sampling.adaptive.sampler import table_options
 from core.sampling.adaptive.table import TableReport, build_table, memory_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,7 +92,15 @@ ANISOTROPIC_TARGETS = {"ward": {"sx": 0.05, "sy": 0.25}, "ashikhmin_shirley": {"
 QUICK_MODELS = ("phong", "ward")
 MODES = {"exact": "adaptive", "warp": "adaptive_warp"}
 """The adaptive sampler's modes and the names of their samplers."""
-MODE_OPTIONS = {"exact": TableOptions(), "warp": TableOptions(bounds=False)}
+
+
+def mode_options(options: dict[str, Any]) -> dict[str, TableOptions]:
+    """Each mode's table options: the sampler's defaults with ``options`` (``--option``) applied, and the
+    rejection-free mode's without bounds (as its sampler builds it)."""
+    exact = table_options(**options)
+    return {"exact": exact, "warp": replace(exact, bounds=False)}
+
+
 """Each mode's table as its sampler builds it at the defaults (``n_max = 2``; the warp sampler sets
 ``bounds=False`` itself)."""
 
@@ -175,7 +187,8 @@ class BuildResult:
     """The sampler's table has the leaves of the one-core build (threads must not change the table)."""
 
 
-def measure_builds(brdf: BRDF, runs: int) -> dict[str, tuple[list[float], AdaptiveTable, TableReport]]:
+def measure_builds(brdf: BRDF, runs: int, options: dict[str, Any]) -> dict[str, tuple[list[float], AdaptiveTable,
+                                                                                  TableReport]]:  # fmt: skip
     """Per mode: seconds of each one-core build of its table from empty caches, and the last table with its
     report (the modes alternate within a run)."""
     times: dict[str, list[float]] = {mode: [] for mode in MODES}
@@ -184,7 +197,7 @@ def measure_builds(brdf: BRDF, runs: int) -> dict[str, tuple[list[float], Adapti
         for mode in MODES:
             clear_memory_cache()
             t0 = time.perf_counter()
-            last[mode] = build_table(brdf, MODE_OPTIONS[mode], threads=1)
+            last[mode] = build_table(brdf, mode_options(options)[mode], threads=1)
             times[mode].append(time.perf_counter() - t0)
     return {mode: (times[mode], *last[mode]) for mode in MODES}
 
@@ -204,13 +217,14 @@ def sampler_build(sampler: Sampler, mode: str, times: list[float], table: Adapti
 
 
 # ------------------------------------------------------------------------------------------ 2. throughput
-def make_samplers(brdf: BRDF) -> dict[str, Sampler]:
-    """The compared samplers of ``brdf`` (no disk cache for the adaptive ones: the table is built here)."""
+def make_samplers(brdf: BRDF, options: dict[str, Any]) -> dict[str, Sampler]:
+    """The compared samplers of ``brdf`` (no disk cache for the adaptive ones: the table is built here; their
+    table ``options`` from ``--option``)."""
     out: dict[str, Sampler] = {"cosine": make_sampler("cosine", brdf)}
     if "analytic" in applicable_samplers(brdf):
         out["analytic"] = make_sampler("analytic", brdf)
-    out["adaptive"] = make_sampler("adaptive", brdf, n_max=2.0, cache=False)
-    out["adaptive_warp"] = make_sampler("adaptive_warp", brdf, cache=False)
+    out["adaptive"] = make_sampler("adaptive", brdf, cache=False, **{"n_max": 2.0, **options})
+    out["adaptive_warp"] = make_sampler("adaptive_warp", brdf, cache=False, **options)
     return out
 
 
@@ -305,9 +319,10 @@ class CaseResult:
     """The exact mode's least acceptance at the benchmark's views (the table's own guarantee: 1/n_max)."""
 
 
-def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: int) -> CaseResult:
-    measured = measure_builds(case.brdf, runs)
-    samplers = make_samplers(case.brdf)
+def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: int,
+             options: dict[str, Any]) -> CaseResult:  # fmt: skip
+    measured = measure_builds(case.brdf, runs, options)
+    samplers = make_samplers(case.brdf, options)
     # each sampler keeps the table it built: clearing the memory cache for the next mode does not drop it
     builds = {mode: sampler_build(samplers[MODES[mode]], mode, *measured[mode]) for mode in MODES}
     exact = samplers["adaptive"]
@@ -353,14 +368,20 @@ def warm_up() -> float:
 
 
 def run(
-    cases_: list[Case], runs: int, views: int, samples: int, albedo_samples: int, out: Path
+    cases_: list[Case],
+    runs: int,
+    views: int,
+    samples: int,
+    albedo_samples: int,
+    out: Path,
+    options: dict[str, Any] | None = None,
 ) -> list[CaseResult]:
     """Measure every case, print the tables, write the CSV files and the plot."""
     print(f"kernels loaded or compiled (not counted): {warm_up():.1f} s", flush=True)
     results = []
     for case in cases_:
         t0 = time.perf_counter()
-        r = run_case(case, runs, views, samples, albedo_samples)
+        r = run_case(case, runs, views, samples, albedo_samples, options or {})
         results.append(r)
         print(f"  {case.label:<36} build exact {r.builds['exact'].seconds:6.3f} s  "
               f"warp {r.builds['warp'].seconds:6.3f} s  "
@@ -596,13 +617,32 @@ def plot(results: list[CaseResult], path: Path) -> None:
     plt.close(fig)
 
 
+def _number(text: str) -> int | float:
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--models", default="", help="comma-separated model names (merl: the measured material)")
     ap.add_argument("--quick", action="store_true", help="few models, small counts, one run (a smoke test)")
     ap.add_argument("--runs", type=int, help="timed runs, the best kept (default 3; 1 with --quick)")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench", help="folder for CSV and PNG")
+    ap.add_argument("--option", action="append", default=[], metavar="K=V",
+                    help="an adaptive table option for both modes, e.g. warp_chi2=0.2 (repeatable)")  # fmt: skip
     a = ap.parse_args(argv)
+    options: dict[str, Any] = {}
+    for item in a.option:
+        key, sep, value = item.partition("=")
+        if not sep:
+            ap.error(f"--option takes K=V, got {item!r}")
+        options[key] = value if key == "parameterization" else _number(value)
+    try:
+        mode_options(options)
+    except (ParameterError, ValueError) as exc:
+        ap.error(str(exc))
     models = [m for m in a.models.split(",") if m]
     unknown = sorted(set(models) - model_names())
     if unknown:
@@ -611,7 +651,7 @@ def main(argv: list[str] | None = None) -> int:
     if runs < 1:
         ap.error(f"--runs must be positive, got {runs}")
     views, samples, albedo_samples = (20, 500, 5000) if a.quick else (VIEWS, SAMPLES, ALBEDO_SAMPLES)
-    run(cases(models, a.quick), runs, views, samples, albedo_samples, a.out)
+    run(cases(models, a.quick), runs, views, samples, albedo_samples, a.out, options)
     return 0
 
 

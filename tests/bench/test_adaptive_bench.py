@@ -73,10 +73,19 @@ def test_quick_run_writes_its_tables(bench, tmp_path, monkeypatch, capsys):
 
 @pytest.mark.parametrize(
     ("argv", "message"),
-    [(["--models", "nope"], "unknown model(s): nope"), (["--runs", "0"], "--runs must be positive")],
-)
+    [(["--models", "nope"], "unknown model(s): nope"), (["--runs", "0"], "--runs must be positive"),
+     (["--option", "warp_chi2"], "--option takes K=V"), (["--option", "bogus=1"], "has no option 'bogus'"),
+     (["--option", "warp_chi2=-1"], "warp_chi2")],
+)  # fmt: skip
 def test_bad_arguments_are_usage_errors(bench, argv, message, capsys):
     with pytest.raises(SystemExit) as exc:
         bench.main(argv)
     assert exc.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def test_options_reach_both_modes_tables(bench):
+    options = bench.mode_options({"warp_chi2": 0.2, "phi_count": 6})
+    assert options["exact"].warp_chi2 == options["warp"].warp_chi2 == 0.2
+    assert options["exact"].phi_count == options["warp"].phi_count == 6
+    assert options["exact"].bounds and not options["warp"].bounds

@@ -67,6 +67,14 @@ class TableOptions:
     """Relative error of the nodes' integrals (the exact mode's normalizer), by the trees' own estimate."""
     warp_chi2: float = 0.05
     """Halve an interval while a node's rejection-free density has a chi^2 above this at its cell's edge."""
+    warp_chi2_anisotropic: float = 0.2
+    """The same for an anisotropic material, whose polar nodes each carry ``phi_count`` trees: a halving costs
+    four times as much there, and the balance of variance against build, memory and speed lies higher
+    (``python bench/adaptive.py --models ward,ashikhmin_shirley --option warp_chi2_anisotropic=0.05``: Ward
+    sx=0.05 sy=0.25's warp table 2.9 s / 2.7 MB at 0.05 against 0.45 s / 0.47 MB at 0.2, with 1.9x the
+    furnace variance but 2.6x the draws per second relative to cosine's (a table 1/6 the size walks faster),
+    so the efficiency relative to cosine's in the same run went 21 -> 28; Ashikhmin-Shirley nu=10 nv=200:
+    3.2 s / 2.5 MB -> 0.84 s / 0.81 MB, efficiency 88 -> 77)."""
     norm_tol: float = 5e-5
     """Halve an interval while the normalizer's interpolation error is estimated above this."""
     phi_count: int = 4
@@ -473,14 +481,15 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], symmetry: i
     k = len(thetas)
     halve = np.zeros(k - 1, dtype=bool)
     norm_err = _norm_errors(thetas, grid, symmetry, options.bounds)
+    chi2_limit = options.warp_chi2 if symmetry == ISOTROPIC else options.warp_chi2_anisotropic
     for i in range(k):
         row = grid[i]
         weak = any(n.tree.envelope > 0 and 1.0 / n.tree.envelope < target for n in row)
         rough_lo = rough_hi = False
         for n in row:
             views_lo, views_hi = _edge_views(n, len(row) > 1)
-            rough_lo |= bool(np.max(n.tree.chi2[views_lo]) > options.warp_chi2)
-            rough_hi |= bool(np.max(n.tree.chi2[views_hi]) > options.warp_chi2)
+            rough_lo |= bool(np.max(n.tree.chi2[views_lo]) > chi2_limit)
+            rough_hi |= bool(np.max(n.tree.chi2[views_hi]) > chi2_limit)
         # the normalizer serves the exact mode only
         inexact = options.bounds and norm_err[i] > options.norm_tol
         if i > 0 and (weak or rough_lo or inexact):
