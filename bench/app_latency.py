@@ -45,6 +45,7 @@ from _display import ensure_display  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_MODELS = "lambert,phong,blinn,lewis,ggx,cook_torrance,ward,ashikhmin_shirley,oren_nayar,lafortune"
 PARTS = ("latency", "stall")
+FIRST_TARGET_S = 5.0
 
 
 def pick_param(model):
@@ -215,18 +216,74 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
     return rows
 
 
+def first_part(events, window, timeout: float = 600.0) -> list[dict]:
+    """Seconds from a click on Render until the first frame of each strategy is shown; see the docstring."""
+    from app.main_window import demo_scene_path
+
+    window.open_project(demo_scene_path(), confirm=False, remember=False)
+    window.tabs.setCurrentWidget(window.render_panel)
+    panel = window.render_view
+    shown: dict[str, float] = {}
+    show = panel._show_frame
+
+    def show_frame(event):
+        out = show(event)
+        shown.setdefault(event["strategy"], time.perf_counter())
+        return out
+
+    panel._show_frame = show_frame
+
+    def run_for(seconds: float, until=lambda: False) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end and not until():
+            events.processEvents()
+            time.sleep(0.001)
+
+    rows = []
+    print(f"\nfirst image after Render (demo scene, {panel.width_box.value()}x{panel.height_box.value()}, "
+          f"{panel.mode.currentText()}; load average {os.getloadavg()[0]:.2f})")  # fmt: skip
+    print(f"{'A / B':<24} {'strategy':<15} {'s to first image':>17} {'target s':>9} {'met':>4}")
+    for b in ("adaptive_warp", "adaptive"):
+        panel.server.stop()  # a new process, with a new and empty table cache
+        os.environ["BRDF_STUDIO_CACHE"] = tempfile.mkdtemp(prefix="brdf-studio-bench-first-")
+        panel.server.ensure_started()
+        run_for(3.0)
+        panel.strategy_a.setCurrentText("uniform")
+        panel.strategy_b.setCurrentText(b)
+        names = panel.strategies()
+        shown.clear()
+        t0 = time.perf_counter()
+        panel.start()
+        run_for(timeout, until=lambda names=names: all(n in shown for n in names) or not panel.running)
+        panel.cancel()
+        for name in names:
+            secs = shown[name] - t0 if name in shown else float("nan")
+            met = secs <= FIRST_TARGET_S
+            ok = "yes" if met else "no"
+            print(f"{'uniform / ' + b:<24} {name:<15} {secs:>17.2f} {FIRST_TARGET_S:>9g} {ok:>4}")
+            rows.append({"a": "uniform", "b": b, "strategy": name, "seconds": round(secs, 3),
+                         "target_s": FIRST_TARGET_S, "met": met})  # fmt: skip
+        if panel.status_text:
+            print(f"  status: {panel.status_text}")
+    panel.server.stop()
+    panel._show_frame = show
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--edits", type=int, default=15)
     parser.add_argument("--render-seconds", type=float, default=8.0)
     parser.add_argument("--models", default=DEFAULT_MODELS)
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
-    parser.add_argument("--parts", default=",".join(PARTS), help="latency, stall or both (comma-separated)")
+    parser.add_argument(
+        "--parts", default=",".join(PARTS), help="latency, stall and/or first (comma-separated)"
+    )
     parser.add_argument("--fresh", action="store_true", help="a new parameter value (a new tree) every edit")
     args = parser.parse_args()
     parts = {p.strip() for p in args.parts.split(",") if p.strip()}
-    if not parts <= set(PARTS):
-        parser.error(f"--parts: choose from {', '.join(PARTS)}")
+    if not parts <= {*PARTS, "first"}:
+        parser.error(f"--parts: choose from {', '.join(PARTS)}, first")
     if args.render_seconds <= 0:
         parts.discard("stall")
     ensure_display()
@@ -270,6 +327,14 @@ def main() -> int:
                 w = csv.DictWriter(fh, fieldnames=list(rows[0]))
                 w.writeheader()
                 w.writerows(rows)
+    if "first" in parts:
+        cache = os.environ["BRDF_STUDIO_CACHE"]
+        rows = first_part(events, window)
+        os.environ["BRDF_STUDIO_CACHE"] = cache
+        with open(args.out / "app_first_image.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
     if "stall" not in parts:
         window.close()
         from app.workers import exit_if_abandoned
