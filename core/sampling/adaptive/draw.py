@@ -209,6 +209,21 @@ def _leaf_at(masses, child, root, a, b):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _warp_in_leaf(corners, leaf, state):
+    """A point ``(tx, ty)`` of the unit leaf drawn from its bilinear density (two uniforms, a square root
+    per axis): ``(state, tx, ty)``."""
+    v0 = corners[leaf, 0]
+    v1 = corners[leaf, 1]
+    v2 = corners[leaf, 2]
+    v3 = corners[leaf, 3]
+    state, u1 = next_u01(state)
+    state, u2 = next_u01(state)
+    tx = _sample_linear(u1, v0 + v2, v1 + v3)
+    ty = _sample_linear(u2, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
+    return state, tx, ty
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _bilinear(corners, leaf, tx, ty):
     return (
         (1.0 - tx) * (1.0 - ty) * corners[leaf, 0]
@@ -295,14 +310,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
             )
             if mode == WARP and wz > 0.0:
                 state, leaf, x0, y0, h, prob = _descend(mass, child, root[t], state)
-                v0 = corners[leaf, 0]
-                v1 = corners[leaf, 1]
-                v2 = corners[leaf, 2]
-                v3 = corners[leaf, 3]
-                state, u2 = next_u01(state)
-                state, u3 = next_u01(state)
-                tx = _sample_linear(u2, v0 + v2, v1 + v3)
-                ty = _sample_linear(u3, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
+                state, tx, ty = _warp_in_leaf(corners, leaf, state)
                 proj = projection[t]
                 x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
                 lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
@@ -334,15 +342,8 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                 accepted = False
                 for trial in range(1, MAX_TRIALS + 1):
                     state, leaf, x0, y0, h, _ = _descend(envelope, child, root[t], state)
-                    v0 = corners[leaf, 0]
-                    v1 = corners[leaf, 1]
-                    v2 = corners[leaf, 2]
-                    v3 = corners[leaf, 3]
-                    state, u2 = next_u01(state)
-                    state, u3 = next_u01(state)
+                    state, tx, ty = _warp_in_leaf(corners, leaf, state)
                     state, u4 = next_u01(state)
-                    tx = _sample_linear(u2, v0 + v2, v1 + v3)
-                    ty = _sample_linear(u3, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
                     x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
                     lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
                     if proj == HALF_VECTOR:

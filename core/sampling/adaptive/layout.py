@@ -30,6 +30,7 @@ four nearest nodes in ``s = -log(cos theta)`` (Lagrange, on the non-uniform layo
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
@@ -155,12 +156,17 @@ def _lagrange_row(nodes: np.ndarray, values: np.ndarray, x: float) -> np.ndarray
     idx = range(first, min(first + 4, k))
     row = np.zeros(values.shape[1])
     for a in idx:
-        w = 1.0
-        for b in idx:
-            if b != a:
-                w *= (x - nodes[b]) / (nodes[a] - nodes[b])
-        row += w * values[a]
+        row += _lagrange_weight(nodes, idx, a, x) * values[a]
     return row
+
+
+def _lagrange_weight(nodes: np.ndarray, idx: Sequence[int], a: int, x: float) -> float:
+    """The weight of node ``a`` in the Lagrange interpolant through the nodes ``idx``, at ``x``."""
+    w = 1.0
+    for b in idx:
+        if b != a:
+            w *= (x - nodes[b]) / (nodes[a] - nodes[b])
+    return w
 
 
 @njit(nogil=True, cache=True)
@@ -229,12 +235,6 @@ def interpolation_errors(coords: np.ndarray, values: np.ndarray) -> np.ndarray:
         near = sorted(others, key=lambda j: abs(thetas[j] - thetas[i]))[:4]
         near.sort()
         x = thetas[i]
-        pred = 0.0
-        for a in near:
-            w = 1.0
-            for b in near:
-                if b != a:
-                    w *= (x - thetas[b]) / (thetas[a] - thetas[b])
-            pred += w * values[a]
+        pred = sum(_lagrange_weight(thetas, near, a, x) * values[a] for a in near)
         out[i] = abs(pred - values[i]) / 8.0
     return out
