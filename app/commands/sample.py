@@ -97,8 +97,6 @@ def run(args: argparse.Namespace) -> int:
     table = sample_table(sampler, degrees_to_dir(args.theta, args.phi), args.samples, args.seed)
     atomic_write_bytes(args.output, encode(table, suffix))
     w = table[:, 4]
-    rel = float(np.std(w) / np.mean(w)) if np.mean(w) > 0 else float("nan")
-    print(
-        f"wrote {len(table)} directions to {args.output} (weight mean {np.mean(w):.6g}, relative std {rel:.3g})"
-    )
+    spread = f"relative std {float(np.std(w) / np.mean(w)):.3g}" if np.mean(w) > 0 else "every weight 0"
+    print(f"wrote {len(table)} directions to {args.output} (weight mean {np.mean(w):.6g}, {spread})")
     return 0
