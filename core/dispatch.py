@@ -41,6 +41,7 @@ from core.models.poulin_fournier import eval_poulin_fournier
 from core.models.schlick import eval_schlick, pdf_schlick, sample_schlick
 from core.models.strauss import eval_strauss
 from core.models.ward import eval_ward, pdf_ward, sample_ward
+from core.rgl.lookup import eval_rgl, pdf_rgl, sample_rgl
 
 LAMBERT = 0
 ASHIKHMIN_SHIRLEY = 1
@@ -62,6 +63,9 @@ STRAUSS = 16
 WARD = 17
 MERL = 18
 MERL_NEAREST = 19
+RGL = 20
+RGL_ANISOTROPIC = 21
+RGL_GENERAL = 22
 
 MODEL_IDS: dict[str, int] = {
     "lambert": LAMBERT,
@@ -84,6 +88,9 @@ MODEL_IDS: dict[str, int] = {
     "ward": WARD,
     "merl": MERL,
     "merl_nearest": MERL_NEAREST,
+    "rgl": RGL,
+    "rgl_anisotropic": RGL_ANISOTROPIC,
+    "rgl_general": RGL_GENERAL,
 }
 """The id of every model the switches know, by model name."""
 
@@ -137,6 +144,8 @@ def eval_model(mid, wi, wo, p):
         return merl.eval_merl(wi, wo, p)
     elif mid == MERL_NEAREST:
         return merl.eval_merl_nearest(wi, wo, p)
+    elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
+        return eval_rgl(wi, wo, p)
     return 0.0, 0.0, 0.0
 
 
@@ -165,6 +174,8 @@ def sample_model(mid, wo, p, u1, u2, u3):
         return sample_schlick(wo, p, u1, u2, u3)
     elif mid == WARD:
         return sample_ward(wo, p, u1, u2, u3)
+    elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
+        return sample_rgl(wo, p, u1, u2, u3)
     return 0.0, 0.0, 1.0, 0.0
 
 
@@ -193,4 +204,6 @@ def pdf_model(mid, wo, wi, p):
         return pdf_schlick(wo, wi, p)
     elif mid == WARD:
         return pdf_ward(wo, wi, p)
+    elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
+        return pdf_rgl(wo, wi, p)
     return 0.0

@@ -49,7 +49,7 @@ SCENE_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 """Schema versions this program reads; it writes :data:`SCENE_VERSION`."""
 MESH_FORMATS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
-MEASURED_FORMATS = (".binary",)
+MEASURED_FORMATS = (".binary", ".bsdf")  # core.measured.FORMATS
 ENVMAP_FORMATS = (".exr",)
 
 
@@ -128,7 +128,7 @@ class Mesh(_Strict):
 
 
 class Material(_Strict):
-    """An analytic model with parameters, or a measured (MERL ``.binary``) file; optionally emissive.
+    """An analytic model with parameters, or a measured (MERL ``.binary`` or RGL ``.bsdf``) file; optionally emissive.
 
     An emissive material turns every mesh that uses it into an area light of radiance ``emission``
     (emitting on the side its triangles' normals point to).
@@ -353,7 +353,7 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
         names[mat.name] = i
         if (mat.model is None) == (mat.measured is None):
             raise scene.error(
-                where, "give either 'model' (with 'params') or 'measured' (a MERL file), not both"
+                where, "give either 'model' (with 'params') or 'measured' (a MERL or RGL file), not both"
             )
         if mat.model is not None:
             try:

@@ -185,9 +185,9 @@ def materials(
         if wanted is None or m.name in wanted:
             out.append((m.name, m.bind()))
     for path in measured:
-        from core.merl import measured_brdf
+        from core.measured import load_measured, measured_label
 
-        out.append((f"merl:{Path(path).stem}", measured_brdf(path)))
+        out.append((measured_label(path), load_measured(path)))
     return out
 
 

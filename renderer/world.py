@@ -45,11 +45,9 @@ def load_brdf(scene: Scene, index: int, mat: Material) -> BRDF:
     where = f"materials[{index}]"
     try:
         if mat.measured is not None:
-            try:
-                from core.merl import measured_brdf
-            except ImportError:
-                raise scene.error(f"{where}.measured", "measured materials are not available yet") from None
-            return measured_brdf(scene.resolve(mat.measured))
+            from core.measured import load_measured
+
+            return load_measured(scene.resolve(mat.measured))
         return make_brdf(mat.model or "", mat.params)
     except BrdfStudioError as exc:
         if str(exc).startswith(scene.source):

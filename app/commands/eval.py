@@ -25,7 +25,9 @@ def add_brdf_arguments(p: argparse.ArgumentParser) -> None:
         default=[],
         help="model parameter, repeatable; a color takes one number or three (kd=0.2,0.5,0.8)",
     )
-    p.add_argument("--measured", metavar="FILE", help="a MERL .binary file instead of --model")
+    p.add_argument(
+        "--measured", metavar="FILE", help="a measured file (MERL .binary, RGL .bsdf) instead of --model"
+    )
 
 
 def brdf_from_args(args: argparse.Namespace) -> BRDF:
@@ -35,9 +37,9 @@ def brdf_from_args(args: argparse.Namespace) -> BRDF:
             raise ParameterError("give either --model or --measured, not both")
         if args.param:
             raise ParameterError("a measured BRDF (--measured) takes no --param")
-        from core.merl import measured_brdf
+        from core.measured import load_measured
 
-        return measured_brdf(args.measured)
+        return load_measured(args.measured)
     if args.model is None:
         raise ParameterError("give --model M (see 'brdf-studio models') or --measured FILE")
     if args.model == "merl":

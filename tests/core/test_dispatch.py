@@ -14,6 +14,7 @@ from core import dispatch
 from core.kernels import eval_batch, pdf_batch, sample_batch
 from core.merl import MERL, MERL_NEAREST, measured_brdf
 from core.model import BRDF, Model, all_models
+from core.rgl.material import RGL, RGL_ANISOTROPIC, RGL_GENERAL
 from tests.conftest import direction_grid
 
 MODELS = all_models()
@@ -66,7 +67,7 @@ def _tuples(d: np.ndarray) -> list[tuple[float, float, float]]:
 
 
 def test_every_model_has_a_distinct_id():
-    models = [*MODELS, MERL, MERL_NEAREST]
+    models = [*MODELS, MERL, MERL_NEAREST, RGL, RGL_ANISOTROPIC, RGL_GENERAL]
     ids = [m.id for m in models]
     assert len(set(ids)) == len(ids)
     assert {m.name: m.id for m in models} == dispatch.MODEL_IDS
