@@ -87,6 +87,26 @@ class Accel:
         self.rays_traced += n
         return Hits(t, prim, u, v)
 
+    def trace(
+        self, o32: np.ndarray, d32: np.ndarray, prim: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray
+    ) -> None:
+        """Closest hits of the rays ``o32, d32 (n, 3)`` float32 (C order, unit directions) written into
+        ``prim (n,)`` int32 (``MISS`` on a miss), ``t`` float32 (inf on a miss) and the barycentrics ``u, v``
+        float32: the wavefront's query, with no conversion of its inputs."""
+        n = len(o32)
+
+        def run(s: slice) -> None:
+            r = self._scene.run(o32[s], d32[s], output=1)
+            miss = r["geomID"] == MISS
+            prim[s] = np.where(miss, MISS, r["primID"])
+            t[s] = np.where(miss, np.inf, r["tfar"])
+            u[s] = r["u"]
+            v[s] = r["v"]
+
+        if n:
+            self._map(run, n)
+        self.rays_traced += n
+
     def occluded(
         self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray | None = None
     ) -> np.ndarray:

@@ -112,43 +112,86 @@ class EnvironmentMap:
 
 
 INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
+ENV_NONE, ENV_CONSTANT, ENV_MAP = 0, 1, 2
+"""Kinds of sky for the compiled wavefront (:func:`env_args`, :func:`env_eval_one`, :func:`env_sample_one`)."""
+
+
+def env_args(env):  # type: ignore[no-untyped-def]
+    """The arrays the compiled wavefront reads for a sky (``None``, constant or map): ``(kind, radiance (3,),
+    row_cdf, col_cdf_flat, pixel_pmf, image, rotation)``, with 1-element placeholders where a kind has none."""
+    one = np.zeros(1)
+    if env is None:
+        return ENV_NONE, np.zeros(3), one, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+    if isinstance(env, ConstantEnvironment):
+        return ENV_CONSTANT, env.radiance, one, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+    return (ENV_MAP, np.zeros(3), env._row_cdf, env._col_cdf_flat, env._pixel_pmf, env.image,
+            float(env.rotation))  # fmt: skip
+
+
+@njit(inline="always", nogil=True, cache=True)
+def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation):
+    """Radiance ``(r, g, b)`` from world direction ``d`` and the sky's light-sampling pdf per solid angle."""
+    if kind == ENV_CONSTANT:
+        return radiance[0], radiance[1], radiance[2], INV_FOUR_PI
+    if kind != ENV_MAP:
+        return 0.0, 0.0, 0.0, 0.0
+    h, w = pmf.shape
+    cos_t = min(1.0, max(-1.0, dy))
+    theta = math.acos(cos_t)
+    phi = (math.atan2(dz, dx) - rotation) % (2.0 * math.pi)
+    row = min(int(theta / math.pi * h), h - 1)
+    col = min(int(phi / (2.0 * math.pi) * w), w - 1)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    pdf = pmf[row, col] * (w * h) * INV_2PI2 / sin_t if sin_t > 1e-12 else 0.0
+    return image[row, col, 0], image[row, col, 1], image[row, col, 2], pdf
+
+
+@njit(inline="always", nogil=True, cache=True)
+def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, pmf, image, rotation):
+    """A direction from the sky's light sampling: ``(dx, dy, dz, r, g, b, pdf)`` (pdf per solid angle)."""
+    if kind == ENV_CONSTANT:
+        z = 1.0 - 2.0 * u0
+        r = math.sqrt(max(0.0, 1.0 - z * z))
+        phi = 2.0 * math.pi * u1
+        return (r * math.cos(phi), r * math.sin(phi), z, radiance[0], radiance[1], radiance[2],
+                INV_FOUR_PI)  # fmt: skip
+    if kind != ENV_MAP:
+        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
+    h, w = pmf.shape
+    row = min(np.searchsorted(row_cdf, u0, side="right"), h - 1)
+    flat = np.searchsorted(col_cdf_flat, row + u1, side="right")
+    col = min(max(flat - row * w, 0), w - 1)
+    theta = (row + u2) / h * math.pi
+    phi = (col + u3) / w * 2.0 * math.pi + rotation
+    s = math.sin(theta)
+    pdf = pmf[row, col] * (w * h) * INV_2PI2 / s if s > 1e-12 else 0.0
+    return (s * math.cos(phi), math.cos(theta), s * math.sin(phi), image[row, col, 0], image[row, col, 1],
+            image[row, col, 2], pdf)  # fmt: skip
 
 
 @njit(nogil=True, cache=True)
 def _env_lookup(d, pmf, image, rotation):
-    h, w = pmf.shape
     n = d.shape[0]
     le = np.empty((n, 3))
     pdf = np.empty(n)
+    none = np.zeros(3)
     for i in range(n):
-        cos_t = min(1.0, max(-1.0, d[i, 1]))
-        theta = math.acos(cos_t)
-        phi = (math.atan2(d[i, 2], d[i, 0]) - rotation) % (2.0 * math.pi)
-        row = min(int(theta / math.pi * h), h - 1)
-        col = min(int(phi / (2.0 * math.pi) * w), w - 1)
-        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-        le[i, 0], le[i, 1], le[i, 2] = image[row, col, 0], image[row, col, 1], image[row, col, 2]
-        pdf[i] = pmf[row, col] * (w * h) * INV_2PI2 / sin_t if sin_t > 1e-12 else 0.0
+        le[i, 0], le[i, 1], le[i, 2], pdf[i] = env_eval_one(ENV_MAP, d[i, 0], d[i, 1], d[i, 2], none, pmf,
+                                                            image, rotation)  # fmt: skip
     return le, pdf
 
 
 @njit(nogil=True, cache=True)
 def _env_sample(u, row_cdf, col_cdf_flat, pmf, image, rotation):
-    h, w = pmf.shape
     n = u.shape[0]
     d = np.empty((n, 3))
     le = np.empty((n, 3))
     pdf = np.empty(n)
+    none = np.zeros(3)
     for i in range(n):
-        row = min(np.searchsorted(row_cdf, u[i, 0], side="right"), h - 1)
-        flat = np.searchsorted(col_cdf_flat, row + u[i, 1], side="right")
-        col = min(max(flat - row * w, 0), w - 1)
-        theta = (row + u[i, 2]) / h * math.pi
-        phi = (col + u[i, 3]) / w * 2.0 * math.pi + rotation
-        s = math.sin(theta)
-        d[i, 0], d[i, 1], d[i, 2] = s * math.cos(phi), math.cos(theta), s * math.sin(phi)
-        le[i, 0], le[i, 1], le[i, 2] = image[row, col, 0], image[row, col, 1], image[row, col, 2]
-        pdf[i] = pmf[row, col] * (w * h) * INV_2PI2 / s if s > 1e-12 else 0.0
+        d[i, 0], d[i, 1], d[i, 2], le[i, 0], le[i, 1], le[i, 2], pdf[i] = env_sample_one(
+            ENV_MAP, u[i, 0], u[i, 1], u[i, 2], u[i, 3], none, row_cdf, col_cdf_flat, pmf, image, rotation
+        )
     return d, le, pdf
 
 

@@ -1,11 +1,14 @@
 """Wavefront path tracing: a pass traces a batch of paths per pixel, all advancing bounce by bounce.
 
-Per bounce: intersect every live ray (Embree, batched over threads); add environment or emitted radiance
-(MIS-weighted against light sampling); at each hit, next-event estimation (one light sample, shadow ray,
-MIS-weighted against BRDF sampling), then a BRDF sample from the material's chosen strategy; Russian
-roulette after ``rr_depth`` bounces. Rays are grouped by material so each group's sampler (whose draws carry
-``f`` with them) and BRDF run on contiguous arrays, one compiled loop per group with the model's id fixed
-(:mod:`core.dispatch`).
+Per bounce: Embree finds the closest hits of every live ray in one batched query; compiled stages
+(:mod:`renderer.kernels`) add sky or emitted light (MIS-weighted against light sampling), group the surviving
+vertices by material, and take one light sample each (next-event estimation, MIS-weighted against BRDF
+sampling); each material's sampler then evaluates its BRDF and pdf at the light samples and draws its BRDF
+samples on one contiguous slice (the sampler's draws carry ``f`` with them); a last stage adds the light
+samples' contributions, applies the BRDF samples' throughput and Russian roulette after ``rr_depth`` bounces,
+and packs the next rays and the shadow rays; Embree's occlusion query then decides which light samples count.
+Python runs a fixed number of calls per bounce and per material, whatever the number of rays; each stage runs
+on two threads over halves of the batch (the kernels release the GIL).
 
 NEE picks a light type with equal shares among those present (area, point, sky), then a light (emissive
 triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
@@ -14,33 +17,47 @@ triangles by area x luminance, point lights by luminance). MIS uses the exact de
 comes from resampled importance sampling instead. Reflection only: a direction below the geometric surface
 carries nothing (no transmission).
 
-Randomness: every draw comes from generators keyed by ``(seed, pass, bounce, role)``, so the same seed gives
-the same image, whatever the thread timing.
+Sample placement: pixel positions and the point on a light are Owen-scrambled Sobol points of the pixel's
+sample number (:mod:`renderer.qmc`): stratified at every power of two, unbiased at every sample. Every other
+random number is a hash of ``(seed, pass, path, bounce, role)``, and the samplers' draws are seeded by
+``(seed, pass, bounce, material)``, so the same seed gives the same image, whatever the thread timing.
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from core.model import LUMINANCE
 from core.scene import Scene
+from renderer.envmap import env_args
 from renderer.kernels import (
-    accumulate,
+    add_rows,
     bsdf_step,
     camera_rays,
-    light_candidates,
-    light_contributions,
-    sample_lights,
+    camera_stage,
+    compact_stage,
+    continue_stage,
+    hit_stage,
+    shadow_stage,
+    sort_by_material,
     surface_frames,
-    to_local,
+    surface_stage,
 )
+from renderer.qmc import key
 from renderer.world import NO_MATERIAL, World
 
-PARALLEL_MIN = 65536
-"""Batches larger than this evaluate BRDFs on all cores (numba prange); smaller ones stay serial, where the
-thread start-up would cost more than it saves."""
+PARALLEL_MIN = 16384
+"""Stages over more rows than this run on two threads (two halves of the batch); smaller ones stay on one,
+where the thread hand-off would cost more than it saves."""
+
+
+def _key(a: int, b: int) -> np.uint64:
+    """:func:`renderer.qmc.key` from Python (keys are 64-bit unsigned: numba would read a Python int as
+    signed)."""
+    return np.uint64(key(np.uint64(a), np.uint64(b)))
 
 
 @dataclass
@@ -49,10 +66,6 @@ class PassStats:
     rays: int = 0
     nonfinite: int = 0
     """Path contributions that were NaN or infinite (dropped; 0 in a correct renderer)."""
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("ij,ij->i", a, b)
 
 
 def mis_weight(pdf_a: np.ndarray, pdf_b: np.ndarray, heuristic: str) -> np.ndarray:
@@ -87,6 +100,37 @@ class Camera:
         )  # fmt: skip
 
 
+class _Buffers:
+    """The arrays of one pass's wavefront, allocated once per batch size and reused by every pass."""
+
+    def __init__(self, n: int):
+        f64, f32, i64 = np.float64, np.float32, np.int64
+        # rays of the current bounce
+        self.o, self.d, self.beta = (np.empty((n, 3), f64) for _ in range(3))
+        self.o32, self.d32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
+        self.path, self.prev_pdf = np.empty(n, i64), np.empty(n, f64)
+        self.prim, self.t = np.empty(n, np.int32), np.empty(n, f32)
+        self.bu, self.bv = np.empty(n, f32), np.empty(n, f32)
+        self.mat, self.order = np.empty(n, i64), np.empty(n, i64)
+        # surface vertices, sorted by material
+        self.ng, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(4))
+        self.frame = np.empty((n, 3, 3), f64)
+        self.s_path = np.empty(n, i64)
+        # their light samples and BRDF samples
+        self.l_wi, self.l_wi_local, self.l_le, self.l_f, self.l_contrib = (
+            np.empty((n, 3), f64) for _ in range(5)
+        )
+        self.l_pdf, self.l_tmax, self.l_pdf_brdf = (np.empty(n, f64) for _ in range(3))
+        self.l_delta, self.l_cand, self.l_need = (np.empty(n, np.bool_) for _ in range(3))
+        self.wi_local, self.f, self.next_d = (np.empty((n, 3), f64) for _ in range(3))
+        self.pdf = np.empty(n, f64)
+        self.alive = np.empty(n, np.bool_)
+        # shadow rays
+        self.so32, self.sd32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
+        self.st32 = np.empty(n, f32)
+        self.shadow_slot = np.empty(n, i64)
+
+
 class PathTracer:
     """Renders passes of one sample per pixel for a compiled :class:`World`."""
 
@@ -119,6 +163,13 @@ class PathTracer:
         self.mis = mis
         self.seed = seed
         self.stats = PassStats()
+        self._seed_key = _key(seed % (1 << 64), 0x5EED)
+        self._env = tuple(
+            np.ascontiguousarray(x) if isinstance(x, np.ndarray) else x for x in env_args(world.env)
+        )
+        self._buffers: _Buffers | None = None
+        self.threads = max(1, int(getattr(world, "threads", 1)))
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
 
     def _rng(self, pass_index: int, depth: int, role: int) -> np.random.Generator:
         return np.random.default_rng([self.seed, pass_index, depth + 1, role])
@@ -127,9 +178,16 @@ class PathTracer:
         ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A])
         return int(ss.generate_state(1, dtype=np.uint32)[0])
 
-    def _add(self, img: np.ndarray, pix: np.ndarray, contrib: np.ndarray) -> None:
-        """Add ``contrib (k, 3)`` to pixels ``pix (k,)`` (several paths may share a pixel)."""
-        self.stats.nonfinite += accumulate(img, pix, np.ascontiguousarray(contrib))
+    def _run(self, stage, n: int, *args) -> int:  # type: ignore[no-untyped-def]
+        """``stage(a, b, *args)`` over ``[0, n)``, in halves on two threads for large ``n``; the sum of what
+        the calls return (counts of dropped contributions, or 0)."""
+        if self._pool is None or n < PARALLEL_MIN:
+            return int(stage(0, n, *args) or 0)
+        cuts = np.linspace(0, n, self.threads + 1).astype(np.int64)
+        jobs = [
+            self._pool.submit(stage, int(a), int(b), *args) for a, b in zip(cuts[:-1], cuts[1:], strict=True)
+        ]
+        return sum(int(j.result() or 0) for j in jobs)
 
     # ------------------------------------------------------------------------------------------ warm-up
     def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
@@ -172,172 +230,110 @@ class PathTracer:
     def render_pass(self, pass_index: int, spp: int = 1) -> np.ndarray:
         """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``.
 
-        Passes with different ``pass_index`` are independent (their random numbers are keyed by it).
+        Passes with different ``pass_index`` are independent (their random numbers are keyed by it); path
+        ``j`` of a pass is sample ``pass_index * spp + j // pixels`` of pixel ``j % pixels``.
         """
         w = self.world
         n_pix = self.width * self.height
-        img = np.zeros((n_pix, 3))
-        pix = np.tile(np.arange(n_pix), int(spp))
-        n_paths = len(pix)
-        rng = self._rng(pass_index, -1, 0)
-        o, d = self.camera.rays(pix, rng.random((n_paths, 2)))
-        beta = np.ones((n_paths, 3))
-        prev_pdf = np.zeros(n_paths)  # density of the BRDF sample that made the ray; 0 for camera rays
-        self.stats.paths += n_paths
-
+        n = n_pix * int(spp)
+        if self._buffers is None or len(self._buffers.path) != n:
+            self._buffers = _Buffers(n)
+        B = self._buffers
+        radiance = np.zeros((n, 3))
+        pass_key = _key(self._seed_key, pass_index)
+        cam = self.camera
+        self._run(camera_stage, n, n_pix, int(spp), pass_index, self._seed_key, self.width, self.height,
+                  cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
+                  B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
+        self.stats.paths += n
+        env_kind, env_rad, env_row, env_col, env_pmf, env_img, env_rot = self._env
+        power = self.mis == "power"
+        n_mat = len(w.materials_by_index)
+        offsets = np.zeros(n_mat + 1, dtype=np.int64)
+        bad = 0
         for depth in range(self.max_depth + 1):
-            if len(o) == 0:
-                break
-            hits = w.accel.intersect(o, d)
-            self.stats.rays += len(o)
-            miss = hits.prim < 0
-
-            # ---- light from infinity on rays that escape
-            if w.env is not None and np.any(miss):
-                i = np.nonzero(miss)[0]
-                le, p_env = w.env.lookup(d[i])
-                wgt = np.ones(len(i))
-                bs = prev_pdf[i] > 0
-                if np.any(bs):
-                    if self.ris:
-                        wgt[bs] = 0.0  # the sky's direct light was resampled at the previous vertex
-                    else:
-                        wgt[bs] = mis_weight(prev_pdf[i[bs]], self.p_env * p_env[bs], self.mis)
-                self._add(img, pix[i], beta[i] * le * wgt[:, None])
-
-            keep = ~miss
-            o, d, beta, pix, prev_pdf = o[keep], d[keep], beta[keep], pix[keep], prev_pdf[keep]
-            t, prim, bu, bv = hits.t[keep], hits.prim[keep], hits.u[keep], hits.v[keep]
-            if len(o) == 0:
-                break
-            ng = w.tri_normal[prim]
-
-            # ---- emitted light on rays that hit an emitter
-            em = w.tri_emissive[prim]
-            if np.any(em):
-                i = np.nonzero(em)[0]
-                cos_l = -_dot(d[i], ng[i])
-                front = (cos_l > 0) | w.tri_two_sided[prim[i]]
-                le = w.tri_emission[prim[i]] * front[:, None]
-                wgt = np.ones(len(i))
-                bs = prev_pdf[i] > 0
-                if np.any(bs):
-                    j = i[bs]
-                    p_light = (
-                        self.p_area
-                        * w.emit_pmf_per_area[prim[j]]
-                        * t[j] ** 2
-                        / np.maximum(np.abs(cos_l[bs]), 1e-12)
-                    )
-                    wgt[bs] = mis_weight(prev_pdf[j], p_light, self.mis)
-                self._add(img, pix[i], beta[i] * le * wgt[:, None])
-
-            if depth == self.max_depth:
-                break
-
-            # ---- surfaces that reflect: frames with both normals facing the viewer (two-sided surfaces)
-            mat = w.tri_material[prim]
-            live = mat != NO_MATERIAL
-            if not np.all(live):
-                o, d, t, beta, pix, prim, mat, bu, bv = (
-                    x[live] for x in (o, d, t, beta, pix, prim, mat, bu, bv)
-                )
-            n = len(o)
             if n == 0:
                 break
-            ng, ns, tb, bb, wo_l, origin = surface_frames(
-                o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
-            )
-            groups = [(m, np.nonzero(mat == m)[0]) for m in np.unique(mat)]
-
-            # ---- next-event estimation
-            if self.has_nee_lights:
-                self._next_event(img, pass_index, depth, origin, ng, wo_l, (tb, bb, ns), beta, pix, groups)
+            w.accel.trace(B.o32[:n], B.d32[:n], B.prim, B.t, B.bu, B.bv)
+            self.stats.rays += n
+            bad += self._run(
+                hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, B.mat,
+                depth == self.max_depth, power, self.p_env, self.p_area, self.ris > 0,
+                w.tri_normal, w.tri_material, w.tri_emission, w.tri_emissive, w.tri_two_sided,
+                w.emit_pmf_per_area, env_kind, env_rad, env_pmf, env_img, env_rot,
+            )  # fmt: skip
+            n_s = int(sort_by_material(B.mat[:n], n_mat, B.order, offsets))
+            if n_s == 0:
+                break
+            self._run(
+                surface_stage, n_s, B.order, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
+                w.tri_normal, w.tri_vnormals, w.tri_smooth,
+                self.has_nee_lights, n_pix, int(spp), pass_index, self._seed_key, depth,
+                self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
+                w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
+                w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
+                env_kind, env_rad, env_row, env_col, env_pmf, env_img, env_rot,
+                B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
+                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
+            )  # fmt: skip
+            # ---- the samplers, material by material, on contiguous slices
+            for m in range(n_mat):
+                a, b = int(offsets[m]), int(offsets[m + 1])
+                if a == b:
+                    continue
+                sampler = w.materials_by_index[m].sampler
+                if self.has_nee_lights:
+                    c = a + np.flatnonzero(B.l_cand[a:b])
+                    if len(c):
+                        B.l_f[c], B.l_pdf_brdf[c] = sampler.eval_pdf(B.wo[c], B.l_wi_local[c])
+                drawn = sampler.sample_each(B.wo[a:b], seed=self._seed(pass_index, depth, m))
+                B.wi_local[a:b], B.pdf[a:b], B.f[a:b] = drawn.wi, drawn.pdf, drawn.f
             if self.ris:
-                self._ris_environment(
-                    img, pass_index, depth, origin, ng, wo_l, (tb, bb, ns), beta, pix, groups
-                )
+                bad += self._ris_environment(radiance, pass_index, depth, n_s, offsets)
+            rr_key = _key(_key(pass_key, depth), 0x7272)
+            self._run(
+                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta,
+                B.s_path, B.l_wi_local, B.l_le, B.l_pdf, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
+                B.wi_local, B.pdf, B.f, B.l_contrib, B.l_need, B.next_d, B.alive,
+            )  # fmt: skip
+            n, k = compact_stage(
+                n_s, B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf, B.l_wi, B.l_tmax,
+                B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32, B.shadow_slot,
+            )  # fmt: skip
+            n, k = int(n), int(k)
+            if k:
+                blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k])
+                self.stats.rays += k
+                bad += self._run(shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance)
+        self.stats.nonfinite += bad
+        return radiance.reshape(int(spp), n_pix, 3).sum(axis=0) / spp
 
-            # ---- BRDF sampling with the chosen strategy, material by material
-            wi_l = np.zeros((n, 3))
-            pdf = np.zeros(n)
-            f = np.zeros((n, 3))
-            for m, idx in groups:
-                rt = w.materials_by_index[m]
-                drawn = rt.sampler.sample_each(wo_l[idx], seed=self._seed(pass_index, depth, int(m)))
-                wi_l[idx] = drawn.wi
-                pdf[idx] = drawn.pdf
-                f[idx] = drawn.f
-            wi, ok, beta = bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta)
-
-            # ---- Russian roulette
-            if depth + 1 >= self.rr_depth:
-                q = np.minimum(0.95, beta.max(axis=1))
-                u = self._rng(pass_index, depth, 3).random(n)
-                survive = u < q
-                beta = beta / np.where(q > 0, q, 1.0)[:, None]
-                ok &= survive
-            o, d, beta, pix, prev_pdf = origin[ok], wi[ok], beta[ok], pix[ok], pdf[ok]
-
-        return img / spp
-
-    def _next_event(self, img, pass_index, depth, origin, ng, wo_l, frame, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
-        """One light sample per path vertex, MIS-weighted against the BRDF sampler (exact pdfs)."""
+    def _ris_environment(
+        self, radiance: np.ndarray, pass_index: int, depth: int, n_s: int, offsets: np.ndarray
+    ) -> int:
+        """Direct light from the sky by resampled importance sampling at the ``n_s`` surface vertices:
+        ``M`` candidates from the material's sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos
+        L)`` (unoccluded), one kept with probability ``w_k / sum w``; estimate ``f cos L V * mean(w) /
+        p_hat(y)`` with one shadow ray. Returns the number of non-finite contributions dropped."""
         w = self.world
-        n = len(origin)
-        u = self._rng(pass_index, depth, 1).random((n, 5))
-        wi, le, pdf_light, t_max, delta, is_env = sample_lights(
-            origin, u, self.p_area, self.p_area + self.p_point, w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2,
-            w.tri_normal, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area, self.p_area,
-            w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, self.p_point,
-        )  # fmt: skip
-        if w.env is not None and np.any(is_env):
-            i = np.nonzero(is_env)[0]
-            dirs, rad, pdf_e = w.env.sample(u[i, 1:5])
-            wi[i] = dirs
-            le[i] = rad
-            pdf_light[i] = self.p_env * pdf_e
-        wi_l = to_local(wi, *frame)
-        cand = light_candidates(pdf_light, wi_l, wi, ng, le)
-        f = np.zeros((n, 3))
-        pdf_brdf = np.zeros(n)
-        for m, idx in groups:
-            j = idx[cand[idx]]
-            if len(j) == 0:
-                continue
-            rt = w.materials_by_index[m]
-            f[j], pdf_brdf[j] = rt.sampler.eval_pdf(wo_l[j], wi_l[j])
-        contrib, need = light_contributions(
-            beta, f, le, pdf_light, pdf_brdf, wi_l, delta, cand, self.mis == "power"
-        )
-        i = np.nonzero(need)[0]
-        if len(i) == 0:
-            return
-        blocked = w.accel.occluded(origin[i], wi[i], t_max[i])
-        self.stats.rays += len(i)
-        i = i[~blocked]
-        self._add(img, pix[i], contrib[i])
-
-    def _ris_environment(self, img, pass_index, depth, origin, ng, wo_l, frame, beta, pix, groups) -> None:  # type: ignore[no-untyped-def]
-        """Direct light from the sky by resampled importance sampling: ``M`` candidates from the material's
-        sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos L)`` (unoccluded), one kept with
-        probability ``w_k / sum w``; estimate ``f cos L V * mean(w) / p_hat(y)`` with one shadow ray."""
-        w = self.world
+        B = self._buffers
+        assert B is not None
         m_c = self.ris
-        n = len(origin)
-        tb, bb, ns = frame
+        n = n_s
+        wo_l, origin, ng = B.wo[:n], B.origin[:n], B.ng[:n]
+        tb, bb, ns = (np.ascontiguousarray(B.frame[:n, r]) for r in range(3))
         wi_l = np.zeros((n * m_c, 3))
         pdf = np.zeros(n * m_c)
         f = np.zeros((n * m_c, 3))
         wo_rep = np.repeat(wo_l, m_c, axis=0)
-        for m, idx in groups:
-            rows = (idx[:, None] * m_c + np.arange(m_c)).ravel()
-            rt = w.materials_by_index[m]
-            seed = self._seed(pass_index, depth, int(m) + 0x10000)
-            drawn = rt.sampler.sample_each(wo_rep[rows], seed=seed)
-            wi_l[rows] = drawn.wi
-            pdf[rows] = drawn.pdf
-            f[rows] = drawn.f
+        for m in range(len(offsets) - 1):
+            a, b = int(offsets[m]), int(offsets[m + 1])
+            if a == b:
+                continue
+            rows = slice(a * m_c, b * m_c)
+            sampler = w.materials_by_index[m].sampler
+            drawn = sampler.sample_each(wo_rep[rows], seed=self._seed(pass_index, depth, m + 0x10000))
+            wi_l[rows], pdf[rows], f[rows] = drawn.wi, drawn.pdf, drawn.f
         rep = (np.repeat(x, m_c, axis=0) for x in (tb, bb, ns, ng))
         wi, ok, fcos_over_p = bsdf_step(wi_l, pdf, f, *rep, np.ones((n * m_c, 3)))
         le = w.env.lookup(wi)[0]
@@ -351,9 +347,11 @@ class PathTracer:
         good = (total > 0) & (p_hat > 0) & ok[chosen]
         i = np.nonzero(good)[0]
         if len(i) == 0:
-            return
-        contrib = beta[i] * fcos_le[i] * ((total[i] / m_c) / p_hat[i])[:, None]
+            return 0
+        contrib = B.s_beta[i] * fcos_le[i] * ((total[i] / m_c) / p_hat[i])[:, None]
         blocked = w.accel.occluded(origin[i], wi[chosen[i]])
         self.stats.rays += len(i)
         keep = ~blocked
-        self._add(img, pix[i[keep]], contrib[keep])
+        return int(
+            add_rows(radiance, np.ascontiguousarray(B.s_path[i[keep]]), np.ascontiguousarray(contrib[keep]))
+        )

@@ -1,6 +1,24 @@
-"""numba kernels for the per-ray geometry of a bounce (one loop instead of dozens of numpy passes).
+"""Compiled stages of the wavefront path tracer (:mod:`renderer.integrator`).
 
-These do not depend on the material models, so they compile once and are cached on disk (``cache=True``).
+A bounce is six loops over the live paths, each one pass over contiguous arrays with no numpy in between:
+
+1. :func:`camera_stage` (first bounce only): rays through Owen-scrambled Sobol points of each pixel.
+2. Embree finds the closest hits (:meth:`renderer.accel.Accel.trace`).
+3. :func:`hit_stage`: light from the sky on rays that escaped and from emitters that were hit (both
+   MIS-weighted against the BRDF sample that made the ray), and the material of every ray that goes on.
+4. :func:`sort_by_material`: the rays that go on, grouped by material (a counting sort), so each material's
+   sampler runs once on a contiguous slice; :func:`surface_stage` computes their frames and one light sample
+   each (area, point or sky), in that order.
+5. The samplers (compiled per strategy, outside this module) evaluate ``f`` and their pdf at the light
+   samples and draw the BRDF samples, material by material.
+6. :func:`continue_stage`: the light sample's MIS-weighted contribution, the BRDF sample's throughput and
+   Russian roulette; :func:`compact_stage` writes the next bounce's rays and the shadow rays; after Embree's
+   occlusion test :func:`shadow_stage` adds the unblocked contributions.
+
+Every stage takes a row range ``[a, b)`` and releases the GIL, so the integrator runs two halves of a batch on
+two threads. Contributions are added to a per-path radiance array (one row per path, never shared between
+rows of one stage), so threads never write the same memory. Random numbers come from :mod:`renderer.qmc` by
+key, never from arrays. These kernels do not depend on the material models: they compile once and are cached.
 """
 
 from __future__ import annotations
@@ -10,15 +28,197 @@ import math
 import numpy as np
 from numba import njit
 
+from renderer.envmap import env_eval_one, env_sample_one
+from renderer.qmc import key, sobol2, uniform
+
+NO_MATERIAL = -1
+
+# roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
+_U_LIGHT_TYPE = 0
+_U_LIGHT_PICK = 1
+_U_ENV_JITTER = 2
+_U_RR = 4
+# pairs of low-discrepancy dimensions: (pixel) and (light point at bounce k) get their own scrambles
+_PAIR_PIXEL = 0
+_PAIR_LIGHT = 1
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _mis(a, b, power):
+    """Weight of a strategy of density ``a`` against one of density ``b`` (power or balance heuristic)."""
+    if power:
+        s = a * a + b * b
+        return a * a / s if s > 0.0 else 0.0
+    s = a + b
+    return a / s if s > 0.0 else 0.0
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _add(radiance, p, r, g, b):
+    """``radiance[p] += (r, g, b)`` for a finite value; returns 1 for a value that was not finite."""
+    if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+        return 1
+    radiance[p, 0] += r
+    radiance[p, 1] += g
+    radiance[p, 2] += b
+    return 0
+
+
+@njit(inline="always", nogil=True, cache=True)
+def camera_ray(col, row, width, height, origin, forward, right, up, tan_half, aspect):
+    """Unit direction of the pinhole ray through image point ``(col, row)`` (pixels, row 0 at the top)."""
+    x = (2.0 * col / width - 1.0) * tan_half * aspect
+    y = (1.0 - 2.0 * row / height) * tan_half
+    dx = forward[0] + x * right[0] + y * up[0]
+    dy = forward[1] + x * right[1] + y * up[1]
+    dz = forward[2] + x * right[2] + y * up[2]
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / length, dy / length, dz / length
+
+
+@njit(nogil=True, cache=True)
+def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_half, aspect):
+    """Pinhole rays through jittered points of ``pixels`` (row-major, row 0 at the top)."""
+    n = pixels.shape[0]
+    o = np.empty((n, 3))
+    d = np.empty((n, 3))
+    for i in range(n):
+        row = pixels[i] // width
+        col = pixels[i] - row * width
+        d[i, 0], d[i, 1], d[i, 2] = camera_ray(
+            col + jitter[i, 0],
+            row + jitter[i, 1],
+            width,
+            height,
+            origin,
+            forward,
+            right,
+            up,
+            tan_half,
+            aspect,
+        )
+        o[i, 0], o[i, 1], o[i, 2] = origin[0], origin[1], origin[2]
+    return o, d
+
+
+@njit(nogil=True, cache=True)
+def camera_stage(
+    a, b, n_pix, spp, pass_index, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
+    o, d, o32, d32, beta, path, prev_pdf,
+):  # fmt: skip
+    """Camera rays of paths ``[a, b)``: path ``j`` is sample ``pass_index * spp + j // n_pix`` of pixel
+    ``j % n_pix``, through the pixel's Owen-scrambled Sobol point of that sample number."""
+    for j in range(a, b):
+        pixel = j % n_pix
+        sample = pass_index * spp + j // n_pix
+        jx, jy = sobol2(sample, key(key(seed_key, pixel), _PAIR_PIXEL))
+        row = pixel // width
+        col = pixel - row * width
+        dx, dy, dz = camera_ray(
+            col + jx, row + jy, width, height, origin, forward, right, up, tan_half, aspect
+        )
+        o[j, 0], o[j, 1], o[j, 2] = origin[0], origin[1], origin[2]
+        d[j, 0], d[j, 1], d[j, 2] = dx, dy, dz
+        for c in range(3):
+            o32[j, c] = o[j, c]
+            d32[j, c] = d[j, c]
+            beta[j, c] = 1.0
+        path[j] = j
+        prev_pdf[j] = 0.0
+
+
+@njit(nogil=True, cache=True)
+def hit_stage(
+    a, b, d, prim, t, beta, path, prev_pdf, radiance, mat_out, at_last_bounce, power, p_env, p_area, ris,
+    tri_normal, tri_material, tri_emission, tri_emissive, tri_two_sided, emit_pmf_per_area,
+    env_kind, env_radiance, env_pmf, env_image, env_rotation,
+):  # fmt: skip
+    """Rays ``[a, b)`` after the closest-hit query: sky and emitted light (MIS-weighted against the BRDF
+    sample that made the ray, whose density is ``prev_pdf``; 0 for camera rays), then ``mat_out`` = the
+    material index of each ray that goes on (``NO_MATERIAL`` for rays that end). Returns the number of
+    non-finite contributions dropped."""
+    bad = 0
+    for i in range(a, b):
+        mat_out[i] = NO_MATERIAL
+        k = prim[i]
+        p = path[i]
+        if k < 0:
+            if env_kind == 0:
+                continue
+            r, g, bl, pdf_env = env_eval_one(env_kind, d[i, 0], d[i, 1], d[i, 2], env_radiance, env_pmf,
+                                             env_image, env_rotation)  # fmt: skip
+            w = 1.0
+            if prev_pdf[i] > 0.0:
+                w = 0.0 if ris else _mis(prev_pdf[i], p_env * pdf_env, power)
+            if w > 0.0:
+                bad += _add(radiance, p, beta[i, 0] * r * w, beta[i, 1] * g * w, beta[i, 2] * bl * w)
+            continue
+        if tri_emissive[k]:
+            cos_l = -(d[i, 0] * tri_normal[k, 0] + d[i, 1] * tri_normal[k, 1] + d[i, 2] * tri_normal[k, 2])
+            if cos_l > 0.0 or tri_two_sided[k]:
+                w = 1.0
+                if prev_pdf[i] > 0.0:
+                    p_light = p_area * emit_pmf_per_area[k] * t[i] * t[i] / max(abs(cos_l), 1e-12)
+                    w = _mis(prev_pdf[i], p_light, power)
+                bad += _add(radiance, p, beta[i, 0] * tri_emission[k, 0] * w,
+                            beta[i, 1] * tri_emission[k, 1] * w, beta[i, 2] * tri_emission[k, 2] * w)  # fmt: skip
+        if not at_last_bounce:
+            mat_out[i] = tri_material[k]
+    return bad
+
+
+@njit(nogil=True, cache=True)
+def sort_by_material(mat, n_materials, order, offsets):
+    """Counting sort of the rays with ``mat >= 0`` by material: ``order[:n]`` their indices grouped by
+    material (in ray order within a group), ``offsets (n_materials + 1,)`` each group's start. Returns ``n``."""
+    counts = np.zeros(n_materials + 1, dtype=np.int64)
+    for i in range(mat.shape[0]):
+        if mat[i] >= 0:
+            counts[mat[i] + 1] += 1
+    for m in range(n_materials):
+        counts[m + 1] += counts[m]
+    offsets[:] = counts
+    fill = counts[:-1].copy()
+    for i in range(mat.shape[0]):
+        m = mat[i]
+        if m >= 0:
+            order[fill[m]] = i
+            fill[m] += 1
+    return counts[n_materials]
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _shading_frame(k, d, bu, bv, tri_normal, tri_vnormals, tri_smooth):
+    """Geometric and shading normals at a hit of triangle ``k`` (barycentrics ``bu, bv``) turned towards the
+    viewer (two-sided surfaces), and a tangent frame of the shading normal (Duff et al. 2017)."""
+    gx, gy, gz = tri_normal[k, 0], tri_normal[k, 1], tri_normal[k, 2]
+    flip = -(d[0] * gx + d[1] * gy + d[2] * gz) < 0.0
+    if flip:
+        gx, gy, gz = -gx, -gy, -gz
+    sx, sy, sz = gx, gy, gz
+    if tri_smooth[k]:
+        b0 = 1.0 - bu - bv
+        vx = b0 * tri_vnormals[k, 0, 0] + bu * tri_vnormals[k, 1, 0] + bv * tri_vnormals[k, 2, 0]
+        vy = b0 * tri_vnormals[k, 0, 1] + bu * tri_vnormals[k, 1, 1] + bv * tri_vnormals[k, 2, 1]
+        vz = b0 * tri_vnormals[k, 0, 2] + bu * tri_vnormals[k, 1, 2] + bv * tri_vnormals[k, 2, 2]
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if length > 0.5:  # interpolated normals of a sane mesh are near unit length
+            sx, sy, sz = vx / length, vy / length, vz / length
+            if flip:
+                sx, sy, sz = -sx, -sy, -sz
+    sign = 1.0 if sz >= 0.0 else -1.0
+    q = -1.0 / (sign + sz)
+    c = sx * sy * q
+    tx, ty, tz = 1.0 + sign * sx * sx * q, sign * c, -sign * sx
+    bx, by, bz = c, sign + sy * sy * q, -sy
+    return gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz
+
 
 @njit(nogil=True, cache=True)
 def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, eps):
-    """Hit geometry for rays ``o, d (n, 3)`` hitting triangles ``prim`` at distance ``t`` (barycentrics bu, bv).
-
-    Returns ``ng, ns, tb, bb, wo_local, origin``: the geometric and shading normals turned towards the viewer
-    (two-sided surfaces), a tangent frame of ``ns`` (Duff et al. 2017), the outgoing direction ``-d`` in that
-    frame, and the hit point pushed off the surface along ``ng`` by ``eps`` (Embree's tnear is 0).
-    """
+    """Hit geometry for rays ``o, d (n, 3)`` hitting triangles ``prim`` at distance ``t``: ``ng, ns, tb, bb,
+    wo_local, origin`` (normals towards the viewer, tangent frame, ``-d`` in it, the hit point pushed off the
+    surface along ``ng`` by ``eps``: Embree's tnear is 0)."""
     n = o.shape[0]
     ng = np.empty((n, 3))
     ns = np.empty((n, 3))
@@ -27,59 +227,230 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
     wo_l = np.empty((n, 3))
     origin = np.empty((n, 3))
     for i in range(n):
-        k = prim[i]
-        gx, gy, gz = tri_normal[k, 0], tri_normal[k, 1], tri_normal[k, 2]
-        wx, wy, wz = -d[i, 0], -d[i, 1], -d[i, 2]
-        flip = wx * gx + wy * gy + wz * gz < 0.0
-        if flip:
-            gx, gy, gz = -gx, -gy, -gz
-        sx, sy, sz = gx, gy, gz
-        if tri_smooth[k]:
-            b0 = 1.0 - bu[i] - bv[i]
-            vx = b0 * tri_vnormals[k, 0, 0] + bu[i] * tri_vnormals[k, 1, 0] + bv[i] * tri_vnormals[k, 2, 0]
-            vy = b0 * tri_vnormals[k, 0, 1] + bu[i] * tri_vnormals[k, 1, 1] + bv[i] * tri_vnormals[k, 2, 1]
-            vz = b0 * tri_vnormals[k, 0, 2] + bu[i] * tri_vnormals[k, 1, 2] + bv[i] * tri_vnormals[k, 2, 2]
-            length = math.sqrt(vx * vx + vy * vy + vz * vz)
-            if length > 0.5:  # interpolated normals of a sane mesh are near unit length
-                sx, sy, sz = vx / length, vy / length, vz / length
-                if flip:
-                    sx, sy, sz = -sx, -sy, -sz
+        gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz = _shading_frame(
+            prim[i], d[i], bu[i], bv[i], tri_normal, tri_vnormals, tri_smooth
+        )
         ng[i, 0], ng[i, 1], ng[i, 2] = gx, gy, gz
         ns[i, 0], ns[i, 1], ns[i, 2] = sx, sy, sz
-        sign = 1.0 if sz >= 0.0 else -1.0
-        a = -1.0 / (sign + sz)
-        c = sx * sy * a
-        tb[i, 0], tb[i, 1], tb[i, 2] = 1.0 + sign * sx * sx * a, sign * c, -sign * sx
-        bb[i, 0], bb[i, 1], bb[i, 2] = c, sign + sy * sy * a, -sy
-        wo_l[i, 0] = wx * tb[i, 0] + wy * tb[i, 1] + wz * tb[i, 2]
-        wo_l[i, 1] = wx * bb[i, 0] + wy * bb[i, 1] + wz * bb[i, 2]
-        wo_l[i, 2] = wx * sx + wy * sy + wz * sz
-        px = o[i, 0] + t[i] * d[i, 0]
-        py = o[i, 1] + t[i] * d[i, 1]
-        pz = o[i, 2] + t[i] * d[i, 2]
-        origin[i, 0], origin[i, 1], origin[i, 2] = px + eps * gx, py + eps * gy, pz + eps * gz
+        tb[i, 0], tb[i, 1], tb[i, 2] = tx, ty, tz
+        bb[i, 0], bb[i, 1], bb[i, 2] = bx, by, bz
+        wo_l[i, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
+        wo_l[i, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
+        wo_l[i, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
+        for c in range(3):
+            origin[i, c] = o[i, c] + t[i] * d[i, c] + eps * ng[i, c]
     return ng, ns, tb, bb, wo_l, origin
 
 
 @njit(nogil=True, cache=True)
-def to_local(v, tb, bb, ns):
-    """World vectors ``v (n, 3)`` in the per-row frames ``(tb, bb, ns)``."""
-    n = v.shape[0]
-    out = np.empty((n, 3))
-    for i in range(n):
-        out[i, 0] = v[i, 0] * tb[i, 0] + v[i, 1] * tb[i, 1] + v[i, 2] * tb[i, 2]
-        out[i, 1] = v[i, 0] * bb[i, 0] + v[i, 1] * bb[i, 1] + v[i, 2] * bb[i, 2]
-        out[i, 2] = v[i, 0] * ns[i, 0] + v[i, 1] * ns[i, 1] + v[i, 2] * ns[i, 2]
-    return out
+def surface_stage(
+    a, b, order, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
+    # light sampling
+    nee, n_pix, spp, pass_index, seed_key, depth, c_area, c_point, p_area, p_point, p_env,
+    emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
+    point_pos, point_intensity, point_cdf, point_pmf,
+    env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_pmf, env_image, env_rotation,
+    # outputs, one row per surface vertex (sorted order)
+    s_ng, s_frame, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta, l_cand,
+):  # fmt: skip
+    """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
+    offset origin, and one light sample (light type by ``c_area``/``c_point``, then a light, then a point
+    on it from an Owen-scrambled Sobol pair). ``s_frame (n, 3, 3)`` holds the tangent, bitangent and
+    shading normal. ``l_cand`` marks light samples worth a BRDF evaluation (positive pdf and radiance, above
+    both surfaces)."""
+    n_emit = emit_ids.shape[0]
+    n_point = point_pos.shape[0]
+    for s in range(a, b):
+        i = order[s]
+        gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz = _shading_frame(
+            prim[i], d[i], bu[i], bv[i], tri_normal, tri_vnormals, tri_smooth
+        )
+        s_ng[s, 0], s_ng[s, 1], s_ng[s, 2] = gx, gy, gz
+        s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2] = tx, ty, tz
+        s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2] = bx, by, bz
+        s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2] = sx, sy, sz
+        s_wo[s, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
+        s_wo[s, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
+        s_wo[s, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
+        px = o[i, 0] + t[i] * d[i, 0] + eps * gx
+        py = o[i, 1] + t[i] * d[i, 1] + eps * gy
+        pz = o[i, 2] + t[i] * d[i, 2] + eps * gz
+        s_origin[s, 0], s_origin[s, 1], s_origin[s, 2] = px, py, pz
+        p = path[i]
+        s_path[s] = p
+        for c in range(3):
+            s_beta[s, c] = beta[i, c]
+        l_cand[s] = False
+        l_delta[s] = False
+        l_pdf[s] = 0.0
+        if not nee:
+            continue
+        # ---- one light sample
+        vk = key(key(seed_key, p), depth)
+        u_type = uniform(vk, _U_LIGHT_TYPE)
+        u_pick = uniform(vk, _U_LIGHT_PICK)
+        pixel = p % n_pix
+        ux, uy = sobol2(pass_index * spp + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth))
+        wx, wy, wz = 0.0, 0.0, 1.0
+        lr, lg, lb = 0.0, 0.0, 0.0
+        pdf = 0.0
+        t_max = np.inf
+        if u_type < c_area and n_emit > 0:
+            k = min(np.searchsorted(emit_cdf, u_pick, side="right"), n_emit - 1)
+            tri = emit_ids[k]
+            su = math.sqrt(ux)
+            b1 = su * (1.0 - uy)
+            b2 = su * uy
+            qx = v0[tri, 0] + b1 * e1[tri, 0] + b2 * e2[tri, 0] - px
+            qy = v0[tri, 1] + b1 * e1[tri, 1] + b2 * e2[tri, 1] - py
+            qz = v0[tri, 2] + b1 * e1[tri, 2] + b2 * e2[tri, 2] - pz
+            dist = math.sqrt(qx * qx + qy * qy + qz * qz)
+            if dist > 0.0:
+                wx, wy, wz = qx / dist, qy / dist, qz / dist
+                cos_l = -(wx * tri_normal[tri, 0] + wy * tri_normal[tri, 1] + wz * tri_normal[tri, 2])
+                if (cos_l > 0.0 or tri_two_sided[tri]) and abs(cos_l) > 1e-9:
+                    lr, lg, lb = tri_emission[tri, 0], tri_emission[tri, 1], tri_emission[tri, 2]
+                    pdf = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
+                    t_max = dist * (1.0 - 1e-4)
+        elif u_type < c_point and n_point > 0:
+            k = min(np.searchsorted(point_cdf, u_pick, side="right"), n_point - 1)
+            qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
+            dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
+            wx, wy, wz = qx / dist, qy / dist, qz / dist
+            inv = 1.0 / (dist * dist)
+            lr, lg, lb = point_intensity[k, 0] * inv, point_intensity[k, 1] * inv, point_intensity[k, 2] * inv
+            pdf = p_point * point_pmf[k]
+            t_max = dist * (1.0 - 1e-4)
+            l_delta[s] = True
+        elif env_kind != 0 and p_env > 0.0:
+            wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
+                env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
+                env_row_cdf, env_col_cdf_flat, env_pmf, env_image, env_rotation,
+            )  # fmt: skip
+            pdf = p_env * pdf_e
+        l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz
+        lz = wx * sx + wy * sy + wz * sz
+        l_wi_local[s, 0] = wx * tx + wy * ty + wz * tz
+        l_wi_local[s, 1] = wx * bx + wy * by + wz * bz
+        l_wi_local[s, 2] = lz
+        l_le[s, 0], l_le[s, 1], l_le[s, 2] = lr, lg, lb
+        l_pdf[s] = pdf
+        l_tmax[s] = t_max
+        if pdf > 0.0 and lz > 0.0 and (lr > 0.0 or lg > 0.0 or lb > 0.0):
+            l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
+
+
+@njit(nogil=True, cache=True)
+def continue_stage(
+    a, b, power, rr, rr_key, s_ng, s_frame, s_beta, s_path, l_wi_local, l_le, l_pdf, l_delta, l_cand, l_f, l_pdf_brdf,
+    wi_local, pdf, f, l_contrib, l_need, next_d, alive,
+):  # fmt: skip
+    """Surface vertices ``[a, b)`` after their samplers ran: the light sample's contribution ``beta f L cos
+    w / pdf_light`` (MIS weight ``w`` against the sampler's density; 1 for delta lights) and whether it
+    needs a shadow ray; the BRDF sample's world direction and updated throughput ``beta f cos / pdf`` (kept
+    where the pdf is positive and finite, ``f`` finite, and the direction above both the shading and the
+    geometric surface: reflection only), then Russian roulette when ``rr`` (survival ``min(0.95, max
+    beta)``, a uniform keyed by ``rr_key`` and the path)."""
+    for s in range(a, b):
+        # ---- the light sample
+        l_need[s] = False
+        if l_cand[s]:
+            pl = l_pdf[s]
+            w = 1.0 if l_delta[s] else _mis(pl, l_pdf_brdf[s], power)
+            sc = l_wi_local[s, 2] * w / pl
+            any_light = False
+            for c in range(3):
+                v = s_beta[s, c] * l_f[s, c] * l_le[s, c] * sc
+                l_contrib[s, c] = v
+                any_light = any_light or v > 0.0
+            l_need[s] = any_light
+        # ---- the BRDF sample
+        alive[s] = False
+        x, y, z = wi_local[s, 0], wi_local[s, 1], wi_local[s, 2]
+        wx = x * s_frame[s, 0, 0] + y * s_frame[s, 1, 0] + z * s_frame[s, 2, 0]
+        wy = x * s_frame[s, 0, 1] + y * s_frame[s, 1, 1] + z * s_frame[s, 2, 1]
+        wz = x * s_frame[s, 0, 2] + y * s_frame[s, 1, 2] + z * s_frame[s, 2, 2]
+        length = math.sqrt(wx * wx + wy * wy + wz * wz)
+        if length > 0.0:
+            wx, wy, wz = wx / length, wy / length, wz / length
+        next_d[s, 0], next_d[s, 1], next_d[s, 2] = wx, wy, wz
+        p = pdf[s]
+        if not (p > 0.0 and math.isfinite(p) and z > 0.0):
+            continue
+        if wx * s_ng[s, 0] + wy * s_ng[s, 1] + wz * s_ng[s, 2] <= 0.0:
+            continue
+        r, g, bl = f[s, 0], f[s, 1], f[s, 2]
+        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(bl)):
+            continue
+        sc = z / p
+        br, bg, bb = s_beta[s, 0] * r * sc, s_beta[s, 1] * g * sc, s_beta[s, 2] * bl * sc
+        if not (br > 0.0 or bg > 0.0 or bb > 0.0):
+            continue
+        if rr:
+            q = min(0.95, max(br, max(bg, bb)))
+            if not uniform(rr_key, s_path[s]) < q:
+                continue
+            br, bg, bb = br / q, bg / q, bb / q
+        s_beta[s, 0], s_beta[s, 1], s_beta[s, 2] = br, bg, bb
+        alive[s] = True
+
+
+@njit(nogil=True, cache=True)
+def compact_stage(
+    n, alive, l_need, s_origin, next_d, s_beta, s_path, pdf, l_wi, l_tmax,
+    o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32, shadow_slot,
+):  # fmt: skip
+    """The next bounce's rays (from the surviving BRDF samples) and the shadow rays (light samples that
+    need one), packed to the front of their arrays; returns ``(rays, shadow rays)``."""
+    m = 0
+    k = 0
+    for s in range(n):
+        if alive[s]:
+            for c in range(3):
+                o[m, c] = s_origin[s, c]
+                d[m, c] = next_d[s, c]
+                o32[m, c] = s_origin[s, c]
+                d32[m, c] = next_d[s, c]
+                beta[m, c] = s_beta[s, c]
+            path[m] = s_path[s]
+            prev_pdf[m] = pdf[s]
+            m += 1
+        if l_need[s]:
+            for c in range(3):
+                so32[k, c] = s_origin[s, c]
+                sd32[k, c] = l_wi[s, c]
+            st32[k] = min(l_tmax[s], 1e30)
+            shadow_slot[k] = s
+            k += 1
+    return m, k
+
+
+@njit(nogil=True, cache=True)
+def shadow_stage(a, b, blocked, shadow_slot, s_path, l_contrib, radiance):
+    """Add the contributions of the shadow rays ``[a, b)`` that nothing blocked; returns the number of
+    non-finite ones dropped."""
+    bad = 0
+    for j in range(a, b):
+        if blocked[j]:
+            continue
+        s = shadow_slot[j]
+        bad += _add(radiance, s_path[s], l_contrib[s, 0], l_contrib[s, 1], l_contrib[s, 2])
+    return bad
+
+
+@njit(nogil=True, cache=True)
+def add_rows(radiance, path, contrib):
+    """``radiance[path[j]] += contrib[j]`` for finite rows; returns the number of non-finite rows dropped."""
+    bad = 0
+    for j in range(path.shape[0]):
+        bad += _add(radiance, path[j], contrib[j, 0], contrib[j, 1], contrib[j, 2])
+    return bad
 
 
 @njit(nogil=True, cache=True)
 def bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta):
-    """After a BRDF sample: world direction, validity, and the updated throughput ``beta * f cos / pdf``.
-
-    A sample is valid when its pdf is positive and finite, ``f`` is finite, and it leaves above both the
-    shading and the geometric surface (reflection only). Invalid samples get zero throughput.
-    """
+    """After a BRDF sample: world direction, validity, and the updated throughput ``beta * f cos / pdf``
+    (zero for samples with a non-positive or non-finite pdf, non-finite ``f``, or below either surface)."""
     n = wi_l.shape[0]
     wi = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
@@ -107,139 +478,3 @@ def bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta):
         out[i, 2] = beta[i, 2] * b * s
         ok[i] = out[i, 0] > 0.0 or out[i, 1] > 0.0 or out[i, 2] > 0.0
     return wi, ok, out
-
-
-@njit(nogil=True, cache=True)
-def accumulate(img, pix, contrib):
-    """``img[pix[i]] += contrib[i]`` for finite rows; returns the number of non-finite rows skipped."""
-    bad = 0
-    for i in range(pix.shape[0]):
-        r, g, b = contrib[i, 0], contrib[i, 1], contrib[i, 2]
-        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
-            bad += 1
-            continue
-        k = pix[i]
-        img[k, 0] += r
-        img[k, 1] += g
-        img[k, 2] += b
-    return bad
-
-
-@njit(nogil=True, cache=True)
-def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_half, aspect):
-    """Pinhole rays through jittered points of ``pixels`` (row-major, row 0 at the top)."""
-    n = pixels.shape[0]
-    o = np.empty((n, 3))
-    d = np.empty((n, 3))
-    for i in range(n):
-        row = pixels[i] // width
-        col = pixels[i] - row * width
-        x = (2.0 * (col + jitter[i, 0]) / width - 1.0) * tan_half * aspect
-        y = (1.0 - 2.0 * (row + jitter[i, 1]) / height) * tan_half
-        dx = forward[0] + x * right[0] + y * up[0]
-        dy = forward[1] + x * right[1] + y * up[1]
-        dz = forward[2] + x * right[2] + y * up[2]
-        length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        o[i, 0], o[i, 1], o[i, 2] = origin[0], origin[1], origin[2]
-        d[i, 0], d[i, 1], d[i, 2] = dx / length, dy / length, dz / length
-    return o, d
-
-
-@njit(nogil=True, cache=True)
-def sample_lights(
-    origin, u, c_area, c_point, emit_ids, emit_cdf, v0, e1, e2, tri_normal, tri_two_sided, tri_emission,
-    emit_pmf_per_area, p_area, point_pos, point_intensity, point_cdf, point_pmf, p_point,
-):  # fmt: skip
-    """One light sample per row for area and point lights (rows that chose the environment are flagged).
-
-    ``u (n, 5)``: ``u[:, 0]`` picks the light type (area below ``c_area``, point below ``c_point``, else the
-    environment), ``u[:, 1]`` the light, ``u[:, 2:4]`` the point on a triangle (uniform, by the square-root
-    parametrization). Returns directions ``wi``, radiance ``le``, light pdf per solid angle (area pdf times
-    ``dist^2 / |cos|``; for point lights the selection probability of a delta light), shadow-ray ``t_max``,
-    ``delta`` and ``is_env`` flags.
-    """
-    n = origin.shape[0]
-    wi = np.zeros((n, 3))
-    le = np.zeros((n, 3))
-    pdf = np.zeros(n)
-    t_max = np.full(n, np.inf)
-    delta = np.zeros(n, dtype=np.bool_)
-    is_env = np.zeros(n, dtype=np.bool_)
-    n_emit = emit_ids.shape[0]
-    n_point = point_pos.shape[0]
-    for i in range(n):
-        if u[i, 0] < c_area and n_emit > 0:
-            k = min(np.searchsorted(emit_cdf, u[i, 1], side="right"), n_emit - 1)
-            tri = emit_ids[k]
-            su = math.sqrt(u[i, 2])
-            b1 = su * (1.0 - u[i, 3])
-            b2 = su * u[i, 3]
-            qx = v0[tri, 0] + b1 * e1[tri, 0] + b2 * e2[tri, 0] - origin[i, 0]
-            qy = v0[tri, 1] + b1 * e1[tri, 1] + b2 * e2[tri, 1] - origin[i, 1]
-            qz = v0[tri, 2] + b1 * e1[tri, 2] + b2 * e2[tri, 2] - origin[i, 2]
-            dist = math.sqrt(qx * qx + qy * qy + qz * qz)
-            if dist <= 0.0:
-                continue
-            dx, dy, dz = qx / dist, qy / dist, qz / dist
-            cos_l = -(dx * tri_normal[tri, 0] + dy * tri_normal[tri, 1] + dz * tri_normal[tri, 2])
-            if not (cos_l > 0.0 or tri_two_sided[tri]) or abs(cos_l) <= 1e-9:
-                continue
-            wi[i, 0], wi[i, 1], wi[i, 2] = dx, dy, dz
-            le[i, 0], le[i, 1], le[i, 2] = tri_emission[tri, 0], tri_emission[tri, 1], tri_emission[tri, 2]
-            pdf[i] = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
-            t_max[i] = dist * (1.0 - 1e-4)
-        elif u[i, 0] < c_point and n_point > 0:
-            k = min(np.searchsorted(point_cdf, u[i, 1], side="right"), n_point - 1)
-            qx = point_pos[k, 0] - origin[i, 0]
-            qy = point_pos[k, 1] - origin[i, 1]
-            qz = point_pos[k, 2] - origin[i, 2]
-            dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
-            wi[i, 0], wi[i, 1], wi[i, 2] = qx / dist, qy / dist, qz / dist
-            inv = 1.0 / (dist * dist)
-            le[i, 0] = point_intensity[k, 0] * inv
-            le[i, 1] = point_intensity[k, 1] * inv
-            le[i, 2] = point_intensity[k, 2] * inv
-            pdf[i] = p_point * point_pmf[k]
-            t_max[i] = dist * (1.0 - 1e-4)
-            delta[i] = True
-        else:
-            is_env[i] = True
-    return wi, le, pdf, t_max, delta, is_env
-
-
-@njit(nogil=True, cache=True)
-def light_candidates(pdf_light, wi_l, wi, ng, le):
-    """Light samples worth a BRDF evaluation: positive pdf and radiance, above both surfaces."""
-    n = pdf_light.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
-        if pdf_light[i] > 0.0 and wi_l[i, 2] > 0.0 and (le[i, 0] > 0.0 or le[i, 1] > 0.0 or le[i, 2] > 0.0):
-            out[i] = wi[i, 0] * ng[i, 0] + wi[i, 1] * ng[i, 1] + wi[i, 2] * ng[i, 2] > 0.0
-    return out
-
-
-@njit(nogil=True, cache=True)
-def light_contributions(beta, f, le, pdf_light, pdf_brdf, wi_l, delta, cand, power):
-    """``beta f le cos w / pdf_light`` with the MIS weight ``w`` (power or balance heuristic; 1 for delta
-    lights); returns the contributions and the rows that still need a shadow ray."""
-    n = beta.shape[0]
-    out = np.zeros((n, 3))
-    need = np.zeros(n, dtype=np.bool_)
-    for i in range(n):
-        if not cand[i]:
-            continue
-        pl = pdf_light[i]
-        w = 1.0
-        if not delta[i]:
-            pb = pdf_brdf[i]
-            if power:
-                s = pl * pl + pb * pb
-                w = pl * pl / s if s > 0.0 else 0.0
-            else:
-                s = pl + pb
-                w = pl / s if s > 0.0 else 0.0
-        s = wi_l[i, 2] * w / pl
-        for c in range(3):
-            out[i, c] = beta[i, c] * f[i, c] * le[i, c] * s
-        need[i] = out[i, 0] > 0.0 or out[i, 1] > 0.0 or out[i, 2] > 0.0
-    return out, need
