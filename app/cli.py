@@ -2,8 +2,10 @@
 
 Each subcommand lives in its own module under ``app/commands/`` with two functions,
 ``add_parser(subparsers) -> list[str]`` (the command names it adds) and ``run(args) -> int``; modules are found
-by name, so adding a command is adding a file. Errors a user can cause (``BrdfStudioError``) print one
-clear line and exit with its code; nothing the user does shows a traceback.
+by name, so adding a command is adding a file. Errors a user can cause (``BrdfStudioError``, and bad
+arguments, checked as they are parsed by the types of ``app/commands/_args.py``) print one clear line and exit
+with code 2; nothing the user does shows a traceback. Ctrl-C exits with 130 (a render first saves what it
+rendered); whatever an interrupt breaks on its way out is reported as the interrupt, not as a bug.
 """
 
 from __future__ import annotations
@@ -11,10 +13,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
+from app.commands._args import OneLineParser
 from core.errors import BrdfStudioError
 
 
@@ -31,15 +37,42 @@ def _command_modules() -> list[str]:
 
 
 EXIT_INTERNAL = 70
+EXIT_INTERRUPTED = 130
+
+
+class _Interrupts:
+    """Whether SIGINT arrived during this run (so that an error it caused is not called a bug)."""
+
+    seen = False
+
+
+@contextmanager
+def _sigint_recorded() -> Iterator[None]:
+    """Ctrl-C raises ``KeyboardInterrupt`` as usual, and is recorded: an interrupted import or thread join can
+    surface as another exception (``ImportError``, ``RuntimeError``) that must still read as an interrupt."""
+    _Interrupts.seen = False
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        _Interrupts.seen = True
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="brdf-studio",
         description="Explore, edit, sample and render with BRDFs (adaptive quadtree sampling, Montes 2008).",
     )
     parser.add_argument("--debug", action="store_true", help="show the full traceback of internal errors")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     handlers: dict[str, object] = {}
     for name in _command_modules():
         module = importlib.import_module(name)
@@ -53,25 +86,48 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser, handlers = build_parser()
     if argv and argv[0] not in handlers and not argv[0].startswith("-") and argv[0].endswith(".json"):
         argv = ["open", *argv]
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a bad argument (one line printed) or --help: the same code in-process
+        return exc.code if isinstance(exc.code, int) else 2
     if args.command is None:
         if "open" in handlers:
             args = parser.parse_args(["open"])
         else:
             parser.print_help()
             return 0
+    with _sigint_recorded():
+        return _run(handlers[args.command], args)
+
+
+def _run(handler: object, args: argparse.Namespace) -> int:
     try:
-        return int(handlers[args.command].run(args) or 0)  # type: ignore[attr-defined]
+        return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
-        print(f"brdf-studio {args.command}: error: {exc}", file=sys.stderr)
+        text = "; ".join(line for line in str(exc).splitlines() if line.strip())  # one line, always
+        print(f"brdf-studio {args.command}: error: {text}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
-        print("brdf-studio: interrupted", file=sys.stderr)
-        return 130
+        print(f"brdf-studio {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except Exception as exc:  # a bug, not bad input: say so plainly
+    except RecursionError:
+        print(f"brdf-studio {args.command}: error: the input is nested too deeply to read", file=sys.stderr)
+        return 2
+    except MemoryError:  # a budget estimate fell short: still the user's request, not a crash
+        print(
+            f"brdf-studio {args.command}: error: not enough memory for this request; ask for less "
+            "(fewer samples, a smaller image)",
+            file=sys.stderr,
+        )
+        return 2
+    except Exception as exc:
+        if _Interrupts.seen:
+            print(f"brdf-studio {args.command}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        # a bug, not bad input: say so plainly
         if args.debug or os.environ.get("BRDF_STUDIO_DEBUG"):
             traceback.print_exc()
         print(

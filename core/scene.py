@@ -57,9 +57,30 @@ class SceneError(FileFormatError):
     """A scene file is unreadable, invalid, or names something that does not exist."""
 
 
+MAX_COORD = 1e6
+"""Largest coordinate (positions, translations, edges) in scene units: Embree traces in float32, whose
+7 significant digits leave nothing of a scene placed further out."""
+MAX_RADIANCE = 1e9
+"""Largest radiance, intensity, emission or environment scale per channel: with BRDF peaks of up to ~1e7
+and path throughputs above 1, larger values overflow the float32 image (3.4e38) or its running sums."""
+MAX_ANGLE_DEG = 3600.0
+MIN_SCALE, MAX_SCALE = 1e-6, 1e6
+MAX_SPP = 1_000_000
+MAX_SECONDS = 7 * 24 * 3600.0
+"""The longest time budget a scene may ask for (one week)."""
+MAX_SEED = 2**32 - 1
+
 NonNeg = Annotated[float, Field(ge=0.0)]
-Vec3 = tuple[float, float, float]
-RGB = tuple[NonNeg, NonNeg, NonNeg]
+Coord = Annotated[float, Field(ge=-MAX_COORD, le=MAX_COORD)]
+Vec3 = tuple[Coord, Coord, Coord]
+Angles = tuple[
+    Annotated[float, Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG)],
+    Annotated[float, Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG)],
+    Annotated[float, Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG)],
+]
+Radiance = Annotated[float, Field(ge=0.0, le=MAX_RADIANCE)]
+RGB = tuple[Radiance, Radiance, Radiance]
+Scale = Annotated[float, Field(ge=MIN_SCALE, le=MAX_SCALE)]
 
 
 class _Strict(BaseModel):
@@ -79,8 +100,8 @@ class Transform(_Strict):
     """Applied to mesh vertices in the order scale, rotate (about x, then y, then z), translate."""
 
     translate: Vec3 = (0.0, 0.0, 0.0)
-    rotate_deg: Vec3 = (0.0, 0.0, 0.0)
-    scale: tuple[Annotated[float, Field(gt=0.0)], ...] | Annotated[float, Field(gt=0.0)] = 1.0
+    rotate_deg: Angles = (0.0, 0.0, 0.0)
+    scale: tuple[Scale, ...] | Scale = 1.0
 
     @field_validator("scale")
     @classmethod
@@ -191,8 +212,8 @@ class MapEnvironment(_Strict):
 
     type: Literal["map"]
     path: str
-    scale: NonNeg = 1.0
-    rotate_deg: float = 0.0
+    scale: Radiance = 1.0
+    rotate_deg: Annotated[float, Field(ge=-MAX_ANGLE_DEG, le=MAX_ANGLE_DEG)] = 0.0
     """Rotation about +y applied to the map."""
 
 
@@ -216,14 +237,14 @@ class RenderSettings(_Strict):
 
     width: Annotated[int, Field(ge=1, le=16384)] = 512
     height: Annotated[int, Field(ge=1, le=16384)] = 512
-    spp: Annotated[int, Field(ge=1)] = 64
-    time_s: Annotated[float, Field(gt=0.0)] | None = None
+    spp: Annotated[int, Field(ge=1, le=MAX_SPP)] = 64
+    time_s: Annotated[float, Field(gt=0.0, le=MAX_SECONDS)] | None = None
     max_depth: Annotated[int, Field(ge=1, le=1000)] = 8
-    rr_depth: Annotated[int, Field(ge=1)] = 3
+    rr_depth: Annotated[int, Field(ge=1, le=1000)] = 3
     sampler: str = "adaptive_warp"
     sampler_options: dict[str, Any] = Field(default_factory=dict)
     mis: Literal["power", "balance"] = "power"
-    seed: Annotated[int, Field(ge=0)] = 0
+    seed: Annotated[int, Field(ge=0, le=MAX_SEED)] = 0
 
 
 class Scene(_Strict):
@@ -304,6 +325,23 @@ def _format_validation(source: str, exc: ValidationError) -> str:
     return "\n".join(lines)
 
 
+MAX_JSON_DEPTH = 32
+"""A scene file is at most six levels deep; deeper data is refused before validation recurses into it."""
+
+
+def _depth(data: Any, limit: int = MAX_JSON_DEPTH) -> int:
+    """How deeply ``data`` nests lists and dicts, counted up to ``limit + 1`` (without recursion)."""
+    deepest, stack = 0, [(data, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, dict | list):
+            if depth > limit:
+                return depth
+            deepest = max(deepest, depth)
+            stack.extend((v, depth + 1) for v in (item.values() if isinstance(item, dict) else item))
+    return deepest
+
+
 def scene_from_dict(
     data: Any, source: str = "scene", base_dir: str | os.PathLike[str] | None = None, check_files: bool = True
 ) -> Scene:
@@ -327,6 +365,8 @@ def scene_from_dict(
                     f"{source}: meshes[{i}].exclude_groups: needs scene version 2 (the file says version "
                     f'{version}); set "version": 2'
                 )
+    if _depth(data) > MAX_JSON_DEPTH:
+        raise SceneError(f"{source}: the JSON is nested too deeply (a scene is a few levels deep)")
     try:
         scene = Scene.model_validate(data)
     except ValidationError as exc:
@@ -342,6 +382,7 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
     samplers, and (with ``check_files``) that every referenced file exists with a known extension."""
     from core.model import get_model
     from core.sampling import sampler_names
+    from core.sampling.base import check_sampler_options
 
     names: dict[str, int] = {}
     for i, mat in enumerate(scene.materials):
@@ -401,6 +442,10 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
             "render.sampler",
             f"unknown sampler '{scene.render.sampler}'; known samplers: {', '.join(sampler_names())}",
         )
+    try:
+        check_sampler_options(scene.render.sampler, scene.render.sampler_options)
+    except BrdfStudioError as exc:
+        raise scene.error("render.sampler_options", str(exc)) from None
 
 
 def _cross(a: Vec3, b: Vec3) -> Vec3:
@@ -542,6 +587,8 @@ def load_scene(path: str | os.PathLike[str], check_files: bool = True) -> Scene:
         raise SceneError(
             f"{source}: line {exc.lineno}, column {exc.colno}: invalid JSON: {exc.msg}"
         ) from None
+    except RecursionError:
+        raise SceneError(f"{source}: the JSON is nested too deeply (a scene is a few levels deep)") from None
     return scene_from_dict(data, source=source, base_dir=p.resolve().parent, check_files=check_files)
 
 

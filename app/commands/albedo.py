@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 
+from app.commands._args import add_list, azimuth, number, theta
 from app.commands.eval import add_brdf_arguments, brdf_from_args
 from core.analysis import albedo
-from core.errors import ParameterError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
@@ -21,44 +20,27 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         ),
     )
     add_brdf_arguments(p)
-    p.add_argument(
+    add_list(
+        p,
         "--theta",
+        item=theta,
         metavar="DEG",
-        type=str,
-        nargs="+",
-        default=["0", "30", "60", "80"],
         help="outgoing polar angles in degrees, within [0, 90] (default: 0 30 60 80)",
     )
-    p.add_argument("--phi", metavar="DEG", type=str, default="0", help="outgoing azimuth in degrees")
+    p.add_argument("--phi", metavar="DEG", type=azimuth, default=0.0, help="outgoing azimuth in degrees")
     p.add_argument(
         "--rtol",
-        type=str,
+        type=number(0.0, 1.0, lo_open=True, hi_open=True),
         default=None,
-        help="target relative error (default 1e-6; 1e-4 for a measured BRDF)",
+        help="target relative error in (0, 1) (default 1e-6; 1e-4 for a measured BRDF)",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     return ["albedo"]
 
 
-def _number(text: str, what: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise ParameterError(f"{what} must be a number, got {text!r}") from None
-    if not math.isfinite(v):
-        raise ParameterError(f"{what} must be finite, got {text!r}")
-    return v
-
-
 def run(args: argparse.Namespace) -> int:
-    thetas = [_number(t, "--theta") for t in args.theta]
-    for t in thetas:
-        if not 0.0 <= t <= 90.0:
-            raise ParameterError(f"--theta must be within [0, 90] degrees, got {t:g}")
-    phi = _number(args.phi, "--phi")
-    rtol = None if args.rtol is None else _number(args.rtol, "--rtol")
-    if rtol is not None and not 0.0 < rtol < 1.0:
-        raise ParameterError(f"--rtol must be within (0, 1), got {rtol:g}")
+    thetas = args.theta or [0.0, 30.0, 60.0, 80.0]
+    phi, rtol = args.phi, args.rtol
     brdf = brdf_from_args(args)
     results = [albedo(brdf, t, phi, rtol=rtol) for t in thetas]
     if args.json:

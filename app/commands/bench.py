@@ -7,7 +7,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from core.errors import ParameterError, UnknownNameError
+from app.commands._args import add_list, theta
+from core.errors import UnknownNameError
 from core.model import get_model
 from core.sampling import sampler_names
 from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results
@@ -18,12 +19,14 @@ QUICK_MODELS = ("lambert", "phong", "ward")
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p = sub.add_parser("bench", help="run a benchmark study (samplers)")
     p.add_argument("study", choices=["samplers"], help="which study")
-    p.add_argument("--models", nargs="+", metavar="M", help="models to include (default: all)")
-    p.add_argument("--measured", nargs="*", default=None, metavar="FILE", help="MERL files to include")
-    p.add_argument(
-        "--samplers", nargs="+", metavar="S", help=f"strategies (default: {' '.join(DEFAULT_SAMPLERS)})"
+    add_list(p, "--models", metavar="M", help="models to include (default: all)")
+    add_list(
+        p, "--measured", split=False, nargs="*", default=None, metavar="FILE", help="MERL files to include"
     )
-    p.add_argument("--thetas", nargs="+", type=float, metavar="DEG", help="incident angles in degrees")
+    add_list(p, "--samplers", metavar="S", help=f"strategies (default: {' '.join(DEFAULT_SAMPLERS)})")
+    add_list(
+        p, "--theta", "--thetas", item=theta, dest="thetas", metavar="DEG", help="angles in degrees, [0, 90]"
+    )
     p.add_argument("--quick", action="store_true", help="a small smoke run (under a minute)")
     p.add_argument("--out", type=Path, default=Path("results/samplers"), help="results folder")
     return ["bench"]
@@ -35,9 +38,6 @@ def _config(args: argparse.Namespace) -> StudyConfig:
     else:
         cfg = StudyConfig()
     if args.thetas:
-        bad = [t for t in args.thetas if not 0.0 <= t <= 90.0]
-        if bad:
-            raise ParameterError(f"incident angles must be within [0, 90] degrees, got {bad}")
         cfg.thetas = tuple(args.thetas)
     if args.samplers:
         unknown = [s for s in args.samplers if s not in sampler_names() and s != "ris"]

@@ -10,21 +10,27 @@ x n_max in {1.3, 2, 3}.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
 
+from app.commands import _args
+from app.commands._args import add_list, azimuth, name, number, seed, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
-from app.commands.sample import check_theta
+from core.budget import check_memory, largest_within, round_down
 from core.chi2 import chi2_test, integrate_pdf, sampler_functions
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, all_models
 from core.sampling import applicable_samplers, make_sampler
+from core.sampling.base import check_sampler_options
 
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 N_MAXES = (1.3, 2.0, 3.0)
+BYTES_PER_SAMPLE = 400
+"""Peak memory of one chi-square test per sample drawn (directions, pdfs, BRDF values and the histogram's
+indices at once), an upper bound of what ``python bench/budgets.py`` measures."""
+MAX_SAMPLES = 10**12
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
@@ -32,13 +38,19 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         "check", help="validate a sampler: chi-square tests, pdf integral, acceptance, weights"
     )
     add_brdf_arguments(p)
-    p.add_argument("--sampler", default="adaptive", metavar="S", help="sampling strategy (default adaptive)")
-    p.add_argument("--n-max", type=float, action="append", metavar="X", help="adaptive n_max (repeatable)")
-    p.add_argument("--theta", type=float, action="append", metavar="DEG", help="outgoing angle(s), [0, 90]")
-    p.add_argument("--phi", type=float, default=17.0, metavar="DEG", help="outgoing azimuth (default 17)")
-    p.add_argument("--samples", type=int, default=1_000_000, metavar="N", help="samples per test (1e6)")
+    p.add_argument(
+        "--sampler", type=name, default="adaptive", metavar="S", help="sampling strategy (default adaptive)"
+    )
+    add_list(
+        p, "--n-max", item=number(1.0, 1000.0, lo_open=True), metavar="X", help="adaptive n_max, (1, 1000]"
+    )
+    add_list(p, "--theta", item=_args.theta, metavar="DEG", help="outgoing angles in degrees, [0, 90]")
+    p.add_argument("--phi", type=azimuth, default=17.0, metavar="DEG", help="outgoing azimuth (default 17)")
+    p.add_argument(
+        "--samples", type=whole(1, MAX_SAMPLES), default=1_000_000, metavar="N", help="samples per test (1e6)"
+    )
     p.add_argument("--all", action="store_true", help="every model x sampler x theta x n_max")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=seed, default=1, help="random seed (default 1)")
     return ["check"]
 
 
@@ -91,31 +103,34 @@ def _fmt(row: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.samples <= 0:
-        raise ParameterError(f"--samples must be positive, got {args.samples}")
-    thetas = [check_theta(t) for t in (args.theta or THETAS)]
+    thetas = list(args.theta or THETAS)
     n_maxes = args.n_max or (list(N_MAXES) if args.all else [2.0])
-    for x in n_maxes:
-        if not (math.isfinite(x) and x > 1.0):
-            raise ParameterError(f"--n-max must be greater than 1, got {x:g}")
+    check_memory(
+        args.samples * BYTES_PER_SAMPLE,
+        f"a chi-square test of {args.samples:.3g} samples",
+        f"use --samples {round_down(largest_within(BYTES_PER_SAMPLE))} or fewer",
+    )
     if args.all:
         jobs = [(m.bind(), s) for m in all_models() for s in applicable_samplers(m.bind())]
     else:
         brdf = brdf_from_args(args)
-        make_sampler(args.sampler, brdf)  # unknown sampler: a clear error before any work
+        # unknown sampler, or an option it does not take: a clear error before any work
+        check_sampler_options(args.sampler, {"n_max": n_maxes[0]} if args.sampler == "adaptive" else {})
+        if args.n_max and args.sampler != "adaptive":
+            raise ParameterError(f"--n-max is an option of the 'adaptive' sampler, not of '{args.sampler}'")
         jobs = [(brdf, args.sampler)]
     runs = [(b, s, x) for b, s in jobs for x in (n_maxes if s == "adaptive" else [None])]
     n_tests = 2 * len(runs) * len(thetas)
     failures = 0
     t0 = time.perf_counter()
-    for brdf, name, n_max in runs:
+    for brdf, strategy, n_max in runs:
         options = {"n_max": n_max} if n_max is not None else {}
         try:
-            sampler = make_sampler(name, brdf, **options)
+            sampler = make_sampler(strategy, brdf, **options)
         except ParameterError as exc:
-            print(f"{brdf.name} / {name}: skipped ({exc})")
+            print(f"{brdf.name} / {strategy}: skipped ({exc})")
             continue
-        label = f"{brdf.name} / {name}" + (f" (n_max={n_max:g})" if n_max is not None else "")
+        label = f"{brdf.name} / {strategy}" + (f" (n_max={n_max:g})" if n_max is not None else "")
         print(label, flush=True)
         for theta in thetas:
             row = validate(sampler, theta, args.phi, args.samples, n_tests, args.seed)

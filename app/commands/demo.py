@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from app.commands._args import add_list
 from core.analysis import albedo_table, energy_report, nonnegativity_report, reciprocity_report
 from core.errors import BrdfStudioError
 from core.model import BRDF, all_models, make_brdf
@@ -22,7 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         help="summary of the model library on the bundled demo materials",
         description="Albedo tables and physical checks for every bundled demo material.",
     )
-    p.add_argument("--material", metavar="NAME", action="append", help="only these materials (repeatable)")
+    add_list(p, "--material", split=False, metavar="NAME", help="only these materials (a list)")
     return ["demo"]
 
 

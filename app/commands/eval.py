@@ -10,23 +10,28 @@ import argparse
 import json
 import math
 
+from app.commands._args import add_list, name
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import BRDF, make_brdf
 
 
 def add_brdf_arguments(p: argparse.ArgumentParser) -> None:
-    """``--model M``, ``--param k=v`` (repeatable), ``--measured FILE``."""
-    p.add_argument("--model", metavar="M", help="registered model name (see 'brdf-studio models')")
-    p.add_argument(
+    """``--model M``, ``--param k=v ...`` (a list), ``--measured FILE``."""
+    p.add_argument("--model", type=name, metavar="M", help="registered model name (see 'brdf-studio models')")
+    add_list(
+        p,
         "--param",
+        split=False,
         metavar="K=V",
-        action="append",
         default=[],
-        help="model parameter, repeatable; a color takes one number or three (kd=0.2,0.5,0.8)",
+        help="model parameters (a list); a color takes one number or three (kd=0.2,0.5,0.8)",
     )
     p.add_argument(
-        "--measured", metavar="FILE", help="a measured file (MERL .binary, RGL .bsdf) instead of --model"
+        "--measured",
+        type=name,
+        metavar="FILE",
+        help="a measured file (MERL .binary, RGL .bsdf) instead of --model",
     )
 
 

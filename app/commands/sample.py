@@ -10,48 +10,57 @@ from __future__ import annotations
 
 import argparse
 import io
-import math
+import shutil
 from pathlib import Path
 
 import numpy as np
 
+from app.commands._args import azimuth, name, number, seed, theta, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
-from core.errors import ParameterError
+from core.budget import BudgetError, format_bytes, round_down
+from core.errors import OutputError, ParameterError
 from core.geometry import degrees_to_dir
-from core.io import atomic_write_bytes
+from core.io import atomic_write
 from core.model import LUMINANCE
 from core.sampling import make_sampler
 
 FORMATS = (".csv", ".npy", ".ply")
+CHUNK = 1 << 20
+"""Directions drawn and written at a time: any ``-n`` needs the memory of one chunk (~0.3 GiB at most)."""
+BYTES_PER_ROW = {".npy": 40, ".csv": 120, ".ply": 70}
+"""Upper bounds of a row's size in each format (``%.17g`` text for csv, ``%.9g`` for ply)."""
+MAX_SAMPLES = 10**15
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p = sub.add_parser("sample", help="draw sample directions from a sampler and write them (csv, npy, ply)")
     add_brdf_arguments(p)
     add_sampler_arguments(p)
-    p.add_argument("--theta", type=float, required=True, metavar="DEG", help="outgoing polar angle, [0, 90]")
-    p.add_argument("--phi", type=float, default=0.0, metavar="DEG", help="outgoing azimuth (default 0)")
-    p.add_argument("-n", "--samples", type=int, required=True, metavar="N", help="number of directions")
+    p.add_argument("--theta", type=theta, required=True, metavar="DEG", help="outgoing polar angle, [0, 90]")
+    p.add_argument("--phi", type=azimuth, default=0.0, metavar="DEG", help="outgoing azimuth (default 0)")
+    p.add_argument(
+        "-n", "--samples", type=whole(1, MAX_SAMPLES), required=True, metavar="N", help="number of directions"
+    )
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output file: .csv, .npy or .ply")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
     return ["sample"]
 
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--sampler", default="adaptive", metavar="S", help="sampling strategy (default adaptive)")
     p.add_argument(
-        "--n-max", type=float, default=None, metavar="X", help="adaptive: mean trials target (> 1)"
+        "--sampler", type=name, default="adaptive", metavar="S", help="sampling strategy (default adaptive)"
+    )
+    p.add_argument(
+        "--n-max",
+        type=number(1.0, 1000.0, lo_open=True),
+        default=None,
+        metavar="X",
+        help="adaptive: mean trials target, (1, 1000]",
     )
 
 
 def sampler_options(args: argparse.Namespace) -> dict:
     return {} if args.n_max is None else {"n_max": args.n_max}
-
-
-def check_theta(theta: float) -> float:
-    if not math.isfinite(theta) or not (0.0 <= theta <= 90.0):
-        raise ParameterError(f"--theta must be an angle in [0, 90] degrees, got {theta:g}")
-    return theta
 
 
 def sample_table(sampler, wo: np.ndarray, n: int, seed: int) -> np.ndarray:
@@ -64,39 +73,88 @@ def sample_table(sampler, wo: np.ndarray, n: int, seed: int) -> np.ndarray:
     return np.column_stack([wi, pdf, weight])
 
 
-def encode(table: np.ndarray, suffix: str) -> bytes:
+def chunk_seed(seed: int, k: int) -> int:
+    """The seed of chunk ``k``: ``seed`` itself for the first (so a small request is one draw with ``seed``),
+    independent streams for the others."""
+    if k == 0:
+        return seed
+    return int(np.random.SeedSequence([seed, k]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def header(n: int, suffix: str) -> bytes:
+    """What precedes the rows of an ``n``-row file."""
     if suffix == ".npy":
         buf = io.BytesIO()
-        np.save(buf, table)
-        return buf.getvalue()
+        np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (n, 5)})
+        return buf.getvalue()  # the magic string and the header
     if suffix == ".csv":
-        buf = io.StringIO()
-        np.savetxt(buf, table, delimiter=",", header="x,y,z,pdf,weight", comments="", fmt="%.17g")
-        return buf.getvalue().encode()
-    head = (
+        return b"x,y,z,pdf,weight\n"
+    return (
         "ply\nformat ascii 1.0\ncomment BRDF Studio sample directions (local frame, z = normal)\n"
-        f"element vertex {len(table)}\nproperty float x\nproperty float y\nproperty float z\n"
+        f"element vertex {n}\nproperty float x\nproperty float y\nproperty float z\n"
         "property float pdf\nproperty float weight\nend_header\n"
-    )
+    ).encode()
+
+
+def rows(table: np.ndarray, suffix: str) -> bytes:
+    """The rows of ``table (m, 5)`` in the format of ``suffix``."""
+    if suffix == ".npy":
+        return np.ascontiguousarray(table, dtype="<f8").tobytes()
     buf = io.StringIO()
-    np.savetxt(buf, table, fmt="%.9g")
-    return (head + buf.getvalue()).encode()
+    if suffix == ".csv":
+        np.savetxt(buf, table, delimiter=",", fmt="%.17g")
+    else:
+        np.savetxt(buf, table, fmt="%.9g")
+    return buf.getvalue().encode()
+
+
+def encode(table: np.ndarray, suffix: str) -> bytes:
+    """A whole file holding ``table (n, 5)``."""
+    return header(len(table), suffix) + rows(table, suffix)
+
+
+def _check_output(path: Path, suffix: str, n: int) -> None:
+    if suffix not in FORMATS:
+        raise ParameterError(f"output '{path}' must end in one of {', '.join(FORMATS)}")
+    if path.is_dir():
+        raise OutputError(f"cannot write '{path}': it is a folder")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise OutputError(f"cannot write '{path}': folder '{folder}' does not exist")
+    need = n * BYTES_PER_ROW[suffix]
+    free = shutil.disk_usage(folder).free
+    if need > free:
+        raise BudgetError(
+            f"{n:.3g} directions as {suffix} need up to {format_bytes(need)} of disk; '{folder}' has "
+            f"{format_bytes(free)} free; use -n {round_down(free // BYTES_PER_ROW[suffix])} or fewer"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
-    suffix = Path(args.output).suffix.lower()
-    if suffix not in FORMATS:
-        raise ParameterError(f"output '{args.output}' must end in one of {', '.join(FORMATS)}")
-    check_theta(args.theta)
-    if not math.isfinite(args.phi):
-        raise ParameterError("--phi must be a finite angle in degrees")
-    if args.samples <= 0:
-        raise ParameterError(f"-n must be a positive number of samples, got {args.samples}")
+    out = Path(args.output)
+    suffix = out.suffix.lower()
+    n = int(args.samples)
+    _check_output(out, suffix, n)
     brdf = brdf_from_args(args)
     sampler = make_sampler(args.sampler, brdf, **sampler_options(args))
-    table = sample_table(sampler, degrees_to_dir(args.theta, args.phi), args.samples, args.seed)
-    atomic_write_bytes(args.output, encode(table, suffix))
-    w = table[:, 4]
-    spread = f"relative std {float(np.std(w) / np.mean(w)):.3g}" if np.mean(w) > 0 else "every weight 0"
-    print(f"wrote {len(table)} directions to {args.output} (weight mean {np.mean(w):.6g}, {spread})")
+    wo = degrees_to_dir(args.theta, args.phi)
+    total = total_sq = 0.0
+    from tqdm import tqdm
+
+    with (
+        atomic_write(out, "wb") as fh,
+        tqdm(total=n, unit="dir", disable=n <= CHUNK or None, desc="sample") as bar,
+    ):
+        fh.write(header(n, suffix))
+        for k, start in enumerate(range(0, n, CHUNK)):
+            table = sample_table(sampler, wo, min(CHUNK, n - start), chunk_seed(args.seed, k))
+            fh.write(rows(table, suffix))
+            w = table[:, 4]
+            total += float(w.sum())
+            total_sq += float(np.dot(w, w))
+            bar.update(len(table))
+    mean = total / n
+    var = max(0.0, total_sq / n - mean * mean)
+    spread = f"relative std {np.sqrt(var) / mean:.3g}" if mean > 0 else "every weight 0"
+    print(f"wrote {n} directions to {args.output} (weight mean {mean:.6g}, {spread})")
     return 0

@@ -25,9 +25,12 @@ imported; :func:`make_sampler` imports them all on first use, so adding a strate
 from __future__ import annotations
 
 import importlib
+import math
+import os
 import pkgutil
-from collections.abc import Callable
-from typing import Any, NamedTuple
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -153,15 +156,123 @@ class Sampler:
         return SampleBatch(wi, pdf, f)
 
 
+@dataclass(frozen=True)
+class SamplerOption:
+    """One option a strategy takes, declared with it the way a model declares its :class:`~core.model.Param`.
+
+    ``kind``: ``"int"`` (a whole number in ``[lo, hi]``), ``"float"`` (a finite number in ``[lo, hi]``, or
+    ``(lo, hi]`` with ``lo_open``), ``"bool"``, ``"choice"`` (one of ``choices``) or ``"cache"`` (true, false
+    or a folder). :func:`make_sampler` checks every option against the declaration before any work, so an
+    unknown key, a wrong type or a value out of range is a :class:`ParameterError` naming the option and its
+    range (``sampler_options`` of a scene file, ``--n-max`` on the command line, the app's fields).
+    """
+
+    name: str
+    kind: Literal["int", "float", "bool", "choice", "cache"]
+    lo: float = 0.0
+    hi: float = 0.0
+    lo_open: bool = False
+    choices: tuple[str, ...] = ()
+    doc: str = ""
+
+    def range_text(self) -> str:
+        if self.kind == "bool":
+            return "true or false"
+        if self.kind == "cache":
+            return "true, false or a folder"
+        if self.kind == "choice":
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        what = "a whole number" if self.kind == "int" else "a number"
+        return f"{what} in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]"
+
+    def validate(self, sampler: str, value: Any) -> Any:
+        """``value`` normalized (``int``, ``float``, ``bool``, ``str``), or :class:`ParameterError`."""
+        where = f"option '{self.name}' of the sampler '{sampler}'"
+        bad = ParameterError(f"{where} must be {self.range_text()}, got {value!r}")
+        if self.kind == "choice":
+            if not isinstance(value, str) or value not in self.choices:
+                raise bad
+            return value
+        if self.kind in ("bool", "cache"):
+            if isinstance(value, bool):
+                return value
+            if isinstance(value, int) and value in (0, 1):
+                return bool(value)
+            if isinstance(value, str):
+                low = value.strip().lower()
+                if low in ("true", "yes", "on"):
+                    return True
+                if low in ("false", "no", "off"):
+                    return False
+                if self.kind == "cache" and value.strip() and "\0" not in value:
+                    return value
+            if self.kind == "cache" and isinstance(value, os.PathLike):
+                return value
+            raise bad
+        if isinstance(value, bool) or not isinstance(value, int | float | str | np.integer | np.floating):
+            raise bad
+        try:
+            number = float(value)
+        except (TypeError, ValueError, OverflowError):
+            raise bad from None
+        if not math.isfinite(number):
+            raise bad
+        low_ok = number > self.lo if self.lo_open else number >= self.lo
+        if not (low_ok and number <= self.hi):
+            raise bad
+        if self.kind == "int":
+            if number != int(number):
+                raise bad
+            return int(number)
+        return number
+
+
 SamplerFactory = Callable[..., Sampler]
 _SAMPLERS: dict[str, SamplerFactory] = {}
+_OPTIONS: dict[str, dict[str, SamplerOption]] = {}
+_MEMORY: dict[str, Callable[[BRDF, dict[str, Any]], float]] = {}
 _loaded = False
 
 
-def register_sampler(name: str, factory: SamplerFactory) -> None:
+def register_sampler(
+    name: str,
+    factory: SamplerFactory,
+    options: Sequence[SamplerOption] = (),
+    memory: Callable[[BRDF, dict[str, Any]], float] | None = None,
+) -> None:
     """Make ``factory(brdf, **options) -> Sampler`` available as ``make_sampler(name, brdf, **options)``
-    (a later registration of the same name replaces the earlier one)."""
+    (a later registration of the same name replaces the earlier one). ``options`` declares every option the
+    strategy takes; :func:`make_sampler` passes only declared, validated options on. ``memory(brdf, options)``
+    estimates the bytes its tables will need, checked against the machine's memory before they are built."""
     _SAMPLERS[name] = factory
+    _OPTIONS[name] = {o.name: o for o in options}
+    if memory is not None:
+        _MEMORY[name] = memory
+
+
+def sampler_option_set(name: str) -> dict[str, SamplerOption]:
+    """The options the strategy ``name`` declares, by name (:class:`UnknownNameError` for an unknown name)."""
+    _load_samplers()
+    if name not in _SAMPLERS:
+        raise UnknownNameError(f"unknown sampler '{name}'; known samplers: {', '.join(_SAMPLERS)}")
+    return dict(_OPTIONS.get(name, {}))
+
+
+def check_sampler_options(name: str, options: dict[str, Any]) -> dict[str, Any]:
+    """``options`` validated against the declaration of the strategy ``name`` (values normalized); an unknown
+    key, a wrong type or a value out of range is a :class:`ParameterError` naming the option and its range."""
+    declared = sampler_option_set(name)
+    out: dict[str, Any] = {}
+    for key, value in options.items():
+        option = declared.get(key) if isinstance(key, str) else None
+        if option is None:
+            if not declared:
+                raise ParameterError(f"the sampler '{name}' takes no options, got {key!r}")
+            raise ParameterError(
+                f"the sampler '{name}' has no option {key!r}; its options: {', '.join(sorted(declared))}"
+            )
+        out[key] = option.validate(name, value)
+    return out
 
 
 def sampler_names() -> list[str]:
@@ -177,7 +288,16 @@ def make_sampler(name: str, brdf: BRDF, **options: Any) -> Sampler:
         factory = _SAMPLERS[name]
     except KeyError:
         raise UnknownNameError(f"unknown sampler '{name}'; known samplers: {', '.join(_SAMPLERS)}") from None
-    return factory(brdf, **options)
+    checked = check_sampler_options(name, options)
+    if name in _MEMORY:
+        from core.budget import check_memory
+
+        check_memory(
+            _MEMORY[name](brdf, checked),
+            f"the sampler '{name}' with these options",
+            "lower its table sizes (see 'sampler_options' in docs/validation.md)",
+        )
+    return factory(brdf, **checked)
 
 
 def applicable_samplers(brdf: BRDF) -> list[str]:

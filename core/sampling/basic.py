@@ -109,6 +109,6 @@ class AnalyticSampler(Sampler):
         return pdf_batch(self.brdf.model.id, wo, wi, self.brdf.params)
 
 
-register_sampler("uniform", lambda brdf, **_: UniformSampler(brdf))
-register_sampler("cosine", lambda brdf, **_: CosineSampler(brdf))
-register_sampler("analytic", lambda brdf, **_: AnalyticSampler(brdf))
+register_sampler("uniform", UniformSampler)  # no options: make_sampler refuses any
+register_sampler("cosine", CosineSampler)
+register_sampler("analytic", AnalyticSampler)

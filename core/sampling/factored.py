@@ -31,7 +31,7 @@ from numba import njit
 from core.errors import ParameterError
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
-from core.sampling.base import Sampler, register_sampler
+from core.sampling.base import Sampler, SamplerOption, register_sampler
 from core.sampling.tabulated import bin_directions, bin_of, search_cdf
 
 HALF_PI = 0.5 * math.pi
@@ -334,4 +334,20 @@ class FactoredSampler(Sampler):
         }
 
 
-register_sampler("factored", lambda brdf, **o: FactoredSampler(brdf, **o))
+register_sampler(
+    "factored",
+    lambda brdf, **o: FactoredSampler(brdf, **o),
+    (
+        SamplerOption("n_theta_o", "int", 1, 256, doc="outgoing-direction bins in theta"),
+        SamplerOption("n_phi_o", "int", 1, 64, doc="outgoing-direction bins in phi (anisotropic BRDFs)"),
+        SamplerOption("n_theta_p", "int", 1, 1024, doc="factor grid rows"),
+        SamplerOption("n_phi_p", "int", 1, 1024, doc="factor grid columns"),
+        SamplerOption("terms_j", "int", 1, 16, doc="terms of the outer factorization"),
+        SamplerOption("terms_k", "int", 1, 16, doc="terms of the inner factorization"),
+        SamplerOption("reparam", "bool", doc="factor about the half vector"),
+        SamplerOption("defensive", "float", 0.0, 0.5, lo_open=True, doc="mixture weight of uniform sampling"),
+    ),
+    lambda brdf, o: (
+        48.0 * o.get("n_theta_o", 16) * o.get("n_phi_o", 16) * o.get("n_theta_p", 100) * o.get("n_phi_p", 32)
+    ),  # the matrix Y and the factorization's copies of it
+)

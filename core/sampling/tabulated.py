@@ -28,7 +28,7 @@ from numba import njit
 from core.errors import ParameterError
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
-from core.sampling.base import Sampler, register_sampler
+from core.sampling.base import Sampler, SamplerOption, register_sampler
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -314,5 +314,36 @@ class CompressedCDFSampler(CDFSampler):
         super().__init__(brdf, tol=tol, **options)
 
 
-register_sampler("uniform_cdf", lambda brdf, **o: CDFSampler(brdf, **o))
-register_sampler("compress_cdf", lambda brdf, **o: CompressedCDFSampler(brdf, **o))
+_GRID_OPTIONS = (
+    SamplerOption("n_theta_o", "int", 1, 256, doc="incident-angle bins in theta"),
+    SamplerOption("n_phi_o", "int", 1, 64, doc="incident-angle bins in phi (anisotropic BRDFs)"),
+    SamplerOption("n_theta", "int", 1, 1024, doc="rows of each bin's table"),
+    SamplerOption("n_phi", "int", 1, 2048, doc="columns of each bin's table"),
+    SamplerOption("substeps", "int", 1, 16, doc="sub-samples per cell side when tabulating"),
+    SamplerOption("defensive", "float", 0.0, 0.5, lo_open=True, doc="mixture weight of uniform sampling"),
+)
+
+
+def _table_bytes(brdf: BRDF, o: dict[str, Any]) -> float:
+    """An upper bound of a table's memory: 2 float64 knots per cell of every bin, and one bin's tabulation
+    (``substeps^2`` sub-samples a cell, each with its direction pair and RGB value)."""
+    bins = o.get("n_theta_o", 32) * o.get("n_phi_o", 1 if brdf.model.isotropic else 8)
+    cells = o.get("n_theta", 64) * (o.get("n_phi", 128) + 1)
+    return 16.0 * bins * cells + 120.0 * cells * o.get("substeps", 3) ** 2
+
+
+register_sampler(
+    "uniform_cdf",
+    lambda brdf, **o: CDFSampler(brdf, **o),
+    (*_GRID_OPTIONS, SamplerOption("tol", "float", 0.0, 0.5, doc="CDF simplification tolerance (0: none)")),
+    _table_bytes,
+)
+register_sampler(
+    "compress_cdf",
+    lambda brdf, **o: CompressedCDFSampler(brdf, **o),
+    (
+        *_GRID_OPTIONS,
+        SamplerOption("tol", "float", 0.0, 0.5, lo_open=True, doc="CDF simplification tolerance"),
+    ),
+    _table_bytes,
+)

@@ -119,8 +119,11 @@ def test_albedo_measured(capsys, constant_merl):
         (["eval", "--model", "lambert", "--wi", "0,inf", "--wo", "0,0"], "finite"),
         (["eval", "--wi", "0,0", "--wo", "0,0"], "give --model"),
         (["eval", "--model", "merl", "--wi", "0,0", "--wo", "0,0"], "give --measured FILE"),
-        (["albedo", "--model", "lambert", "--theta", "95"], r"--theta must be within \[0, 90\]"),
-        (["albedo", "--model", "lambert", "--theta", "x"], "--theta must be a number"),
+        (
+            ["albedo", "--model", "lambert", "--theta", "95"],
+            r"--theta: must be a number in \[0, 90\], got '95'",
+        ),
+        (["albedo", "--model", "lambert", "--theta", "x"], "--theta: must be a number"),
         (["albedo", "--model", "nope"], "unknown model"),
         (["albedo", "--measured", "/nonexistent/file.binary"], "does not exist"),
         (["demo", "--material", "no such material"], "unknown demo material"),

@@ -50,12 +50,18 @@ def test_sample_writes_directions_with_pdf_and_weight(tmp_path, capsys, suffix):
     [
         (["--model", "nope", "--theta", "10", "-n", "5"], "unknown model 'nope'"),
         (["--model", "lambert", "--sampler", "nope", "--theta", "10", "-n", "5"], "unknown sampler 'nope'"),
-        (["--model", "lambert", "--theta", "91", "-n", "5"], "--theta must be an angle in [0, 90]"),
-        (["--model", "lambert", "--theta", "-1", "-n", "5"], "--theta must be an angle in [0, 90]"),
-        (["--model", "lambert", "--theta", "10", "-n", "0"], "-n must be a positive"),
+        (
+            ["--model", "lambert", "--theta", "91", "-n", "5"],
+            "--theta: must be a number in [0, 90], got '91'",
+        ),
+        (["--model", "lambert", "--theta=-1", "-n", "5"], "--theta: must be a number in [0, 90], got '-1'"),
+        (
+            ["--model", "lambert", "--theta", "10", "-n", "0"],
+            "--samples: must be a whole number in [1, 1e15]",
+        ),
         (
             ["--model", "lambert", "--theta", "10", "-n", "5", "--n-max", "1"],
-            "n_max must be a number in (1, 1000]",
+            "--n-max: must be a number in (1, 1000], got '1'",
         ),
     ],
 )

@@ -44,7 +44,7 @@ from core.sampling.adaptive.table import (
     save_table,
     table_cache_key,
 )
-from core.sampling.base import SampleBatch, Sampler, check_direction, register_sampler
+from core.sampling.base import SampleBatch, Sampler, SamplerOption, check_direction, register_sampler
 
 _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
 """Tables in memory by key (model, parameters, options, sources): one per material per process."""
@@ -410,5 +410,23 @@ def _warp(brdf: BRDF, **options: Any) -> AdaptiveSampler:
     return AdaptiveSampler(brdf, mode="warp", **options)
 
 
-register_sampler("adaptive", _exact)
-register_sampler("adaptive_warp", _warp)
+def _declared_options(modes: tuple[str, ...]) -> tuple[SamplerOption, ...]:
+    """The options both modes take (``make_sampler`` checks them against this declaration first)."""
+    return (
+        SamplerOption(
+            "n_max", "float", 1.0, 1000.0, lo_open=True, doc="mean trials per sample of the envelope"
+        ),
+        SamplerOption("mode", "choice", choices=modes, doc="exact (rejection) or warp (rejection-free)"),
+        SamplerOption("cache", "cache", doc="the table cache: true (default folder), false, or a folder"),
+        SamplerOption("threads", "bool", doc="draw large batches on two threads"),
+        SamplerOption(
+            "progressive", "bool", doc="a coarse table first, the full one built in the background"
+        ),
+        SamplerOption("parameterization", "choice", choices=("auto", "wi", "half"), doc="the trees' disk"),
+        *(SamplerOption(k, "int", lo, hi) for k, (lo, hi) in _INTS.items()),
+        *(SamplerOption(k, "float", lo, hi) for k, (lo, hi) in _FLOATS.items()),
+    )
+
+
+register_sampler("adaptive", _exact, _declared_options(MODES))
+register_sampler("adaptive_warp", _warp, _declared_options(("warp",)))
