@@ -1,59 +1,24 @@
-"""Between the app's document and the project file (the renderer's scene format, :mod:`core.scene`).
+"""Project files: a project *is* a scene file (:mod:`core.scene`); the app reads and writes it with the
+scene module's own loader and writer. Two things happen at the boundary, both on the same schema:
 
-A mesh file becomes one object, or one object per group when it holds several (``group_materials`` in the
-scene; deleted groups are its ``exclude_groups``); paths are written relative to the project file. Camera,
-lights and environment are kept in the scene's form in the document's ``extras`` (edited there through the
-document), render settings are carried through unchanged.
+- paths: absolute while the app holds the scene (so undo steps stay valid when *Save as* moves the project),
+  relative to the project file's folder when saved;
+- parameters: a material's parameter values completed with its model's defaults when read, so the editor
+  shows every parameter (the saved file then lists them all).
 """
 
 from __future__ import annotations
 
-import copy
 import os
-from collections.abc import Callable
 from pathlib import Path
 
-from app.capabilities import MEASURED_MODEL
-from app.state import DocumentData, Material, SceneObject, unique_name
+from app.document import PartLister, mesh_parts, unique_name
 from core.errors import BrdfStudioError
-from core.scene import (
-    SCENE_VERSION,
-    Mesh,
-    Scene,
-    SceneError,
-    kept_groups,
-    load_scene,
-    save_scene,
-    scene_from_dict,
-)
-
-MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
-EXTRA_KEYS = ("name", "camera", "lights", "environment", "render")
-
-PartLister = Callable[[Path], list[str]]
+from core.model import get_model
+from core.scene import Scene, SceneError, kept_groups, load_scene, save_scene, scene_from_dict, validate_scene
 
 
-def mesh_parts(path: Path) -> list[str]:
-    """The group names of a mesh file as the renderer reads it (``SceneError`` if unreadable or empty)."""
-    from app.meshes import load_parts
-
-    return [p.name for p in load_parts(path)]
-
-
-def objects_from_mesh(path: Path, material: str, parts: PartLister = mesh_parts) -> list[SceneObject]:
-    """One object for a single-part file, one per part for a multi-part file."""
-    path = Path(path)
-    if path.suffix.lower() not in MESH_SUFFIXES:
-        raise SceneError(
-            f"'{path.name}' is not a mesh file this app reads (expected one of {', '.join(MESH_SUFFIXES)})"
-        )
-    names = parts(path)
-    if len(names) <= 1:
-        return [SceneObject(path.stem, str(path), None, material)]
-    return [SceneObject(f"{path.stem}/{n or i}", str(path), n, material) for i, n in enumerate(names)]
-
-
-def _rel(path: str, base: Path) -> str:
+def _relative(path: str, base: Path) -> str:
     p = Path(path)
     if not p.is_absolute():
         return p.as_posix()
@@ -63,123 +28,56 @@ def _rel(path: str, base: Path) -> str:
         return p.as_posix()
 
 
-def document_to_scene(data: DocumentData, project: Path) -> Scene:
-    """A validated :class:`Scene` for ``data`` saved as ``project`` (paths made relative to its folder)."""
-    base = Path(project).resolve().parent
-    materials = []
-    for m in data.materials:
-        entry: dict = {"name": m.name, "notes": m.notes, "tags": list(m.tags)}
-        if m.measured:
-            entry["measured"] = _rel(m.measured, base)
-        else:
-            entry["model"] = m.model
-            entry["params"] = {k: list(v) if isinstance(v, tuple) else v for k, v in m.params.items()}
-        emission = data.extras.get("emission", {}).get(m.name)
-        if emission:
-            entry["emission"] = emission
-        materials.append(entry)
-    meshes: list[dict] = []
-    by_entry: dict[tuple[str, str], dict] = {}
-    for o in data.objects:
-        options: dict = {}
-        if o.transform:
-            options["transform"] = o.transform
-        if o.smooth:
-            options["smooth"] = True
-        if o.part is None:
-            meshes.append({"name": o.name, "path": _rel(o.mesh, base), "material": o.material, **options})
-            continue
-        key = (o.mesh, o.entry or Path(o.mesh).stem)
-        entry = by_entry.get(key)
-        if entry is None:
-            entry = {"name": key[1], "path": _rel(o.mesh, base), "material": o.material, **options}
-            entry["group_materials"] = {}
-            by_entry[key] = entry
-            meshes.append(entry)
-        entry["group_materials"][o.part] = o.material
-    for o in data.excluded_parts:  # deleted parts of files that still have parts in the scene
-        entry = by_entry.get((o.mesh, o.entry or Path(o.mesh).stem))
-        if entry is not None and o.part not in entry["group_materials"]:
-            excluded = entry.setdefault("exclude_groups", [])
-            if o.part not in excluded:
-                excluded.append(o.part)
-    raw = {"version": SCENE_VERSION, "materials": materials, "meshes": meshes}
-    for k in EXTRA_KEYS:
-        if k in data.extras and data.extras[k] is not None:
-            raw[k] = copy.deepcopy(data.extras[k])
-    if raw.get("environment", {}).get("path"):
-        raw["environment"]["path"] = _rel(raw["environment"]["path"], base)
-    return scene_from_dict(raw, source=Path(project).name, base_dir=base, check_files=False)
+def _map_paths(scene: Scene, fn) -> None:
+    for mesh in scene.meshes:
+        mesh.path = fn(mesh.path)
+    for mat in scene.materials:
+        if mat.measured:
+            mat.measured = fn(mat.measured)
+    if scene.environment is not None and scene.environment.type == "map":
+        scene.environment.path = fn(scene.environment.path)
 
 
-def save_project(data: DocumentData, project: Path) -> None:
-    """Validate and write atomically (``BrdfStudioError`` with the reason on failure)."""
-    scene = document_to_scene(data, project)
-    try:
-        save_scene(scene, project)
-    except OSError as exc:
-        raise BrdfStudioError(f"cannot save '{project}': {exc.strerror or exc}") from None
-
-
-def scene_to_document(scene: Scene, parts: PartLister = mesh_parts) -> DocumentData:
-    """The document for a loaded scene; mesh files are listed (not loaded into the document)."""
-    data = DocumentData()
-    emission = {}
-    for m in scene.materials:
-        if m.measured:
-            data.materials.append(Material(m.name, MEASURED_MODEL, {}, str(scene.resolve(m.measured))))
-        else:
-            params = {k: tuple(v) if isinstance(v, list) else v for k, v in m.params.items()}
-            from core.model import get_model
-
-            values = get_model(m.model or "").resolve(params)
-            data.materials.append(Material(m.name, m.model or "", dict(values)))
-        data.materials[-1].notes = getattr(m, "notes", "") or ""
-        data.materials[-1].tags = list(getattr(m, "tags", []) or [])
-        if m.emissive:
-            emission[m.name] = list(m.emission)
-    identity = Mesh(path="x", material="x").transform.model_dump(mode="json")
+def for_editing(scene: Scene, parts: PartLister = mesh_parts) -> Scene:
+    """``scene`` (changed in place and returned) as the app holds it: absolute paths, every material's
+    parameters complete, every mesh named (names identify objects), excluded groups checked against the
+    files (``SceneError`` naming the mesh when one cannot be read)."""
+    taken: list[str] = []
     for i, mesh in enumerate(scene.meshes):
-        full = scene.resolve(mesh.path)
-        name = mesh.name or Path(mesh.path).stem
-        transform = mesh.transform.model_dump(mode="json")
-        transform = None if transform == identity else transform
         try:
-            names = parts(full)
+            groups = parts(scene.resolve(mesh.path))
         except BrdfStudioError as exc:
             raise SceneError(f"{scene.source}: meshes[{i}].path: {exc}") from None
-        keep = kept_groups(scene, i, names)  # an excluded name the file does not hold is an error
-        if len(names) <= 1 and not mesh.group_materials and not mesh.exclude_groups:
-            data.objects.append(
-                SceneObject(name, str(full), None, mesh.material, True, transform, mesh.smooth)
-            )
-        else:
-            for n, kept in zip(names, keep, strict=True):
-                obj = SceneObject(
-                    f"{name}/{n}",
-                    str(full),
-                    n,
-                    mesh.group_materials.get(n, mesh.material),
-                    True,
-                    transform,
-                    mesh.smooth,
-                    name,
-                )  # fmt: skip
-                (data.objects if kept else data.excluded_parts).append(obj)
-    taken: list[str] = []
-    for o in data.objects:  # names identify objects in the app: keep them unique
-        o.name = unique_name(o.name, taken)
-        taken.append(o.name)
-    dumped = scene.model_dump(mode="json")
-    data.extras = {k: dumped[k] for k in EXTRA_KEYS if dumped.get(k) is not None}
-    env = data.extras.get("environment")
-    if env and env.get("path"):  # absolute while in the app; relative again when saved
-        env["path"] = str(scene.resolve(env["path"]))
-    if emission:
-        data.extras["emission"] = emission
-    return data
+        kept_groups(scene, i, groups)  # an excluded group the file does not hold is an error
+        mesh.name = unique_name(mesh.name or Path(mesh.path).stem, taken)
+        taken.append(mesh.name)
+    _map_paths(scene, lambda p: str(scene.resolve(p).resolve()))
+    for mat in scene.materials:
+        if mat.model is not None:
+            mat.params = dict(get_model(mat.model).resolve(mat.params))
+    return scene
 
 
-def load_project(path: Path, parts: PartLister = mesh_parts) -> DocumentData:
-    """Read a project file into a document (``SceneError`` with the file and field at fault)."""
-    return scene_to_document(load_scene(path), parts)
+def load_project(path: Path, parts: PartLister = mesh_parts) -> Scene:
+    """Read a project file for editing (``SceneError`` with the file and field at fault)."""
+    return for_editing(load_scene(path), parts)
+
+
+def scene_from_autosave(data: dict, parts: PartLister = mesh_parts) -> Scene:
+    """The scene an autosave holds (it was written with absolute paths)."""
+    return for_editing(scene_from_dict(data, source="autosave", check_files=False), parts)
+
+
+def save_project(scene: Scene, path: Path) -> None:
+    """Validate and write ``scene`` as the project ``path``, paths relative to its folder, atomically
+    (``BrdfStudioError`` with the reason on failure). ``scene`` itself is not changed."""
+    path = Path(path)
+    folder = path.resolve().parent
+    copy = scene.model_copy(deep=True)
+    _map_paths(copy, lambda p: _relative(p, folder))
+    copy.set_origin(folder, path.name)
+    validate_scene(copy, check_files=False)
+    try:
+        save_scene(copy, path)
+    except OSError as exc:
+        raise BrdfStudioError(f"cannot save '{path}': {exc.strerror or exc}") from None

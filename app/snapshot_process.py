@@ -87,9 +87,9 @@ def _brdf(spec: Spec) -> Any:
     if hit is None:
         model, measured, params = spec
         if measured:
-            from app.capabilities import load_measured
+            from core.merl import measured_brdf
 
-            hit = load_measured(measured)
+            hit = measured_brdf(measured)
         else:
             from core.model import get_model
 

@@ -164,11 +164,38 @@ def albedo_line(
     return f"Albedo (luminance) {', '.join(cells)}{warn}"
 
 
+ALBEDO_RTOL = 1e-3
+"""Relative accuracy asked of the albedo quadrature in the UI (the library's default is stricter and slower)."""
+
+
+def directional_albedo(brdf: BRDF, thetas_deg: list[float], phi_deg: float = 0.0) -> np.ndarray:
+    """Directional albedo ``(n, 3)`` at the polar angles ``thetas_deg`` (degrees), by ``core.analysis``."""
+    from core.analysis import albedo_table
+
+    results = albedo_table(brdf, [float(t) for t in thetas_deg], phi_deg=phi_deg, rtol=ALBEDO_RTOL)
+    return np.array([r.value for r in results], dtype=np.float64).reshape(len(results), 3)
+
+
+ADAPTIVE_SAMPLERS = {"exact": "adaptive", "warp": "adaptive_warp"}
+"""The registered sampler of each mode of the adaptive sampler."""
+
+
+def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0):  # noqa: ANN201
+    """The adaptive sampler of ``brdf`` in ``mode`` (``"exact"`` or ``"warp"``); both modes read one table
+    per material and ``n_max`` (made on first use, kept in memory and on disk)."""
+    from core.errors import ParameterError
+    from core.sampling import make_sampler
+
+    if mode not in ADAPTIVE_SAMPLERS:
+        raise ParameterError(f"the adaptive sampler's mode must be 'exact' or 'warp', got {mode!r}")
+    return make_sampler(ADAPTIVE_SAMPLERS[mode], brdf, n_max=n_max)
+
+
 def adaptive_line(brdf: BRDF) -> str:
     """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it)."""
-    from app.capabilities import adaptive_table_info
-
-    info = adaptive_table_info(brdf)
+    sampler = adaptive_sampler(brdf)
+    sampler.preload()
+    info = sampler.info()
     return (
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
         f"built in {info.get('build_seconds', 0.0) * 1000:.0f} ms"
@@ -280,7 +307,6 @@ def sampling_snapshot(
     exact mode's normalizer ``I(wo)`` (a quadrature beyond the table's last node): the exact mode's map is 1
     wherever ``f > 0``.
     """
-    from app.capabilities import ADAPTIVE_SAMPLERS, adaptive_sampler
     from core.errors import BrdfStudioError
     from core.sampling import make_sampler, sampler_names
     from core.sampling.adaptive.inspect import from_tree_disk, to_tree_disk, tree_view

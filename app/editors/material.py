@@ -17,13 +17,14 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.capabilities import MEASURED_MODEL
+from app.document import Document
 from app.editors.params import ParamEditor
-from app.state import Document
 from core.errors import BrdfStudioError
 from core.model import Model, all_models, get_model
 
 INFO_THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
+MEASURED = "(measured)"
+"""The model chooser's item for a measured material."""
 
 
 def trait_badges(model: Model) -> str:
@@ -115,13 +116,17 @@ class MaterialEditor(QWidget):
         self.merl_button.clicked.connect(self.load_measured_requested)
         self.notes.textChanged.connect(lambda: self._guard(document.set_notes, self.notes.toPlainText()))
         self.tags.editingFinished.connect(lambda: self._guard(document.set_tags, self.tags.text().split(",")))
-        ev = document.events
-        ev.materials_changed.connect(self.refresh_names)
-        ev.selection_changed.connect(self.refresh)
-        ev.material_changed.connect(
-            lambda name: self.refresh() if name == document.current_material else None
-        )
+        document.events.materials.connect(self._materials_changed)
+        document.selection_changed.connect(self.refresh)
         self.refresh_names()
+        self.refresh()
+
+    def _materials_changed(self, items) -> None:
+        names = self.document.material_names()
+        if items is None or names != [
+            self.material_box.itemText(i) for i in range(self.material_box.count())
+        ]:
+            self.refresh_names()
         self.refresh()
 
     def _guard(self, fn, *args) -> None:
@@ -132,13 +137,12 @@ class MaterialEditor(QWidget):
 
     def _model_chosen(self, index: int) -> None:
         name = self.model_box.itemData(index)
-        if name and name != MEASURED_MODEL:
+        if name and name != MEASURED:
             self._guard(self.document.set_model, name)
 
     def new_material(self) -> None:
-        current = self.document.material().model if self.document.current_material else "lambert"
-        if current == MEASURED_MODEL:
-            current = "lambert"
+        current = self.document.material().model if self.document.current_material else None
+        current = current or "lambert"  # a measured material's copy starts as Lambert
         self._guard(self.document.add_material, current)
 
     def delete_material(self) -> None:
@@ -169,12 +173,12 @@ class MaterialEditor(QWidget):
         if measured:
             model = doc.brdf().model
             self.model_box.blockSignals(True)
-            if self.model_box.findData(MEASURED_MODEL) < 0:
-                self.model_box.addItem(model.label, MEASURED_MODEL)
-            self.model_box.setCurrentIndex(self.model_box.findData(MEASURED_MODEL))
+            if self.model_box.findData(MEASURED) < 0:
+                self.model_box.addItem(model.label, MEASURED)
+            self.model_box.setCurrentIndex(self.model_box.findData(MEASURED))
             self.model_box.blockSignals(False)
         else:
-            model = get_model(mat.model)
+            model = get_model(mat.model or "")
             self.model_box.blockSignals(True)
             self.model_box.setCurrentIndex(self.model_box.findData(mat.model))
             self.model_box.blockSignals(False)

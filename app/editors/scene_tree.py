@@ -6,8 +6,9 @@ from __future__ import annotations
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QAbstractItemView, QComboBox, QMenu, QTreeWidget, QTreeWidgetItem
 
-from app.state import Document
+from app.document import Document
 from core.errors import BrdfStudioError
+from core.scene import PointLight, QuadLight
 
 ROLE_KIND = Qt.ItemDataRole.UserRole
 ROLE_NAME = Qt.ItemDataRole.UserRole + 1
@@ -41,12 +42,11 @@ class SceneTree(QTreeWidget):
         self.combos: dict[str, QComboBox] = {}
         self.itemSelectionChanged.connect(self._selection_from_tree)
         ev = document.events
-        ev.objects_changed.connect(self.rebuild)
-        ev.materials_changed.connect(self.rebuild)
-        ev.material_changed.connect(lambda _n: self._relabel_materials())
-        ev.selection_changed.connect(self._selection_from_document)
-        ev.lights_changed.connect(self._rebuild_scene_items)
-        ev.camera_changed.connect(self._rebuild_scene_items)
+        ev.meshes.connect(lambda _items: self.rebuild())
+        ev.materials.connect(lambda items: self.rebuild() if items is None else self._relabel_materials())
+        for name in ("lights", "environment", "camera"):
+            ev[name].connect(lambda _items: self._rebuild_scene_items())
+        document.selection_changed.connect(self._selection_from_document)
         self.rebuild()
 
     def rebuild(self) -> None:
@@ -55,7 +55,7 @@ class SceneTree(QTreeWidget):
         for key in ("objects", "materials"):
             self.roots[key].takeChildren()
         self.combos.clear()
-        for o in doc.data.objects:
+        for o in doc.objects():
             item = QTreeWidgetItem([o.name, ""])
             item.setData(0, ROLE_KIND, "object")
             item.setData(0, ROLE_NAME, o.name)
@@ -66,7 +66,7 @@ class SceneTree(QTreeWidget):
             combo.activated.connect(lambda i, n=o.name, c=combo: self._assign(n, c.itemText(i)))
             self.setItemWidget(item, 1, combo)
             self.combos[o.name] = combo
-        for m in doc.data.materials:
+        for m in doc.scene.materials:
             item = QTreeWidgetItem([m.name, ""])
             item.setData(0, ROLE_KIND, "material")
             item.setData(0, ROLE_NAME, m.name)
@@ -78,6 +78,7 @@ class SceneTree(QTreeWidget):
         self.blockSignals(False)
         self._selection_from_document()
         self.resizeColumnToContents(0)
+        self.resizeColumnToContents(1)
 
     def _rebuild_scene_items(self) -> None:
         """Only the lights, environment and camera (their edits leave objects and materials alone)."""
@@ -90,18 +91,17 @@ class SceneTree(QTreeWidget):
         doc = self.document
         for key in ("lights", "camera"):
             self.roots[key].takeChildren()
-        for i, light in enumerate(doc.lights()):
+        for i, light in enumerate(doc.scene.lights):
             item = QTreeWidgetItem([light_label(light, i), ""])
             item.setData(0, ROLE_KIND, "light")
             item.setData(0, ROLE_NAME, i)
             self.roots["lights"].addChild(item)
-        env = doc.environment()
-        item = QTreeWidgetItem([f"environment ({env.get('type') if env else 'none'})", ""])
+        env = doc.scene.environment
+        item = QTreeWidgetItem([f"environment ({env.type if env else 'none'})", ""])
         item.setData(0, ROLE_KIND, "environment")
         item.setData(0, ROLE_NAME, 0)
         self.roots["lights"].addChild(item)
-        cam = doc.camera()
-        cam_item = QTreeWidgetItem([f"pinhole, fov {cam.get('fov_deg', 40):g} deg", ""])
+        cam_item = QTreeWidgetItem([f"pinhole, fov {doc.scene.camera.fov_deg:.3g} deg", ""])
         cam_item.setData(0, ROLE_KIND, "camera")
         cam_item.setData(0, ROLE_NAME, 0)
         self.roots["camera"].addChild(cam_item)
@@ -200,7 +200,17 @@ class SceneTree(QTreeWidget):
         except (BrdfStudioError, KeyError) as exc:
             self.error.emit(str(exc))
 
+    def content_width(self) -> int:
+        """The width that shows every name and chooser whole (the dock's width on first open)."""
+        widths = [
+            self.sizeHintForColumn(0),
+            max((c.sizeHint().width() for c in self.combos.values()), default=0),
+        ]
+        widths[0] = max(widths[0], self.header().sectionSizeHint(0))
+        widths[1] = max(widths[1], self.sizeHintForColumn(1), self.header().sectionSizeHint(1))
+        return sum(widths) + self.indentation() + 2 * self.frameWidth() + 24
 
-def light_label(light: dict, index: int) -> str:
+
+def light_label(light: PointLight | QuadLight, index: int) -> str:
     """How the tree names a light: its type and number (lights have no names in the scene format)."""
-    return f"{light.get('type', '')} light {index + 1}"
+    return f"{light.type} light {index + 1}"

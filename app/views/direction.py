@@ -100,7 +100,7 @@ class DirectionEditor(QWidget):
         self.pad.direction_dragged.connect(document.set_direction)
         self.theta.valueChanged.connect(lambda v: document.set_direction(v, self.phi.value()))
         self.phi.valueChanged.connect(lambda v: document.set_direction(self.theta.value(), v))
-        document.events.direction_changed.connect(self.sync)
+        document.direction_changed.connect(self.sync)
         self.sync()
 
     def sync(self) -> None:

@@ -1,4 +1,5 @@
-"""Image views for renders: zoom with the wheel, pan by dragging, and views that follow each other."""
+"""Image views for renders: the image fills its pane (kept fitted as the pane resizes) until the user zooms
+with the wheel or pans by dragging; a double click fits it again; linked views follow each other."""
 
 from __future__ import annotations
 
@@ -24,6 +25,10 @@ class ImageView(QGraphicsView):
         self.rgb8: np.ndarray | None = None
         self._linked: list[ImageView] = []
         self._syncing = False
+        self.fitted = True
+        """The image fills the pane (until the user zooms or pans)."""
+        self.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAsNeeded)
+        self.setToolTip("Wheel: zoom; drag: pan; double click: fit the image to the pane")
         for bar in (self.horizontalScrollBar(), self.verticalScrollBar()):
             bar.valueChanged.connect(lambda _v: self._push())
 
@@ -31,14 +36,40 @@ class ImageView(QGraphicsView):
         self.rgb8 = np.ascontiguousarray(rgb8)
         h, w, _ = self.rgb8.shape
         img = QImage(self.rgb8.data, w, h, 3 * w, QImage.Format.Format_RGB888).copy()
-        first = self._item.pixmap().isNull()
+        size_changed = self._item.pixmap().size().toTuple() != (w, h)
         self._item.setPixmap(QPixmap.fromImage(img))
-        self.scene().setSceneRect(0, 0, w, h)
-        if first:
-            self.fitInView(self._item, Qt.AspectRatioMode.KeepAspectRatio)
-            self._push()
+        if size_changed:
+            self.scene().setSceneRect(0, 0, w, h)
+        if self.fitted and size_changed:
+            self.fit()
+
+    def fit(self) -> None:
+        """Fill the pane with the whole image (and let the linked views do the same)."""
+        self.fitted = True
+        if not self._item.pixmap().isNull():
+            self._syncing = True  # each view fits itself: nothing to push
+            try:
+                self.fitInView(self._item, Qt.AspectRatioMode.KeepAspectRatio)
+            finally:
+                self._syncing = False
+        for other in self._linked:
+            if not other.fitted:
+                other.fit()
+
+    def resizeEvent(self, event) -> None:  # noqa: N802
+        super().resizeEvent(event)
+        if self.fitted:
+            self.fit()
+
+    def mouseDoubleClickEvent(self, event) -> None:  # noqa: N802
+        self.fit()
+
+    def mousePressEvent(self, event) -> None:  # noqa: N802
+        self.fitted = False  # a pan: the user chooses the view from here on
+        super().mousePressEvent(event)
 
     def zoom(self, factor: float) -> None:
+        self.fitted = False
         self.scale(factor, factor)
         self._push()
 
@@ -61,6 +92,7 @@ class ImageView(QGraphicsView):
 
     def _follow(self, transform: QTransform, h: int, v: int) -> None:
         self._syncing = True
+        self.fitted = False
         try:
             self.setTransform(transform)
             self.horizontalScrollBar().setValue(h)

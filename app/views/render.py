@@ -1,6 +1,8 @@
 """The render panel: two strategies side by side on the same scene and budget (equal spp or equal time),
-rendered progressively in a separate process (:mod:`app.render_process`, so the GUI never stalls); synchronized pan and zoom, live counters, error against a
-reference over time, cancel and restart, and exports (EXR, PNG, the labelled composite, error curves)."""
+rendered progressively in a separate process (:mod:`app.render_process`, so the GUI never stalls);
+synchronized pan and zoom, live counters, RMSE and relMSE against a reference over time with the equal-time
+verdict, the reference made in the background (:mod:`app.reference_runner`), cancel and restart, and exports
+(EXR, PNG, the labelled composite, error curves)."""
 
 from __future__ import annotations
 
@@ -24,11 +26,12 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.reference import Reference, scene_key
+from app.reference_runner import ReferenceRunner
 from app.render_process import RenderServer
 from app.render_session import check_request
-from app.views.figure import FigureView
+from app.views.error_plot import ErrorPlot
 from app.views.images import ImageView
-from app.workers import WorkerPool
 from core.errors import BrdfStudioError, OutputError
 from core.sampling import sampler_names
 from core.scene import Scene
@@ -41,12 +44,18 @@ class RenderPanel(QWidget):
 
     error = Signal(str)
 
-    def __init__(self, scene_provider: Callable[[], Scene], workers: WorkerPool, parent=None):
+    def __init__(self, scene_provider: Callable[[], Scene], jobs, parent=None):
         super().__init__(parent)
         self.scene_provider = scene_provider
         self.server = RenderServer(parent=self)
         self.server.events_received.connect(self._on_events)
-        workers.on_shutdown(self.server.stop)
+        jobs.on_shutdown(self.server.stop)
+        self.reference_runner = ReferenceRunner(self)
+        self.reference_runner.progressed.connect(self._reference_progressed)
+        self.reference_runner.status.connect(self.set_status)
+        jobs.on_shutdown(self.reference_runner.shutdown)
+        self.reference_key: str | None = None
+        """The scene key of a reference made in the app (``None``: none, or one loaded from a file)."""
         self.job: int | None = None  # the id of the render in progress
         self._plot_timer = QTimer(self)
         self._plot_timer.setSingleShot(True)
@@ -118,7 +127,7 @@ class RenderPanel(QWidget):
         grid.addWidget(self.view_b, 0, 1)
         grid.addWidget(self.counter_a, 1, 0)
         grid.addWidget(self.counter_b, 1, 1)
-        self.error_plot = FigureView(size=(6.0, 2.2))
+        self.error_plot = ErrorPlot()
         self.status = QLabel("Set up the scene, then Render. Renders use the Scene tab's camera.")
         self.status.setWordWrap(True)
         split = QSplitter()
@@ -172,7 +181,9 @@ class RenderPanel(QWidget):
         """Start a render (cancelling a running one first: Render while rendering restarts)."""
         self.cancel()
         try:
-            job = self.request(self.scene_provider())
+            scene = self.scene_provider()
+            self._check_reference(scene)
+            job = self.request(scene)
             check_request(job["mode"], job["budget"], job["width"], job["height"], job["reference"])
         except BrdfStudioError as exc:
             self.error.emit(str(exc))
@@ -184,6 +195,8 @@ class RenderPanel(QWidget):
         self.cancel_button.setEnabled(True)
         self.set_status("Starting the render process ..." if self.server.pid is None else "Starting ...")
         self.job = self.server.submit(job)
+        if self.reference_runner.running:
+            self.reference_runner.pause()  # an equal-time comparison must not share the CPU with it
 
     def cancel(self) -> None:
         """Stop the running render (returns at once; the UI never waits, and draws nothing more of it)."""
@@ -191,6 +204,7 @@ class RenderPanel(QWidget):
             self.server.cancel(self.job)
             self.set_status("Cancelled.")
             self.job = None
+            self.reference_runner.resume()
         self.cancel_button.setEnabled(False)
         self.start_button.setText("Render")
 
@@ -248,6 +262,7 @@ class RenderPanel(QWidget):
 
     def _finished(self) -> None:
         self.job = None
+        self.reference_runner.resume()
         self.cancel_button.setEnabled(False)
         self.start_button.setText("Render")
 
@@ -276,54 +291,44 @@ class RenderPanel(QWidget):
         return "; ".join(f"{n}: {f['spp']} spp in {f['seconds']:.2f} s" for n, f in self.frames.items())
 
     def _plot_errors(self) -> None:
-        """Draw RMSE against time. The axes and lines are kept and only their data change: clearing and
-        rebuilding the axes on every frame cost the GUI thread up to hundreds of milliseconds under load."""
-        ax = self.error_plot.axes
-        points = {}
-        for name, recs in self.curves.items():
-            pts = [(r["seconds"], r["rmse"]) for r in recs if math.isfinite(r["rmse"]) and r["rmse"] > 0]
-            if pts:
-                points[name] = pts
-        if not points:
-            if self._plot_lines is not None or not ax.texts:  # the placeholder is not shown yet
-                self._plot_lines = None
-                ax.clear()
-                ax.set_axis_off()
-                ax.text(0.5, 0.5, "Error vs time: load a reference EXR to measure RMSE", ha="center",
-                        va="center", transform=ax.transAxes, fontsize=9)  # fmt: skip
-                self.error_plot.redraw()
-            return
-        if self._plot_lines is None or set(self._plot_lines) - set(points):
-            self._plot_lines = {}
-            ax.clear()
-            ax.set_axis_on()
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            ax.set_xlabel("render time (s)")
-            ax.set_ylabel("RMSE")
-            ax.grid(alpha=0.3, which="both")
-        added = False
-        for name, pts in points.items():
-            t, e = zip(*pts, strict=True)
-            line = self._plot_lines.get(name)
-            if line is None:
-                (line,) = ax.plot(t, e, marker="o", ms=3, label=name)
-                self._plot_lines[name] = line
-                added = True
-            else:
-                line.set_data(t, e)
-        if added:
-            ax.legend(fontsize=8)
-        ax.relim()
-        ax.autoscale_view()
-        self.error_plot.redraw()
+        self.error_plot.show_curves(self.curves)
 
     # ---- reference and exports --------------------------------------------------------------------------
+    def make_reference(self, project: Path | None) -> None:
+        """Render the current scene's reference in the background (resuming a stored one)."""
+        try:
+            scene = self.scene_provider()
+        except BrdfStudioError as exc:
+            self.error.emit(str(exc))
+            return
+        self.reference_runner.start(scene, self.width_box.value(), self.height_box.value(), project)
+
+    def _reference_progressed(self, ref: Reference) -> None:
+        self.reference, self.reference_key = ref.image, ref.key
+
+    def _check_reference(self, scene: Scene) -> None:
+        """Before a render: a reference made in the app for another scene (or size) is not used."""
+        if self.reference_key is None:
+            return
+        key = scene_key(scene, self.width_box.value(), self.height_box.value())
+        if key != self.reference_key:
+            self.reference, self.reference_key = None, None
+            self.set_status(
+                "The reference is of another scene or size: errors are not measured (Make reference)."
+            )
+
+    def scene_changed(self) -> None:
+        """The document's scene changed: a reference being made for the old one stops."""
+        if self.reference_runner.wanted:
+            self.reference_runner.stop(
+                "Reference stopped: the scene changed (what was rendered stays stored)."
+            )
+
     def load_reference(self, path: str | Path) -> None:
         from renderer.image_io import read_exr
 
         image = read_exr(path)
-        self.reference = image
+        self.reference, self.reference_key = image, None
         self.height_box.setValue(image.shape[0])
         self.width_box.setValue(image.shape[1])
         self.set_status(f"Reference {Path(path).name} ({image.shape[1]}x{image.shape[0]}) loaded.")

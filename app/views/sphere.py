@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from PySide6.QtCore import QPointF, Qt, Signal
+from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QColor, QImage, QMouseEvent, QPainter, QPaintEvent, QPen
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
@@ -43,11 +43,9 @@ class SphereView(QWidget):
         p = QPainter(self)
         p.fillRect(self.rect(), QColor(30, 30, 30))
         x0, y0, side = self._square()
-        if self._qimage is not None:
-            p.drawImage(
-                self.rect().adjusted(int(x0), int(y0), -int(x0), -int(y0)),
-                self._qimage,
-            )
+        if self._qimage is not None:  # a square of the widget's smaller side, centred: the whole sphere
+            p.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform)
+            p.drawImage(QRectF(x0, y0, side, side), self._qimage)
         lx, ly, _ = self.light
         cx, cy = x0 + side / 2 * (1 + lx), y0 + side / 2 * (1 - ly)
         p.setPen(QPen(QColor(255, 200, 0), 2))

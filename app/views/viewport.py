@@ -15,11 +15,11 @@ from PySide6.QtCore import QTimer, Signal
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 from pyvistaqt import QtInteractor
 
+from app.document import Document
 from app.meshes import part
-from app.state import Document
 from core.errors import BrdfStudioError
 from core.model import BRDF
-from core.scene import Camera, Transform
+from core.scene import Camera, QuadLight, Transform
 
 SELECTED_EDGE = "#ffb300"
 LIGHT_COLOUR = "#f5e663"
@@ -47,14 +47,13 @@ def display_colour(brdf: BRDF) -> tuple[float, float, float]:
     return tuple(float(c) ** (1 / 2.2) for c in rgb)  # type: ignore[return-value]
 
 
-def polydata_for(mesh: str, group: str | None, transform: dict | None = None) -> pv.PolyData:
+def polydata_for(mesh: str, group: str | None, transform: Transform | None = None) -> pv.PolyData:
     parts = part(mesh, group)
     verts, faces, offset = [], [], 0
-    t = Transform(**transform) if transform else None
+    m = np.asarray(transform.matrix()) if transform is not None else None
     for p in parts:
         v = p.vertices
-        if t is not None:
-            m = np.asarray(t.matrix())
+        if m is not None:
             v = v @ m[:3, :3].T + m[:3, 3]
         verts.append(v)
         faces.append(p.faces + offset)
@@ -99,12 +98,11 @@ class SceneViewport(QWidget):
         for event in ("MiddleButtonPressEvent", "RightButtonPressEvent"):
             self.plotter.iren.add_observer(event, self._on_press_any)
         ev = document.events
-        ev.objects_changed.connect(self.sync)
-        ev.material_changed.connect(lambda _name: self.recolour())
-        ev.materials_changed.connect(self.recolour)
-        ev.selection_changed.connect(self.highlight)
-        ev.lights_changed.connect(self._lights_changed)
-        ev.camera_changed.connect(self._camera_changed)
+        ev.meshes.connect(lambda _items: self.sync())
+        ev.materials.connect(lambda _items: self.recolour())
+        ev.lights.connect(lambda _items: self._lights_changed())
+        ev.camera.connect(lambda _items: self._camera_changed())
+        document.selection_changed.connect(self.highlight)
         self._camera_set = False
         self.sync()
 
@@ -112,7 +110,7 @@ class SceneViewport(QWidget):
     def sync(self) -> None:
         """Add, remove and update actors to match the document's objects."""
         doc = self.document
-        wanted = {o.name: o for o in doc.data.objects}
+        wanted = {o.name: o for o in doc.objects()}
         for name in list(self.actors):
             if name not in wanted:
                 self.plotter.remove_actor(self.actors.pop(name), render=False)
@@ -140,7 +138,7 @@ class SceneViewport(QWidget):
         self.recolour(render=False)
         self.highlight(render=False)
         if not self._camera_set and self.actors:
-            self.apply_camera(doc.data.extras.get("camera"))
+            self.apply_camera(doc.scene.camera)
         self.status.setText(
             f"{len(self.actors)} object(s)" + ("; problems: " + "; ".join(problems) if problems else "")
         )
@@ -156,12 +154,12 @@ class SceneViewport(QWidget):
         self._light_actors = []
         self.light_actors = {}
         selected = self.document.selected_item
-        for i, light in enumerate(self.document.lights()):
+        for i, light in enumerate(self.document.scene.lights):
             on = selected == ("light", i)
             colour = SELECTED_LIGHT_COLOUR if on else LIGHT_COLOUR
             actors = []
-            if light.get("type") == "quad":
-                c, e1, e2 = (np.asarray(light[k], dtype=float) for k in ("corner", "edge1", "edge2"))
+            if isinstance(light, QuadLight):
+                c, e1, e2 = (np.asarray(v, dtype=float) for v in (light.corner, light.edge1, light.edge2))
                 pts = np.array([c, c + e1, c + e1 + e2, c + e2, c])
                 actors.append(self.plotter.add_lines(pts, color=colour, width=5 if on else 3, connected=True))
                 # a short stroke from the centre along the emitting side (edge1 x edge2)
@@ -171,13 +169,13 @@ class SceneViewport(QWidget):
                 centre = c + 0.5 * (e1 + e2)
                 stroke = np.array([centre, centre + 0.5 * size * n])
                 actors.append(self.plotter.add_lines(stroke, color=colour, width=2, connected=True))
-                if light.get("two_sided"):
+                if light.two_sided:
                     stroke = np.array([centre, centre - 0.5 * size * n])
                     actors.append(self.plotter.add_lines(stroke, color=colour, width=2, connected=True))
-            elif light.get("type") == "point":
+            else:
                 actors.append(
                     self.plotter.add_mesh(
-                        pv.Sphere(radius=0.08 if on else 0.05, center=light["position"]),
+                        pv.Sphere(radius=0.08 if on else 0.05, center=light.position),
                         color=colour,
                         render=False,
                     )
@@ -187,7 +185,7 @@ class SceneViewport(QWidget):
 
     def recolour(self, render: bool = True) -> None:
         doc = self.document
-        for o in doc.data.objects:
+        for o in doc.objects():
             actor = self.actors.get(o.name)
             if actor is None:
                 continue
@@ -213,19 +211,17 @@ class SceneViewport(QWidget):
 
     # ---- camera ----------------------------------------------------------------------------------------
     def _camera_changed(self) -> None:
-        self.apply_camera(self.document.data.extras.get("camera"))
+        self.apply_camera(self.document.scene.camera)
         self.plotter.render()
 
-    def apply_camera(self, camera: dict | None) -> None:
-        if camera:
-            cam = self.plotter.camera
-            cam.position = tuple(camera.get("position", (0, 1, 4)))
-            cam.focal_point = tuple(camera.get("target", (0, 0, 0)))
-            cam.up = tuple(camera.get("up", (0, 1, 0)))
-            cam.view_angle = float(camera.get("fov_deg", 40.0))
-        else:  # no camera in the project: frame the scene with the format's default field of view
-            self.plotter.reset_camera()  # (this also resets the angle to VTK's 30 degrees)
-            self.plotter.camera.view_angle = Camera().fov_deg
+    def apply_camera(self, camera: Camera | dict) -> None:
+        """Look through ``camera`` (the scene's, or a dict of its fields)."""
+        camera = camera if isinstance(camera, Camera) else Camera.model_validate(camera)
+        cam = self.plotter.camera
+        cam.position = tuple(camera.position)
+        cam.focal_point = tuple(camera.target)
+        cam.up = tuple(camera.up)
+        cam.view_angle = float(camera.fov_deg)
         self._camera_set = True
 
     def _on_press_any(self, iren, _event) -> None:

@@ -1,4 +1,5 @@
-"""Document <-> project file (core.scene), without Qt or mesh files."""
+"""Project files: the document's scene written and read by core.scene's own loader, paths relative to the
+project, without Qt or mesh files."""
 
 from __future__ import annotations
 
@@ -6,9 +7,9 @@ import json
 
 import pytest
 
-from app.project import document_to_scene, load_project, objects_from_mesh, save_project, scene_to_document
-from app.state import DocumentData, Material, SceneObject
-from core.scene import SCENE_VERSION, SceneError, load_scene
+from app.document import Document
+from app.project import load_project, save_project
+from core.scene import SCENE_VERSION, Camera, Material, Mesh, Scene, SceneError, load_scene
 
 PARTS = {"cubes.obj": ["a", "b"], "one.obj": ["one"]}
 
@@ -17,80 +18,76 @@ def lister(path):
     return PARTS[path.name]
 
 
-def _data(tmp_path):
-    return DocumentData(
-        [
-            Material("white", "lambert", {"kd": (0.8, 0.8, 0.8)}, notes="chalk", tags=["diffuse"]),
-            Material("gloss", "phong", {}),
+def _doc(tmp_path) -> Document:
+    for name in PARTS:
+        (tmp_path / name).write_text("o x\n")
+    scene = Scene(
+        materials=[
+            Material(
+                name="white", model="lambert", params={"kd": (0.8, 0.8, 0.8)}, notes="chalk", tags=["diffuse"]
+            ),
+            Material(name="gloss", model="phong"),
         ],
-        [
-            SceneObject("one", str(tmp_path / "one.obj"), None, "white"),
-            SceneObject("cubes/a", str(tmp_path / "cubes.obj"), "a", "white"),
-            SceneObject("cubes/b", str(tmp_path / "cubes.obj"), "b", "gloss"),
-        ],
-        {"camera": {"position": [0, 2, 5], "target": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 35.0}},
+        camera=Camera(position=(0, 2, 5), fov_deg=35.0),
     )
+    doc = Document(scene, parts=lister)
+    doc.add_mesh(tmp_path / "one.obj")
+    doc.add_mesh(tmp_path / "cubes.obj")
+    doc.assign_material("cubes/b", "gloss")
+    return doc
 
 
-def test_multi_part_meshes_become_group_materials(tmp_path):
-    scene = document_to_scene(_data(tmp_path), tmp_path / "p.json")
-    assert [m.path for m in scene.meshes] == ["one.obj", "cubes.obj"]  # relative to the project
-    assert scene.meshes[1].group_materials == {"a": "white", "b": "gloss"}
-    assert scene.materials[0].notes == "chalk" and scene.materials[0].tags == ["diffuse"]
-    assert scene.camera.fov_deg == 35.0
+def test_save_writes_relative_paths_and_group_materials(tmp_path):
+    doc = _doc(tmp_path)
+    save_project(doc.scene, tmp_path / "p.json")
+    raw = json.loads((tmp_path / "p.json").read_text())
+    assert raw["version"] == SCENE_VERSION == 2
+    assert [m["path"] for m in raw["meshes"]] == ["one.obj", "cubes.obj"]  # relative to the project
+    assert raw["meshes"][1]["group_materials"] == {"b": "gloss"}
+    assert raw["materials"][0]["notes"] == "chalk" and raw["camera"]["fov_deg"] == 35.0
+    assert doc.scene.meshes[0].path == str(tmp_path / "one.obj")  # the edited scene keeps absolute paths
+    load_scene(tmp_path / "p.json")  # the renderer's loader accepts it
 
 
 def test_save_and_load_round_trip(tmp_path):
-    data = _data(tmp_path)
-    for name in PARTS:
-        (tmp_path / name).write_text("o x\n")
-    save_project(data, tmp_path / "p.json")
-    raw = json.loads((tmp_path / "p.json").read_text())
-    assert raw["version"] == SCENE_VERSION == 2
-    load_scene(tmp_path / "p.json")  # the renderer's loader accepts it
-    back = load_project(tmp_path / "p.json", lister)
-    assert [(o.name, o.part, o.material) for o in back.objects] == [
-        (o.name, o.part, o.material) for o in data.objects
+    doc = _doc(tmp_path)
+    save_project(doc.scene, tmp_path / "p.json")
+    back = Document(load_project(tmp_path / "p.json", lister), parts=lister)
+    assert [(o.name, o.part, o.material) for o in back.objects()] == [
+        (o.name, o.part, o.material) for o in doc.objects()
     ]
-    assert back.materials[0] == data.materials[0]
-    assert back.materials[1].params == dict(back.materials[1].params)  # phong defaults were resolved
-    assert back.extras["camera"]["fov_deg"] == 35.0
-
-
-def test_objects_from_mesh_splits_parts(tmp_path):
-    objs = objects_from_mesh(tmp_path / "cubes.obj", "white", lister)
-    assert [(o.name, o.part) for o in objs] == [("cubes/a", "a"), ("cubes/b", "b")]
-    assert [o.part for o in objects_from_mesh(tmp_path / "one.obj", "white", lister)] == [None]
-    with pytest.raises(SceneError, match="not a mesh file"):
-        objects_from_mesh(tmp_path / "notes.txt", "white", lister)
+    assert back.scene.materials[0] == doc.scene.materials[0]
+    assert set(back.scene.materials[1].params) == {"ks", "kd", "n"} or back.scene.materials[1].params
+    assert back.scene.camera.fov_deg == 35.0
 
 
 def test_bad_parameter_in_a_project_names_the_field(tmp_path):
-    data = _data(tmp_path)
-    data.materials[0].params["kd"] = (2.0, 0.0, 0.0)
+    doc = _doc(tmp_path)
+    doc.scene.materials[0].params["kd"] = (2.0, 0.0, 0.0)  # past the document's checks, as a bug would
     with pytest.raises(SceneError, match=r"materials\[0\]\.params\.kd"):
-        document_to_scene(data, tmp_path / "p.json")
+        save_project(doc.scene, tmp_path / "p.json")
+    assert not (tmp_path / "p.json").exists()
 
 
-def test_scene_to_document_reports_unreadable_meshes(tmp_path):
+def test_unreadable_mesh_names_the_mesh(tmp_path):
+    doc = _doc(tmp_path)
+    save_project(doc.scene, tmp_path / "p.json")
+
     def broken(path):
         raise SceneError("cannot read")
 
-    scene = document_to_scene(_data(tmp_path), tmp_path / "p.json")
     with pytest.raises(SceneError, match=r"meshes\[0\]\.path"):
-        scene_to_document(scene, broken)
+        load_project(tmp_path / "p.json", broken)
 
 
 def test_bundled_demo_scene_round_trips(tmp_path):
     from app.main_window import demo_scene_path
 
     demo = demo_scene_path()
-    if demo is None:
-        pytest.skip("no bundled demo scene in this build")
     original = load_scene(demo)
-    data = load_project(demo)
-    assert len(data.objects) == len(original.meshes)
-    save_project(data, tmp_path / "copy.json")
+    scene = load_project(demo)
+    assert len(scene.meshes) == len(original.meshes)
+    save_project(scene, tmp_path / "copy.json")
     again = load_scene(tmp_path / "copy.json")  # paths rewritten relative to the new place
     assert [m.name for m in again.materials] == [m.name for m in original.materials]
     for a, b in zip(again.meshes, original.meshes, strict=True):
@@ -105,31 +102,22 @@ def test_bundled_demo_scene_round_trips(tmp_path):
 
 
 def test_deleted_part_is_saved_as_excluded_and_stays_deleted(tmp_path):
-    from app.state import Document
-
-    for name in PARTS:
-        (tmp_path / name).write_text("o x\n")
-    doc = Document(_data(tmp_path))
+    doc = _doc(tmp_path)
     doc.remove_object("cubes/b")
-    save_project(doc.data, tmp_path / "p.json")
+    save_project(doc.scene, tmp_path / "p.json")
     raw = json.loads((tmp_path / "p.json").read_text())
-    assert raw["meshes"][1]["exclude_groups"] == ["b"] and raw["meshes"][1]["group_materials"] == {
-        "a": "white"
-    }
-    back = load_project(tmp_path / "p.json", lister)
-    assert [o.name for o in back.objects] == ["one", "cubes/a"]
-    assert [(o.name, o.part) for o in back.excluded_parts] == [("cubes/b", "b")]
-    save_project(back, tmp_path / "again.json")  # saved again: still excluded
+    assert raw["meshes"][1]["exclude_groups"] == ["b"] and raw["meshes"][1]["group_materials"] == {}
+    back = Document(load_project(tmp_path / "p.json", lister), parts=lister)
+    assert [o.name for o in back.objects()] == ["one", "cubes/a"]
+    save_project(back.scene, tmp_path / "again.json")  # saved again: still excluded
     assert json.loads((tmp_path / "again.json").read_text())["meshes"][1]["exclude_groups"] == ["b"]
     doc.undo()  # the deletion undone: nothing excluded any more
-    save_project(doc.data, tmp_path / "p.json")
+    save_project(doc.scene, tmp_path / "p.json")
     assert "exclude_groups" not in json.loads((tmp_path / "p.json").read_text())["meshes"][1]
 
 
 def test_unknown_excluded_group_is_an_error_naming_group_and_file(tmp_path):
-    for name in PARTS:
-        (tmp_path / name).write_text("o x\n")
-    save_project(_data(tmp_path), tmp_path / "p.json")
+    save_project(_doc(tmp_path).scene, tmp_path / "p.json")
     raw = json.loads((tmp_path / "p.json").read_text())
     raw["meshes"][1]["exclude_groups"] = ["wheel"]
     (tmp_path / "p.json").write_text(json.dumps(raw))
@@ -139,22 +127,16 @@ def test_unknown_excluded_group_is_an_error_naming_group_and_file(tmp_path):
 
 
 def test_version_1_project_still_opens(tmp_path):
-    for name in PARTS:
-        (tmp_path / name).write_text("o x\n")
-    save_project(_data(tmp_path), tmp_path / "p.json")
+    save_project(_doc(tmp_path).scene, tmp_path / "p.json")
     raw = json.loads((tmp_path / "p.json").read_text())
     raw["version"] = 1
     (tmp_path / "p.json").write_text(json.dumps(raw))
-    back = load_project(tmp_path / "p.json", lister)
-    assert [o.name for o in back.objects] == ["one", "cubes/a", "cubes/b"] and back.excluded_parts == []
+    back = Document(load_project(tmp_path / "p.json", lister), parts=lister)
+    assert [o.name for o in back.objects()] == ["one", "cubes/a", "cubes/b"]
 
 
 def test_lights_camera_environment_edits_are_saved(tmp_path):
-    from app.state import Document
-
-    for name in PARTS:
-        (tmp_path / name).write_text("o x\n")
-    doc = Document(_data(tmp_path))
+    doc = _doc(tmp_path)
     doc.add_light("quad")
     doc.set_light_field(0, "radiance", (3.0, 2.0, 1.0))
     doc.add_light("point")
@@ -162,12 +144,23 @@ def test_lights_camera_environment_edits_are_saved(tmp_path):
     (tmp_path / "sky.exr").write_bytes(b"")
     doc.set_environment_kind("map", str(tmp_path / "sky.exr"))
     doc.set_environment_field("scale", 0.25)
-    save_project(doc.data, tmp_path / "p.json")
+    save_project(doc.scene, tmp_path / "p.json")
     scene = load_scene(tmp_path / "p.json")  # the renderer's loader reads the edits
     assert [light.type for light in scene.lights] == ["quad", "point"]
     assert scene.lights[0].radiance == (3.0, 2.0, 1.0)
     assert scene.camera.fov_deg == 22.5
     assert scene.environment.path == "sky.exr" and scene.environment.scale == 0.25  # relative again
     back = load_project(tmp_path / "p.json", lister)
-    assert Document(back).lights() == doc.lights()
-    assert back.extras["environment"]["path"] == str((tmp_path / "sky.exr").resolve())
+    assert back.lights == doc.scene.lights
+    assert back.environment.path == str((tmp_path / "sky.exr").resolve())
+
+
+def test_a_mesh_without_a_name_gets_one(tmp_path):
+    (tmp_path / "one.obj").write_text("o x\n")
+    scene = Scene(
+        materials=[Material(name="m", model="lambert")], meshes=[Mesh(path="one.obj", material="m")]
+    )
+    from core.scene import save_scene
+
+    save_scene(scene, tmp_path / "p.json")
+    assert load_project(tmp_path / "p.json", lister).meshes[0].name == "one"

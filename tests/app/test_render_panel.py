@@ -13,13 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.capabilities import renderer_available
 from tests.app.meshes import write_obj
 
-pytestmark = [
-    pytest.mark.gui,
-    pytest.mark.skipif(not renderer_available(), reason="renderer/ is not in this build yet"),
-]
+pytestmark = pytest.mark.gui
 
 ROOT = Path(__file__).resolve().parents[2]
 PREPARE_TIMEOUT_MS = 240_000  # the first render compiles the renderer's kernels for the scene's model

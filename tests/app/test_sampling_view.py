@@ -120,7 +120,7 @@ def test_view_follows_n_max_and_mode(window, qtbot):
 
 
 def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
-    from app.capabilities import adaptive_sampler
+    from app.view_data import adaptive_sampler
     from core.sampling.adaptive.inspect import from_tree_disk
 
     _use(window, "lambert", "lam", {"kd": 0.5})

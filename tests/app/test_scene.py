@@ -11,6 +11,7 @@ from PySide6.QtCore import QMimeData, QPointF, Qt, QUrl
 from PySide6.QtGui import QColor, QDropEvent
 
 from app import settings
+from core.scene import Camera, ConstantEnvironment, Scene
 from tests.app.meshes import write_obj
 
 pytestmark = pytest.mark.gui
@@ -53,7 +54,7 @@ def test_import_multi_part_mesh_assign_and_undo(fresh, tmp_path):
     assert w.document.object("cubes/right").material != "red"
     w.document.undo()  # new material
     w.document.undo()  # import
-    assert w.viewport.actors == {} and w.document.data.objects == []
+    assert w.viewport.actors == {} and w.document.objects() == []
     w.document.redo()
     assert set(w.viewport.actors) == set(names)
 
@@ -61,7 +62,7 @@ def test_import_multi_part_mesh_assign_and_undo(fresh, tmp_path):
 def test_click_in_viewport_selects_and_tree_follows(fresh, tmp_path, qtbot):
     w = fresh
     w.import_mesh(write_obj(tmp_path / "one.obj", {"cube": (0, 0, 0)}))
-    name = w.document.data.objects[0].name
+    name = w.document.objects()[0].name
     w.viewport.plotter.reset_camera()
     w.viewport.plotter.render()
     x, y = w.viewport.display_point(np.array([0.5, 0.5, 0.5]))
@@ -88,12 +89,12 @@ def test_save_load_round_trip_and_recent_files(fresh, tmp_path):
     assert w.save_project_as(project)
     assert not w.document.dirty and not w.isWindowModified()
     assert project.resolve() in settings.recent_files()
-    saved_objects = [(o.name, o.part, o.material) for o in w.document.data.objects]
+    saved_objects = [(o.name, o.part, o.material) for o in w.document.objects()]
     saved_material = w.document.material()
     w.new_project()
-    assert w.document.data.objects == []
+    assert w.document.objects() == []
     assert w.open_project(project)
-    assert [(o.name, o.part, o.material) for o in w.document.data.objects] == saved_objects
+    assert [(o.name, o.part, o.material) for o in w.document.objects()] == saved_objects
     m = w.document.material(saved_material.name)
     assert (m.notes, m.tags, m.params) == (saved_material.notes, saved_material.tags, saved_material.params)
     assert not w.document.dirty and w.document.path == project.resolve()
@@ -150,7 +151,7 @@ def test_drop_files_imports_and_loads(fresh, tmp_path):
         Qt.KeyboardModifier.NoModifier,
     )
     w.dropEvent(event)
-    assert [o.name for o in w.document.data.objects] == ["dropped"]
+    assert [o.name for o in w.document.objects()] == ["dropped"]
 
 
 def test_autosave_restores_edits_after_a_crash(fresh):
@@ -162,7 +163,7 @@ def test_autosave_restores_edits_after_a_crash(fresh):
     assert mine.exists()
     dead = settings.autosave_path(pid=2**22 + 777)  # as if this session had crashed
     os.replace(mine, dead)
-    w.document.replace(type(w.document.data)(), None)  # the next session starts empty
+    w.document.replace(Scene(), None)  # the next session starts empty
     assert w.restore_autosave(ask=False)
     assert w.document.material("unsaved-work").params["kd"] == (0.123, 0.123, 0.123)
     assert w.document.dirty
@@ -175,7 +176,7 @@ def test_autosave_restores_edits_after_a_crash(fresh):
 def _floor_with_light(w, tmp_path):
     """A floor (one part of a two-part file) lit by one quad light, selected."""
     w.import_mesh(write_obj(tmp_path / "floor.obj", {"slab": (0, -1, 0)}))
-    w.document.add_light("quad", {"corner": [0.0, 2.0, 0.0], "radiance": [2.0, 2.0, 2.0]})
+    w.document.add_light("quad", {"corner": (0.0, 2.0, 0.0), "radiance": (2.0, 2.0, 2.0)})
     w.scene_tree.setCurrentItem(w.scene_tree.item_for("light", 0))  # what a click does
     return w.item_editor.quad_page
 
@@ -187,10 +188,10 @@ def test_light_page_edits_radiance_through_the_document(fresh, tmp_path):
     assert w.item_editor.current_page() is page and w.material_dock.windowTitle() == "Light"
     assert w.item_editor.isVisible()
     page.rows["radiance"].spins[1].setValue(7.0)  # a user edit of the green channel
-    assert w.document.lights()[0]["radiance"] == [2.0, 7.0, 2.0]
+    assert w.document.scene.lights[0].radiance == (2.0, 7.0, 2.0)
     # an edge parallel to the other is refused with the schema's reason; nothing changes
     page.rows["edge2"].spins[0].setValue(1.0)  # (1, 0, 1): still spans an area
-    assert w.document.lights()[0]["edge2"] == [1.0, 0.0, 1.0]
+    assert w.document.scene.lights[0].edge2 == (1.0, 0.0, 1.0)
     before = w.document.to_dict()
     page.rows["edge2"].spins[2].setValue(0.0)  # (1, 0, 0) = edge1
     assert w.document.to_dict() == before
@@ -200,12 +201,12 @@ def test_light_page_edits_radiance_through_the_document(fresh, tmp_path):
     w.last_error_box.close()
     w.document.undo()  # edge2
     w.document.undo()
-    assert w.document.lights()[0]["radiance"] == [2.0, 2.0, 2.0]
+    assert w.document.scene.lights[0].radiance == (2.0, 2.0, 2.0)
     assert page.rows["radiance"].value() == (2.0, 2.0, 2.0)  # the page follows undo
     w.document.redo()
     assert page.rows["radiance"].value() == (2.0, 7.0, 2.0)
     page.rows["radiance"].set_colour(QColor.fromRgbF(1.0, 0.0, 0.0))  # the picker: strength 7 kept
-    assert w.document.lights()[0]["radiance"] == [7.0, 0.0, 0.0]
+    assert w.document.scene.lights[0].radiance == (7.0, 0.0, 0.0)
     assert w.scene_tree.selectedItems()[0] is w.scene_tree.item_for("light", 0)  # still selected
 
 
@@ -215,7 +216,7 @@ def test_light_edit_reaches_the_saved_file_and_the_render(fresh, tmp_path):
     w = fresh
     page = _floor_with_light(w, tmp_path)
     w.document.assign_material("floor", "lambert")
-    w.viewport.apply_camera({"position": [0.5, 3.0, 3.0], "target": [0.5, 0.0, 0.5], "fov_deg": 50.0})
+    w.document.set_camera({"position": (0.5, 3.0, 3.0), "target": (0.5, 0.0, 0.5), "fov_deg": 50.0})
 
     def small_render():
         scene = w.render_scene()  # what the render panel renders
@@ -226,7 +227,7 @@ def test_light_edit_reaches_the_saved_file_and_the_render(fresh, tmp_path):
     first = small_render()
     assert first.mean() > 0.0
     page.rows["radiance"].strength.spin.setValue(4.0)  # the strength slider's spin box: colour kept
-    assert w.document.lights()[0]["radiance"] == [4.0, 4.0, 4.0]
+    assert w.document.scene.lights[0].radiance == (4.0, 4.0, 4.0)
     assert w.render_scene().lights[0].radiance == (4.0, 4.0, 4.0)
     # the same seed and paths: direct light scales exactly with the emitted radiance
     np.testing.assert_allclose(small_render(), 2.0 * first, rtol=1e-5, atol=1e-7)
@@ -240,6 +241,8 @@ def test_light_edit_reaches_the_saved_file_and_the_render(fresh, tmp_path):
 def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, tmp_path, qtbot):
     w = fresh
     w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
+    framed = w.document.scene.camera
+    assert framed != Camera() and w.document.undo_text().startswith("Import")  # framing is part of the import
     w.scene_tree.setCurrentItem(w.scene_tree.item_for("camera"))
     page = w.item_editor.camera_page
     assert w.item_editor.current_page() is page and w.material_dock.windowTitle() == "Camera"
@@ -249,17 +252,17 @@ def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, t
     assert cam.view_angle == pytest.approx(30.0) and cam.position[2] == pytest.approx(9.0)
     assert w.render_scene().camera.fov_deg == pytest.approx(30.0)
     assert w.render_scene().camera.position[2] == pytest.approx(9.0)
-    before = w.document.camera()
-    page.rows["target"].set_value((before["position"][0] + 1.0, *before["position"][1:]))
-    page.rows["target"].spins[0].setValue(before["position"][0])  # target = position
-    assert w.document.camera() == before and "camera.target: the target coincides" in w.errors[-1]
+    before = w.document.scene.camera
+    page.rows["target"].set_value((before.position[0] + 1.0, *before.position[1:]))
+    page.rows["target"].spins[0].setValue(before.position[0])  # target = position
+    assert w.document.scene.camera == before and "camera.target: the target coincides" in w.errors[-1]
     w.last_error_box.close()
     # moving the view records the camera (one undo step), and undo moves the view back
     cam.azimuth = 0.0
     w.viewport.plotter.camera.Azimuth(40.0)
     w.viewport.view_moved()
     assert w.document.undo_text() == "Move camera"
-    assert w.document.camera()["position"] == pytest.approx(list(cam.position))
+    assert w.document.scene.camera.position == pytest.approx(cam.position)
     assert page.rows["position"].value() == pytest.approx(tuple(cam.position), abs=1e-3)
     # the same through the interactor: a left drag (press, the style moves the camera, release) is recorded
     iren = w.viewport.plotter.iren.interactor
@@ -269,19 +272,17 @@ def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, t
     cam.Elevation(10.0)
     iren.SetEventPosition(130, 110)
     w.viewport._on_release(iren, "LeftButtonReleaseEvent")
-    qtbot.waitUntil(
-        lambda: w.document.camera()["position"] == pytest.approx(list(cam.position)), timeout=5000
-    )
+    qtbot.waitUntil(lambda: w.document.scene.camera.position == pytest.approx(cam.position), timeout=5000)
     assert w.document.undo_text() == "Move camera"
     w.document.undo()
     w.document.undo()
-    assert w.viewport.plotter.camera.position == pytest.approx(
-        (before["position"][0], before["position"][1], 9.0)
-    )
+    assert w.viewport.plotter.camera.position == pytest.approx((before.position[0], before.position[1], 9.0))
     w.document.undo()
     w.document.undo()
-    assert "camera" not in w.document.data.extras  # none in the project: the view frames the scene
-    assert w.viewport.plotter.camera.view_angle == pytest.approx(40.0)  # with the format's default angle
+    assert w.document.scene.camera == framed  # the view that framed the imported cube
+    assert w.viewport.plotter.camera.position == pytest.approx(framed.position)
+    w.document.undo()  # the import (with its framing)
+    assert w.document.scene.camera == Camera()
 
 
 def test_add_and_delete_lights_with_the_delete_key(fresh, tmp_path):
@@ -289,7 +290,7 @@ def test_add_and_delete_lights_with_the_delete_key(fresh, tmp_path):
     w.import_mesh(write_obj(tmp_path / "cube.obj", {"cube": (0, 0, 0)}))
     w.item_editor.add_point_button.click()
     w.item_editor.add_quad_button.click()
-    assert [x["type"] for x in w.document.lights()] == ["point", "quad"]
+    assert [x.type for x in w.document.scene.lights] == ["point", "quad"]
     assert w.scene_tree.selectedItems()[0] is w.scene_tree.item_for("light", 1)  # the new light is selected
     assert len(w.viewport.light_actors) == 2
     w.document.set_light_field(0, "position", (0.5, 0.5, 3.0))
@@ -304,11 +305,11 @@ def test_add_and_delete_lights_with_the_delete_key(fresh, tmp_path):
     marker = w.viewport.light_actors[0][0].GetProperty().GetColor()
     assert marker[0] > 0.9 and marker[2] < 0.1  # drawn in the selection colour
     w.delete_action.trigger()
-    assert [x["type"] for x in w.document.lights()] == ["quad"] and len(w.viewport.light_actors) == 1
-    assert w.document.selected_item is None and w.document.data.objects  # the object was not touched
+    assert [x.type for x in w.document.scene.lights] == ["quad"] and len(w.viewport.light_actors) == 1
+    assert w.document.selected_item is None and w.document.objects()  # the object was not touched
     w.document.undo()
-    assert [x["type"] for x in w.document.lights()] == ["point", "quad"]
-    assert w.document.lights()[0]["position"] == [0.5, 0.5, 3.0]
+    assert [x.type for x in w.document.scene.lights] == ["point", "quad"]
+    assert w.document.scene.lights[0].position == (0.5, 0.5, 3.0)
 
 
 def test_environment_page(fresh, tmp_path):
@@ -323,7 +324,7 @@ def test_environment_page(fresh, tmp_path):
     box.setCurrentIndex(box.findData("constant"))
     box.activated.emit(box.currentIndex())
     editor.environment_page.rows["radiance"].spins[0].setValue(0.9)
-    assert w.document.environment() == {"type": "constant", "radiance": [0.9, 0.5, 0.5]}
+    assert w.document.scene.environment == ConstantEnvironment(type="constant", radiance=(0.9, 0.5, 0.5))
     assert w.render_scene().environment.radiance == (0.9, 0.5, 0.5)
     demo = demo_scene_path()
     if demo is None:
@@ -331,7 +332,7 @@ def test_environment_page(fresh, tmp_path):
     editor.ask_environment_map = lambda: str(tmp_path / "missing.exr")
     box.setCurrentIndex(box.findData("map"))
     box.activated.emit(box.currentIndex())
-    assert "not found" in w.errors[-1] and w.document.environment()["type"] == "constant"
+    assert "not found" in w.errors[-1] and w.document.scene.environment.type == "constant"
     assert box.currentData() == "constant"  # the chooser shows the document again
     w.last_error_box.close()
     editor.ask_environment_map = lambda: str(demo.parent / "sky.exr")
@@ -342,7 +343,7 @@ def test_environment_page(fresh, tmp_path):
     assert env.type == "map" and env.rotate_deg == 45.0
     w.document.undo()
     w.document.undo()
-    assert w.document.environment()["type"] == "constant"
+    assert w.document.scene.environment.type == "constant"
 
 
 def test_deleted_part_stays_deleted_after_save_and_open(fresh, tmp_path):
@@ -353,7 +354,7 @@ def test_deleted_part_stays_deleted_after_save_and_open(fresh, tmp_path):
     w.document.select_object("pair/right")
     w.delete_action.trigger()
     w.document.undo()  # undo restores the part ...
-    assert sorted(o.name for o in w.document.data.objects) == ["pair/left", "pair/right"]
+    assert sorted(o.name for o in w.document.objects()) == ["pair/left", "pair/right"]
     assert World(w.render_scene()).n_triangles == 24
     w.document.redo()  # ... and redo deletes it again
     assert World(w.render_scene()).n_triangles == 12  # the render has one cube
@@ -362,6 +363,6 @@ def test_deleted_part_stays_deleted_after_save_and_open(fresh, tmp_path):
     assert json.loads(project.read_text())["meshes"][0]["exclude_groups"] == ["right"]
     w.new_project()
     assert w.open_project(project)
-    assert [o.name for o in w.document.data.objects] == ["pair/left"]
+    assert [o.name for o in w.document.objects()] == ["pair/left"]
     assert set(w.viewport.actors) == {"pair/left"}
     assert World(w.render_scene()).n_triangles == 12

@@ -173,7 +173,7 @@ def test_samples_lie_on_the_disk_in_leaves_their_mode_can_draw(snapshots):
 def test_tree_disk_points_map_back_to_their_directions(snapshots):
     """``from_tree_disk`` inverts ``to_tree_disk`` (wi disks and the half-vector disk), and the frames put
     the specular direction where they say: on the -x axis of a turned wi disk, at the centre of an h disk."""
-    from app.capabilities import adaptive_sampler
+    from app.view_data import adaptive_sampler
 
     for name, _params in CASES:
         brdf = snapshots[name, 30.0, "exact"][0]
@@ -215,7 +215,7 @@ def test_ratio_map_of_other_strategies_on_the_tree_disk():
     """Lambert: the uniform density 1/(2 pi) against the ideal cos / pi is 1 / (2 cos theta_i) at each
     pixel's direction; the warp mode's density is exact for Lambert on its disk; Phong's warp density is
     close to the ideal where the lobe is."""
-    from app.capabilities import adaptive_sampler
+    from app.view_data import adaptive_sampler
     from core.model import make_brdf
 
     lam = make_brdf("lambert", {"kd": 0.5})

@@ -1,0 +1,151 @@
+"""Keeping the material views current: the lobe, polar slice and lit sphere redrawn on the GUI thread, the
+sampler view's snapshot, the albedo curve and the adaptive table's facts computed as background jobs.
+
+Redraws are coalesced: document events mark views stale and a zero-delay timer redraws them once per
+event-loop turn (a slider drag never queues redraws up). The albedo quadrature and the table facts (seconds of
+work) start once edits pause for :data:`SLOW_JOB_DELAY_MS`, so a drag keeps the CPU for the lobe and tree.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from PySide6.QtCore import QTimer
+
+from app import snapshot_process
+from app.jobs import Job, Lane
+from app.view_data import adaptive_line, albedo_line, directional_albedo
+from app.views.albedo import ALBEDO_THETAS_DEG
+from core.errors import BrdfStudioError
+
+if TYPE_CHECKING:
+    from app.main_window import MainWindow
+
+SLOW_JOB_DELAY_MS = 300
+
+
+class Redrawer:
+    def __init__(self, window: MainWindow):
+        self.window = window
+        self.document = window.document
+        self.timings: dict[str, float] = {}
+        """Seconds the last redraw of each view took."""
+        self.sampling_always = False
+        """Redraw the sampler view on every edit even when its tab is hidden (the latency benchmark)."""
+        self._pending: set[str] = set()
+        self._sampling_stale = True
+        self._sampling_requested = 0.0
+        self._timer = QTimer(window)
+        self._timer.setSingleShot(True)
+        self._timer.setInterval(0)
+        self._timer.timeout.connect(self.refresh_now)
+        self.slow_timer = QTimer(window)
+        self.slow_timer.setSingleShot(True)
+        self.slow_timer.setInterval(SLOW_JOB_DELAY_MS)
+        self.slow_timer.timeout.connect(self._start_slow_jobs)
+        jobs = window.jobs
+        self.sampling_lane = jobs.lane("sampling", self._sampling_started)
+        self.albedo_lane = jobs.lane("albedo")
+        self.adaptive_lane = jobs.lane("adaptive")
+        doc = self.document
+        doc.events.materials.connect(self._materials_changed)
+        doc.selection_changed.connect(lambda: self.schedule("brdf"))
+        doc.direction_changed.connect(lambda: self.schedule("direction"))
+        doc.preview_light_changed.connect(lambda: self.schedule("light"))
+
+    def _materials_changed(self, items: Any) -> None:
+        names = self.document.material_names()
+        current = self.document.current_material
+        if items is None or (current in names and names.index(current) in items):
+            self.schedule("brdf")
+
+    def schedule(self, *kinds: str) -> None:
+        self._pending.update(kinds)
+        self._timer.start()
+
+    def stop(self) -> None:
+        self._timer.stop()
+        self.slow_timer.stop()
+
+    def refresh_now(self) -> None:
+        """Redraw what is stale, now (tests and benchmarks call this instead of waiting for the timer)."""
+        self._timer.stop()
+        pending, self._pending = self._pending, set()
+        w, doc = self.window, self.document
+        if not pending or doc.current_material is None:
+            return
+        try:
+            brdf = doc.brdf()
+        except BrdfStudioError as exc:
+            w.show_error("Material", str(exc))
+            return
+        wo = np.array(doc.wo())
+        # The sampler view's tree is made in another process: ask first so it runs while this thread draws.
+        if pending & {"brdf", "direction", "sampling", "tab"}:
+            self._sampling_stale = True
+        if self._sampling_stale and (self.sampling_always or w.tabs.currentWidget() is w.sampling_panel):
+            self._sampling_stale = False
+            opts = w.sampling_view.options()
+            mat = doc.material()
+            spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
+            self._sampling_requested = time.perf_counter()
+            self.sampling_lane.submit(Job(
+                snapshot_process.snapshot, (spec, doc.theta_deg, doc.phi_deg), opts,
+                key=(brdf.key(), doc.theta_deg, doc.phi_deg, tuple(sorted(opts.items()))),
+                done=self._sampling_done, failed=w.sampling_view.show_message,
+            ))  # fmt: skip
+        if pending & {"brdf", "direction"}:
+            self._timed("lobe", w.lobe_view.show_lobe, brdf, wo)
+            self._timed("polar", w.polar_view.show_slice, brdf, wo)
+        if pending & {"brdf", "light"}:
+            self._timed("sphere", w.sphere_view.show_material, brdf, doc.light_dir)
+        if "brdf" in pending:
+            self.slow_timer.start()  # restarts: the quadrature waits until edits pause
+
+    def _timed(self, name: str, fn: Any, *args: Any) -> None:
+        t0 = time.perf_counter()
+        fn(*args)
+        self.timings[name] = time.perf_counter() - t0
+
+    def _sampling_started(self, lane: Lane) -> None:
+        if self.window.sampling_view.snapshot is None:
+            self.window.sampling_view.show_message(
+                "Making the adaptive sampler's table (the first time for a model also compiles its kernels) ..."
+            )
+
+    def _sampling_done(self, snapshot: Any) -> None:
+        self._timed("sampling_draw", self.window.sampling_view.show_snapshot, snapshot)
+        self.timings["sampling"] = time.perf_counter() - self._sampling_requested
+
+    def _start_slow_jobs(self) -> None:
+        w = self.window
+        try:
+            brdf = self.document.brdf()
+        except (BrdfStudioError, KeyError):
+            return
+        name = self.document.current_material or ""
+
+        def albedo_done(result: tuple[tuple[float, ...], np.ndarray]) -> None:
+            thetas, values = result
+            w.albedo_view.show_albedo(thetas, values, name)
+            w.material_editor.set_info("albedo", albedo_line(thetas, values))
+
+        def albedo(brdf_: Any) -> tuple[tuple[float, ...], np.ndarray]:
+            return ALBEDO_THETAS_DEG, directional_albedo(brdf_, list(ALBEDO_THETAS_DEG))
+
+        self.albedo_lane.submit(
+            Job(albedo, (brdf,), key=brdf.key(), done=albedo_done, failed=w.albedo_view.show_message)
+        )
+        self.adaptive_lane.submit(Job(
+            adaptive_line, (brdf,), key=brdf.key(),
+            done=lambda line: w.material_editor.set_info("adaptive", line),
+            failed=lambda message: w.material_editor.set_info("adaptive", message),
+        ))  # fmt: skip
+
+    def flush_slow_jobs(self) -> None:
+        """Start the delayed jobs now (tests)."""
+        if self.slow_timer.isActive():
+            self.slow_timer.stop()
+            self._start_slow_jobs()
