@@ -29,6 +29,9 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     )
     p.add_argument("--quick", action="store_true", help="a small smoke run (under a minute)")
     p.add_argument("--out", type=Path, default=Path("results/samplers"), help="results folder")
+    p.add_argument("--materials", type=Path, metavar="DIR", help="every measured file of DIR, as Dask tasks")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="with --materials: an existing Dask scheduler")
+    p.add_argument("--workers", type=int, default=2, help="with --materials: local Dask workers (default 2)")
     return ["bench"]
 
 
@@ -60,6 +63,10 @@ def _measured_default() -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     cfg = _config(args)
+    if args.materials is not None:  # the folder study on Dask (app/commands/_folder_study.py)
+        from app.commands._folder_study import run_folder
+
+        return run_folder(args, cfg)
     names = args.models or (QUICK_MODELS if args.quick else None)
     for n in names or ():
         get_model(n)  # a clear error for an unknown name before any work

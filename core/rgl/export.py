@@ -109,16 +109,18 @@ class _NDF:
 
 @njit(cache=True, nogil=True)
 def _warp_nodes(p, off_data, off_marg, off_cond, w, h, slices, nw, nh, out):
-    """``out (slices, nh, nw, 2)``: the VNDF warp of every sample-grid node, slice by slice."""
+    """``out (slices, nh, nw, 3)``: the VNDF warp of every sample-grid node, slice by slice, and its density
+    in ``u`` coordinates."""
     for s in range(slices):
         sl = (s, 0, 0, 0.0, 0.0)
         for b in range(nh):
             for a in range(nw):
-                x, y, _ = warp_sample(
+                x, y, pdf = warp_sample(
                     p, off_data, off_marg, off_cond, w, h, sl, a / (nw - 1.0), b / (nh - 1.0)
                 )
                 out[s, b, a, 0] = x
                 out[s, b, a, 1] = y
+                out[s, b, a, 2] = pdf
 
 
 @njit(cache=True, nogil=True)
@@ -145,6 +147,74 @@ def _grid(res: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     return np.linspace(0.0, 1.0, w)[None, :], np.linspace(0.0, 1.0, h)[:, None]
 
 
+def warped_nodes(p: np.ndarray, table: RGLTable) -> np.ndarray:
+    """The sample grid's nodes warped by the VNDF of every slice: ``(slices, nh, nw, 3)`` holding
+    ``u(theta_m), u(phi_m)`` and the warp's density there (``p`` is ``kernel_vector(table)``)."""
+    slices = table.phi_i.size * table.theta_i.size
+    vh, vw = table.vndf.shape[2:]
+    nh, nw = table.rgb.shape[3:]
+    out = np.empty((slices, nh, nw, 3))
+    _warp_nodes(
+        p,
+        int(p[L.H_OFF_VNDF]),
+        int(p[L.H_OFF_VNDF_MARG]),
+        int(p[L.H_OFF_VNDF_COND]),
+        vw,
+        vh,
+        slices,
+        nw,
+        nh,
+        out,
+    )
+    return out
+
+
+def slice_directions(table: RGLTable) -> np.ndarray:
+    """The conditioning direction of every slice, ``(slices, 3)``, slices ``[phi][theta]``."""
+    th = table.theta_i.astype(np.float64)[None, :]
+    ph = table.phi_i.astype(np.float64)[:, None]
+    wo = np.stack(np.broadcast_arrays(np.cos(ph) * np.sin(th), np.sin(ph) * np.sin(th), np.cos(th)), -1)
+    return wo.reshape(-1, 3)
+
+
+def node_pairs(table: RGLTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every pair ``(wi, wo)`` at a node of the file (a slice's direction and a node of its sample grid),
+    with its share of ``d wi d wo``: ``(n, 3), (n, 3), (n,)``; pairs whose half vector faces away from
+    ``wo`` are left out. An isotropic file's pairs have ``phi_o = 0``; an anisotropic file's lie in its
+    stored range of ``phi_o``."""
+    p = kernel_vector(table)
+    u = warped_nodes(p, table)
+    wo = slice_directions(table)
+    theta = table.theta_i.astype(np.float64)
+    d_theta = np.gradient(theta) if theta.size > 1 else np.array([0.5 * PI])
+    if table.isotropic:
+        d_phi = np.array([2.0 * PI])
+    else:
+        phi = table.phi_i.astype(np.float64)
+        d_phi = np.gradient(phi) * table.reduction
+    d_wo = (d_phi[:, None] * (np.sin(theta) * d_theta)[None, :]).reshape(-1)
+    nh, nw = table.rgb.shape[3:]
+    wis, wos, ws = [], [], []
+    for s in range(wo.shape[0]):
+        m = _directions(u[s, :, :, 0], u[s, :, :, 1]).reshape(-1, 3)
+        pdf_u = u[s, :, :, 2].reshape(-1)
+        cos_om = m @ wo[s]
+        ok = (cos_om > 0.0) & (pdf_u > 0.0)
+        wi = 2.0 * cos_om[ok, None] * m[ok] - wo[s]
+        wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+        ux = u[s, :, :, 0].reshape(-1)[ok]
+        jac = (
+            np.maximum(2.0 * PI * PI * ux * np.sin(np.square(ux) * 0.5 * PI), L.JACOBIAN_FLOOR)
+            * 4.0
+            * cos_om[ok]
+        )
+        pdf_wi = pdf_u[ok] / jac
+        wis.append(wi)
+        wos.append(np.broadcast_to(wo[s], wi.shape))
+        ws.append(d_wo[s] / (pdf_wi * nh * nw))
+    return np.concatenate(wis), np.ascontiguousarray(np.concatenate(wos)), np.concatenate(ws)
+
+
 def tabulate(brdf: BRDF, options: ExportOptions | None = None, description: str | None = None) -> RGLTable:
     """An RGL table of ``brdf`` (any model, analytic or measured); see the module docstring."""
     o = options or ExportOptions()
@@ -167,13 +237,10 @@ def tabulate(brdf: BRDF, options: ExportOptions | None = None, description: str 
     ut, up = _grid(o.sigma)
     sigma = ndf_fn.projected_area(_directions(ut, up)).astype(np.float32)
 
-    # Conditioning directions of the slices, [phi][theta].
     th = theta_i.astype(np.float64)[None, :]
     ph = phi_i.astype(np.float64)[:, None]
-    wo = np.stack(
-        np.broadcast_arrays(np.cos(ph) * np.sin(th), np.sin(ph) * np.sin(th), np.cos(th)), -1
-    ).reshape(slices, 3)
-
+    wo = np.stack(np.broadcast_arrays(np.cos(ph) * np.sin(th), np.sin(ph) * np.sin(th), np.cos(th)), -1)
+    wo = wo.reshape(slices, 3)  # the slices' conditioning directions, [phi][theta] (as slice_directions)
     ut, up = _grid(o.vndf)
     m = _directions(ut, up)  # (h, w, 3); phi relative to phi_o = 0 for isotropic files, absolute otherwise
     d = ndf_fn(m)
@@ -197,19 +264,7 @@ def tabulate(brdf: BRDF, options: ExportOptions | None = None, description: str 
     )
     p = kernel_vector(ones)
 
-    u = np.empty((slices, nh, nw, 2))
-    _warp_nodes(
-        p,
-        int(p[L.H_OFF_VNDF]),
-        int(p[L.H_OFF_VNDF_MARG]),
-        int(p[L.H_OFF_VNDF_COND]),
-        o.vndf[1],
-        o.vndf[0],
-        slices,
-        nw,
-        nh,
-        u,
-    )
+    u = warped_nodes(p, ones)
     rgb = np.zeros((slices, nh, nw, 3))
     for s in range(slices):
         m_s = _directions(u[s, :, :, 0], u[s, :, :, 1]).reshape(-1, 3)

@@ -30,7 +30,6 @@ from core.geometry import degrees_to_dir
 from core.kernels import eval_batch
 from core.measured import load_measured, write_measured
 from core.model import make_brdf
-from core.rgl import lookup
 from core.rgl.export import ExportOptions, eval_table, tabulate
 from core.rgl.material import RGL, RGL_ANISOTROPIC, read_bsdf, rgl_brdf, write_bsdf
 from core.rgl.tensor_file import read_tensor_file, write_tensor_file
@@ -100,32 +99,15 @@ def test_models_and_traits(files):
 
 
 def _node_pairs(brdf, options: ExportOptions):
-    """Every (wi, wo) pair at the export's nodes, from the exported table itself: the sample grid's nodes
-    warped by the table's VNDF (as the exporter places them)."""
-    from core.rgl.export import _directions, _warp_nodes
+    """Every (wi, wo) pair at the export's nodes (the sample grid's nodes warped by the table's VNDF), and
+    the table's kernel vector."""
+    from core.rgl.export import node_pairs
     from core.rgl.material import kernel_vector
 
     table = tabulate(brdf, options)
-    p = kernel_vector(table)
-    n_phi, n_theta = table.phi_i.size, table.theta_i.size
-    nh, nw = options.samples
-    u = np.empty((n_phi * n_theta, nh, nw, 2))
-    L = lookup
-    _warp_nodes(p, int(p[L.H_OFF_VNDF]), int(p[L.H_OFF_VNDF_MARG]), int(p[L.H_OFF_VNDF_COND]),
-                options.vndf[1], options.vndf[0], n_phi * n_theta, nw, nh, u)  # fmt: skip
-    th = table.theta_i.astype(np.float64)[None, :]
-    ph = table.phi_i.astype(np.float64)[:, None]
-    wo = np.stack(np.broadcast_arrays(np.cos(ph) * np.sin(th), np.sin(ph) * np.sin(th), np.cos(th)), -1)
-    wo = wo.reshape(-1, 3)
-    wis, wos = [], []
-    for s in range(n_phi * n_theta):
-        m = _directions(u[s, :, :, 0], u[s, :, :, 1]).reshape(-1, 3)
-        c = m @ wo[s]
-        wi = 2.0 * c[:, None] * m - wo[s]
-        keep = (wi[:, 2] > 0.05) & (c > 0.0)
-        wis.append(wi[keep])
-        wos.append(np.broadcast_to(wo[s], wi[keep].shape))
-    return p, np.concatenate(wis), np.concatenate(wos)
+    wi, wo, _ = node_pairs(table)
+    keep = wi[:, 2] > 0.05
+    return kernel_vector(table), wi[keep], wo[keep]
 
 
 @pytest.mark.parametrize("brdf", [PHONG, WARD], ids=["phong", "ward"])
