@@ -13,14 +13,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import signal
 import sys
-import threading
 import traceback
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 
+from app.commands import _signals as signals
 from app.commands._args import OneLineParser
+from app.commands._signals import recorded
 from core.errors import BrdfStudioError
 
 
@@ -37,33 +36,6 @@ def _command_modules() -> list[str]:
 
 
 EXIT_INTERNAL = 70
-EXIT_INTERRUPTED = 130
-
-
-class _Interrupts:
-    """Whether SIGINT arrived during this run (so that an error it caused is not called a bug)."""
-
-    seen = False
-
-
-@contextmanager
-def _sigint_recorded() -> Iterator[None]:
-    """Ctrl-C raises ``KeyboardInterrupt`` as usual, and is recorded: an interrupted import or thread join can
-    surface as another exception (``ImportError``, ``RuntimeError``) that must still read as an interrupt."""
-    _Interrupts.seen = False
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum: int, frame: object) -> None:
-        _Interrupts.seen = True
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGINT, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
@@ -96,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             parser.print_help()
             return 0
-    with _sigint_recorded():
+    with recorded():
         return _run(handlers[args.command], args)
 
 
@@ -109,7 +81,7 @@ def _run(handler: object, args: argparse.Namespace) -> int:
         return exc.exit_code
     except KeyboardInterrupt:
         print(f"brdf-studio {args.command}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return signals.STATE.exit_code
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
@@ -124,9 +96,9 @@ def _run(handler: object, args: argparse.Namespace) -> int:
         )
         return 2
     except Exception as exc:
-        if _Interrupts.seen:
+        if signals.STATE.seen:
             print(f"brdf-studio {args.command}: interrupted", file=sys.stderr)
-            return EXIT_INTERRUPTED
+            return signals.STATE.exit_code
         # a bug, not bad input: say so plainly
         if args.debug or os.environ.get("BRDF_STUDIO_DEBUG"):
             traceback.print_exc()

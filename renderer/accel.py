@@ -6,12 +6,15 @@ Embree's ``tnear`` is fixed at 0 in embreex, so callers offset secondary-ray ori
 
 from __future__ import annotations
 
+import contextlib
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 MISS = -1
+_THREAD_PREFIX = "embree-rays"
 _FAR = np.float32(1e30)
 
 
@@ -41,16 +44,24 @@ class Accel:
         )
         self.threads = max(1, int(threads))
         self.chunk = int(chunk)
-        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        self._pool = (
+            ThreadPoolExecutor(self.threads, thread_name_prefix=_THREAD_PREFIX) if self.threads > 1 else None
+        )
         self.rays_traced = 0
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
-            self._pool = None
+        """Stop the worker threads (waiting for them, unless called from one of them)."""
+        pool, self._pool = getattr(self, "_pool", None), None
+        if pool is not None:
+            pool.shutdown(wait=not threading.current_thread().name.startswith(_THREAD_PREFIX))
 
     def __del__(self) -> None:
-        self.close()
+        # The collector may run this on any thread, a worker of this very pool included, and at interpreter
+        # exit or during a Ctrl-C: never join there ("cannot join current thread"), never raise.
+        pool, self._pool = getattr(self, "_pool", None), None
+        if pool is not None:
+            with contextlib.suppress(Exception):
+                pool.shutdown(wait=False)
 
     def _chunks(self, n: int) -> list[slice]:
         size = max(1024, min(self.chunk, -(-n // self.threads)))

@@ -152,14 +152,22 @@ def prepare(
     ``warm_up_sweep`` also asks for a dense sweep of outgoing directions (every incident-angle bin), so that no
     table is built during rendering (for equal-time comparisons)."""
     r = scene.render
+    check_budget(r.width if width is None else width, r.height if height is None else height, ris_candidates)
+    check_environment(scene)
     t0 = time.perf_counter()
-    world = World(
-        scene,
-        sampler=sampler,
-        sampler_options=sampler_options,
-        threads=threads,
-        material_samplers=material_samplers,
-    )
+    with np.errstate(over="ignore"):  # coordinates out of range are reported below, not as numpy warnings
+        world = World(
+            scene,
+            sampler=sampler,
+            sampler_options=sampler_options,
+            threads=threads,
+            material_samplers=material_samplers,
+        )
+    try:
+        _check_geometry(world)
+    except BaseException:
+        world.accel.close()
+        raise
     geometry_seconds = time.perf_counter() - t0
     from renderer.integrator import PARALLEL_MIN
 
@@ -202,6 +210,92 @@ def prepare(
     if warm_up and {world.sampler_name, *world.material_samplers.values()} - set(EAGER_SAMPLERS):
         _warm_up(world, tracer, report, on_step, warm_up_sweep)
     return RenderJob(scene, world, tracer, settings, report)
+
+
+# ------------------------------------------------------------------------------------------ budgets
+BYTES_PER_PATH = 1500
+"""Peak memory of one path in a pass's wavefront (the integrator's ~40 per-path arrays, its temporaries and
+the samplers' batches), an upper bound of what ``python bench/budgets.py`` measures."""
+BYTES_PER_PIXEL = 72
+"""The film's float64 running sum, the float32 image and its tone-mapped copy, per pixel."""
+BYTES_PER_RIS_CANDIDATE = 160
+"""Each RIS candidate of a path: its direction, pdf, BRDF value, target and weight."""
+PASS_PIXELS = 65536
+"""A pass of a small image traces several samples per pixel, up to this many paths (``RenderJob.batch``)."""
+
+
+def render_memory(width: int, height: int, ris_candidates: int = 0) -> float:
+    """Bytes a render of ``width x height`` pixels needs at its peak (one pass's wavefront and the film)."""
+    pixels = float(width) * float(height)
+    batch = min(16, max(1, PASS_PIXELS // max(1, int(pixels))))
+    paths = pixels * batch
+    return (
+        paths * (BYTES_PER_PATH + BYTES_PER_RIS_CANDIDATE * max(0, ris_candidates)) + pixels * BYTES_PER_PIXEL
+    )
+
+
+def check_budget(width: int, height: int, ris_candidates: int = 0) -> None:
+    """Refuse (:class:`~core.budget.BudgetError`, one line) a render whose memory exceeds the machine's, naming
+    the need, the memory available and the largest image (or candidate count) that fits."""
+    from core.budget import available_memory, check_memory
+
+    need = render_memory(width, height, ris_candidates)
+    room = 0.8 * available_memory()
+    if ris_candidates > 0 and render_memory(width, height) < room:
+        fit = int((room / (width * height) - BYTES_PER_PATH - BYTES_PER_PIXEL) // BYTES_PER_RIS_CANDIDATE)
+        hint = f"use --ris {max(1, fit)} or fewer candidates"
+    else:
+        scale = (room / need) ** 0.5
+        hint = f"use --width {max(1, int(width * scale))} --height {max(1, int(height * scale))} or smaller"
+    check_memory(
+        need,
+        f"a {width}x{height} render" + (f" with {ris_candidates} RIS candidates" if ris_candidates else ""),
+        hint,
+    )
+
+
+def check_environment(scene: Scene) -> None:
+    """An environment map's pixels must be radiances: non-negative (a negative pixel is not silently read
+    as 0) and, scaled, within ``core.scene.MAX_RADIANCE``; :class:`SceneError` names the field."""
+    from core.errors import BrdfStudioError
+    from core.scene import MAX_RADIANCE, MapEnvironment
+    from renderer.image_io import read_exr
+
+    env = scene.environment
+    if not isinstance(env, MapEnvironment):
+        return
+    try:
+        img = read_exr(scene.resolve(env.path))
+    except BrdfStudioError as exc:
+        raise scene.error("environment.path", str(exc)) from None
+    lowest = float(img.min()) if img.size else 0.0
+    if lowest < 0.0:
+        n = int(np.count_nonzero(img < 0.0))
+        raise scene.error(
+            "environment.path",
+            f"'{env.path}' holds {n} negative values (lowest {lowest:g}); radiance must be >= 0",
+        )
+    highest = float(img.max()) * env.scale if img.size else 0.0
+    if highest > MAX_RADIANCE:
+        raise scene.error(
+            "environment",
+            f"the map's brightest value times scale is {highest:g}; radiance must be within [0, {MAX_RADIANCE:g}]"
+            " (lower 'scale')",
+        )
+
+
+def _check_geometry(world: World) -> None:
+    """Every vertex, once transformed, within ``core.scene.MAX_COORD`` (Embree traces in float32)."""
+    from core.scene import MAX_COORD
+
+    lo, hi = world.bounds
+    reach = float(np.max(np.abs(np.concatenate([lo, hi]))))
+    if not reach <= MAX_COORD:
+        raise world.scene.error(
+            "meshes",
+            f"vertices reach {reach:g} scene units once transformed; coordinates must lie within "
+            f"[-{MAX_COORD:g}, {MAX_COORD:g}] (scale the mesh down with its transform)",
+        )
 
 
 EAGER_SAMPLERS = ("uniform", "cosine", "analytic")

@@ -2,7 +2,7 @@
 
 ::
 
-    brdf-studio render SCENE.json [--sampler S] [--spp N | --time SEC] -o OUT.exr
+    brdf-studio render SCENE.json [--sampler S] [--spp N | --time SEC | --until-cancelled] -o OUT.exr
                        [--compare uniform,adaptive] [--reference REF.exr] [--seed K] [--width W --height H]
                        [--ris M] [--n-max X] [--max-depth D] [--exposure EV]
     brdf-studio render --demo
@@ -11,16 +11,45 @@ Writes ``OUT.exr`` (linear HDR), ``OUT.png`` (tone-mapped sRGB) and ``OUT.json``
 With ``--compare`` every strategy gets ``OUT_<strategy>.exr/.png/.json`` at the same budget, plus a labelled
 side-by-side ``OUT_compare.png``. With ``--reference``, the RMSE and relMSE of each strategy are printed and
 recorded after every pass, and written as error-vs-time curves ``OUT_error.csv`` and ``OUT_error.png``.
+
+Output names keep every dot of ``OUT`` but a final ``.exr`` (``-o shot.final.exr`` writes ``shot.final.png``
+beside it, never ``shot.png``). Every argument is range-checked before the scene is read, the memory the
+render needs before it is prepared (``renderer.render.check_budget``). Ctrl-C (or SIGTERM) while passes run
+finishes the pass in flight and saves the image of the passes done, then exits with 130 (143); a second
+Ctrl-C stops at once, still saving what the completed passes hold.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
-from core.errors import ParameterError
+import numpy as np
+
+from app.commands import _args, _signals
+from app.commands._args import add_list, exposure, name, number, output_stem, seed, whole, with_extension
+from core.errors import BrdfStudioError, OutputError, ParameterError
+
+MAX_RIS = 1024
+"""Candidates per sky sample; the memory budget of a pass bounds it further for large images."""
+
+
+def _seconds(value: str) -> float:
+    """A time budget in seconds: finite, in (0, one week]."""
+    try:
+        v = float(value)
+    except ValueError:
+        v = math.nan
+    if math.isinf(v) and v > 0:
+        raise argparse.ArgumentTypeError(
+            f"must be a finite number of seconds in (0, {_args.MAX_SECONDS:g}], got {value!r}; "
+            "to render until Ctrl-C, use --until-cancelled"
+        )
+    return number(0.0, _args.MAX_SECONDS, lo_open=True)(value)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
@@ -30,29 +59,58 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p.add_argument("scene", nargs="?", help="scene file (JSON)")
     p.add_argument("--demo", action="store_true", help="render the bundled demo scene")
     p.add_argument(
-        "--sampler", help="BRDF sampling strategy (default: the scene's); see 'brdf-studio models'"
+        "--sampler", type=name, help="BRDF sampling strategy (default: the scene's); see 'brdf-studio models'"
     )
-    p.add_argument("--n-max", type=float, help="the adaptive sampler's n_max (its one knob)")
+    p.add_argument(
+        "--n-max",
+        type=number(1.0, 1000.0, lo_open=True),
+        help="the adaptive sampler's n_max, (1, 1000] (its one knob)",
+    )
     budget = p.add_mutually_exclusive_group()
-    budget.add_argument("--spp", type=int, help="samples per pixel (equal-spp mode)")
-    budget.add_argument("--time", type=float, metavar="SEC", help="seconds of rendering (equal-time mode)")
+    budget.add_argument(
+        "--spp",
+        type=whole(1, _args.MAX_SPP),
+        help=f"samples per pixel, [1, {_args.MAX_SPP}] (equal-spp mode)",
+    )
+    budget.add_argument(
+        "--time", type=_seconds, metavar="SEC", help="seconds of rendering, up to a week (equal-time mode)"
+    )
+    budget.add_argument(
+        "--until-cancelled",
+        action="store_true",
+        help="render until Ctrl-C, then save what was rendered (exit code 130)",
+    )
     p.add_argument("-o", "--output", help="output EXR (default: <scene name>.exr in the current folder)")
-    p.add_argument("--compare", metavar="S1,S2,...", help="render each strategy with the same budget")
+    add_list(p, "--compare", metavar="S", help="render each strategy with the same budget (uniform,adaptive)")
     p.add_argument(
         "--reference", metavar="REF.exr", help="reference image: report RMSE/relMSE and error curves"
     )
-    p.add_argument("--seed", type=int, help="random seed (same seed, same image)")
-    p.add_argument("--width", type=int, help="image width in pixels (default: the scene's)")
-    p.add_argument("--height", type=int, help="image height in pixels (default: the scene's)")
-    p.add_argument("--max-depth", type=int, help="maximum number of bounces")
+    p.add_argument("--seed", type=seed, help="random seed (same seed, same image)")
+    side = whole(1, _args.MAX_SIDE)
+    p.add_argument(
+        "--width", type=side, help=f"image width in pixels, [1, {_args.MAX_SIDE}] (default: the scene's)"
+    )
+    p.add_argument(
+        "--height", type=side, help=f"image height in pixels, [1, {_args.MAX_SIDE}] (default: the scene's)"
+    )
+    p.add_argument(
+        "--max-depth",
+        type=whole(1, _args.MAX_DEPTH),
+        help=f"maximum number of bounces, [1, {_args.MAX_DEPTH}]",
+    )
     p.add_argument(
         "--ris",
-        type=int,
+        type=whole(0, MAX_RIS),
         default=0,
         metavar="M",
-        help="light from the sky by RIS with M candidates (default off)",
+        help=f"light from the sky by RIS with M candidates, [0, {MAX_RIS}] (default 0: off)",
     )
-    p.add_argument("--exposure", type=float, default=0.0, help="PNG exposure in stops (default 0)")
+    p.add_argument(
+        "--exposure",
+        type=exposure,
+        default=0.0,
+        help=f"PNG exposure in stops, [-{_args.MAX_EXPOSURE:g}, {_args.MAX_EXPOSURE:g}] (default 0)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return ["render"]
 
@@ -66,11 +124,9 @@ def demo_scene_path() -> Path:
 def _strategies(args: argparse.Namespace, default: str) -> list[str]:
     from core.sampling import sampler_names
 
-    names = (
-        [s.strip() for s in args.compare.split(",") if s.strip()]
-        if args.compare
-        else [args.sampler or default]
-    )
+    names = list(args.compare) if args.compare else [args.sampler or default]
+    if args.compare and args.sampler:
+        raise ParameterError("give --sampler or --compare, not both")
     known = sampler_names()
     for s in names:
         if s not in known:
@@ -80,13 +136,44 @@ def _strategies(args: argparse.Namespace, default: str) -> list[str]:
     return names
 
 
+def strategy_options(strategy: str, scene_options: dict[str, Any], n_max: float | None) -> dict[str, Any]:
+    """The options a strategy gets: those of the scene's ``sampler_options`` it declares (the scene file's
+    are checked against its own ``sampler`` when it is read), and ``--n-max`` if it takes one."""
+    from core.sampling.base import sampler_option_set
+
+    declared = sampler_option_set(strategy)
+    options = {k: v for k, v in scene_options.items() if k in declared}
+    if n_max is not None and "n_max" in declared:
+        options["n_max"] = n_max
+    return options
+
+
 def _output_stem(args: argparse.Namespace, scene_path: Path) -> Path:
     out = Path(args.output) if args.output else Path(scene_path.stem + ".exr")
     if out.suffix.lower() != ".exr":
         raise ParameterError(f"the output must be an .exr file, got '{out}'")
-    if not (out.parent if str(out.parent) else Path(".")).is_dir():
-        raise ParameterError(f"cannot write '{out}': folder '{out.parent}' does not exist")
-    return out.with_suffix("")
+    if out.is_dir():
+        raise OutputError(f"cannot write '{out}': it is a folder")
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        raise OutputError(f"cannot write '{out}': folder '{out.parent}' does not exist")
+    try:  # before any work: an unwritable folder is found now, not after an hour of rendering
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise OutputError(f"cannot write '{out}': {exc.strerror or exc}") from None
+    return output_stem(out, (".exr",))
+
+
+def _check_finite(image: np.ndarray, strategy: str) -> None:
+    bad = int(np.count_nonzero(~np.isfinite(image)))
+    if bad:
+        from core.scene import MAX_RADIANCE
+
+        raise BrdfStudioError(
+            f"{strategy}: {bad} pixel values are not finite; the image was not written (radiance per channel "
+            f"must stay within [0, {MAX_RADIANCE:g}]: lower the scene's light intensities or the map's scale)"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -95,35 +182,30 @@ def run(args: argparse.Namespace) -> int:
     from renderer.image_io import write_sidecar as write_json
     from renderer.render import prepare
 
+    if args.scene is None and args.compare and args.compare[-1].lower().endswith(".json"):
+        args.scene = args.compare.pop()  # "--compare a,b scene.json": the list took the scene
     if args.demo == bool(args.scene):
         raise ParameterError("give a scene file or --demo (one of them)")
     scene_path = demo_scene_path() if args.demo else Path(args.scene)
-    scene = load_scene(scene_path)
-    if args.spp is not None and args.spp < 1:
-        raise ParameterError(f"--spp must be at least 1, got {args.spp}")
-    if args.time is not None and not args.time > 0:
-        raise ParameterError(f"--time must be positive, got {args.time}")
-    for name in ("width", "height", "max_depth"):
-        v = getattr(args, name)
-        if v is not None and v < 1:
-            raise ParameterError(f"--{name.replace('_', '-')} must be at least 1, got {v}")
-    if args.ris < 0:
-        raise ParameterError(f"--ris must be 0 (off) or a positive number of candidates, got {args.ris}")
-    if args.seed is not None and args.seed < 0:
-        raise ParameterError(f"--seed must be non-negative, got {args.seed}")
-    strategies = _strategies(args, scene.render.sampler)
     stem = _output_stem(args, scene_path)
+    scene = load_scene(scene_path)
+    strategies = _strategies(args, scene.render.sampler)
+    options = {s: strategy_options(s, dict(scene.render.sampler_options), args.n_max) for s in strategies}
+    if args.n_max is not None and not any("n_max" in o for o in options.values()):
+        raise ParameterError(
+            f"--n-max is an option of the adaptive samplers; no strategy rendered here ({', '.join(strategies)}) takes it"
+        )
     reference = read_exr(args.reference) if args.reference else None
     spp, time_s = args.spp, args.time
-    if spp is None and time_s is None:
+    if args.until_cancelled:
+        time_s = math.inf
+    elif spp is None and time_s is None:
         spp, time_s = (None, scene.render.time_s) if scene.render.time_s else (scene.render.spp, None)
-    options: dict[str, Any] = dict(scene.render.sampler_options)
-    if args.n_max is not None:
-        options["n_max"] = args.n_max
 
     from tqdm import tqdm
 
     images, curves, summary = [], {}, []
+    interrupted = False
     for strategy in strategies:
         bar = tqdm(total=1, desc=f"{strategy}: compiling", unit="step", disable=args.quiet, file=sys.stderr)
 
@@ -136,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
         job = prepare(
             scene,
             sampler=strategy,
-            sampler_options=options,
+            sampler_options=options[strategy],
             width=args.width,
             height=args.height,
             seed=args.seed,
@@ -145,39 +227,85 @@ def run(args: argparse.Namespace) -> int:
             ris_candidates=args.ris,
         )
         bar.close()
-        if reference is not None:
-            h, w = reference.shape[:2]
-            if (job.tracer.width, job.tracer.height) != (w, h):
-                raise ParameterError(
-                    f"the reference is {w}x{h} but the render is {job.tracer.width}x{job.tracer.height}; "
-                    "use --width/--height"
-                )
-        total = spp if spp is not None else time_s
-        unit = "spp" if spp is not None else "s"
-        bar = tqdm(total=total, desc=f"{strategy}: render", unit=unit, disable=args.quiet, file=sys.stderr)
-        records = []
-        for frame in job.passes(spp=spp, time_s=time_s):
-            bar.n = frame.spp if spp is not None else min(time_s or 0.0, round(frame.elapsed, 2))
-            bar.set_postfix(spp=frame.spp, refresh=False)
-            bar.refresh()
+        try:
             if reference is not None:
-                records.append(
-                    {"spp": frame.spp, "seconds": frame.elapsed, **image_errors(frame.image, reference)}
-                )
-        bar.close()
-        image = job.film.image()
-        info = job.info()
-        if reference is not None:
-            info["errors"] = records[-1] if records else None
-            curves[strategy] = records
-        path = stem if len(strategies) == 1 else stem.with_name(f"{stem.name}_{strategy}")
-        write_exr(path.with_suffix(".exr"), image, {"spp": job.film.spp, "sampler": strategy})
-        write_png(path.with_suffix(".png"), image, args.exposure)
-        write_json(path.with_suffix(".json"), info)
-        images.append(image)
-        summary.append((strategy, job, records[-1] if records else None, path.with_suffix(".exr")))
-        job.world.accel.close()
+                h, w = reference.shape[:2]
+                if (job.tracer.width, job.tracer.height) != (w, h):
+                    raise ParameterError(
+                        f"the reference is {w}x{h} but the render is {job.tracer.width}x{job.tracer.height}; "
+                        "use --width/--height"
+                    )
+            records = _render_passes(job, strategy, spp, time_s, reference, args.quiet, image_errors)
+            interrupted = _signals.STATE.seen
+            image = job.film.image()
+            if job.film.spp == 0:  # interrupted before the first pass ended: nothing to save
+                break
+            _check_finite(image, strategy)
+            info = job.info()
+            if interrupted:
+                info["interrupted"] = True
+            if reference is not None:
+                info["errors"] = records[-1] if records else None
+                curves[strategy] = records
+            path = stem if len(strategies) == 1 else stem.with_name(f"{stem.name}_{strategy}")
+            write_exr(with_extension(path, ".exr"), image, {"spp": job.film.spp, "sampler": strategy})
+            write_png(with_extension(path, ".png"), image, args.exposure)
+            write_json(with_extension(path, ".json"), info)
+            images.append(image)
+            summary.append((strategy, job, records[-1] if records else None, with_extension(path, ".exr")))
+        finally:
+            job.world.accel.close()
+        if interrupted:
+            break
 
+    _print_summary(summary)
+    if len(images) > 1:
+        labels = [f"{s} {j.film.spp}SPP {j.elapsed:.1f}S" for s, j, _, _ in summary]
+        out = stem.with_name(f"{stem.name}_compare.png")
+        write_png(out, composite(images, labels, args.exposure))
+        print(f"side by side: {out}")
+    if curves:
+        csv_path, png_path = write_error_curves(
+            stem.with_name(f"{stem.name}_error"), curves, title=scene.source
+        )
+        print(f"error vs time: {csv_path}, {png_path}")
+    if interrupted or _signals.STATE.seen:
+        saved = ", ".join(str(out) for _, _, _, out in summary) or "nothing (no pass had finished)"
+        print(f"brdf-studio render: interrupted; saved {saved}", file=sys.stderr)
+        return _signals.STATE.exit_code
+    return 0
+
+
+def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -> list[dict]:  # type: ignore[no-untyped-def]
+    """Passes to the budget (``time_s = inf``: until cancelled); the first Ctrl-C/SIGTERM ends them after
+    the pass in flight, a second one at once (the film keeps every completed pass either way)."""
+    from tqdm import tqdm
+
+    forever = time_s is not None and math.isinf(time_s)
+    total = None if forever else (spp if spp is not None else time_s)
+    unit = "spp" if spp is not None or forever else "s"
+    bar = tqdm(total=total, desc=f"{strategy}: render", unit=unit, disable=quiet, file=sys.stderr)
+    records: list[dict] = []
+    try:
+        with _signals.cooperative() as stop:
+            for frame in job.passes(spp=spp, time_s=time_s, cancel=stop):
+                bar.n = (
+                    frame.spp if spp is not None or forever else min(time_s or 0.0, round(frame.elapsed, 2))
+                )
+                bar.set_postfix(spp=frame.spp, refresh=False)
+                bar.refresh()
+                if reference is not None:
+                    records.append(
+                        {"spp": frame.spp, "seconds": frame.elapsed, **image_errors(frame.image, reference)}
+                    )
+    except KeyboardInterrupt:
+        pass  # a second Ctrl-C: stop now, save the completed passes
+    finally:
+        bar.close()
+    return records
+
+
+def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
     print(
         f"{'strategy':<14}{'spp':>6}{'seconds':>9}{'Mrays/s':>9}{'prepare s':>10}{'RMSE':>12}{'relMSE':>12}  output"
     )
@@ -198,14 +326,3 @@ def run(args: argparse.Namespace) -> int:
                     f"    tables: material '{mname}' ({minfo['model']}, {minfo['sampler']}): "
                     f"{minfo['memory_bytes'] / 1024:.1f} KB, built in {minfo.get('build_seconds', 0.0):.2f} s"
                 )
-    if len(strategies) > 1:
-        labels = [f"{s} {j.film.spp}SPP {j.elapsed:.1f}S" for s, j, _, _ in summary]
-        out = stem.with_name(f"{stem.name}_compare.png")
-        write_png(out, composite(images, labels, args.exposure))
-        print(f"side by side: {out}")
-    if curves:
-        csv_path, png_path = write_error_curves(
-            stem.with_name(f"{stem.name}_error"), curves, title=scene.source
-        )
-        print(f"error vs time: {csv_path}, {png_path}")
-    return 0

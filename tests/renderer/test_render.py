@@ -116,7 +116,7 @@ def test_cli_compare_with_reference(scene_file: Path, tmp_path: Path, capsys) ->
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--spp", "0"], "--spp must be at least 1"),
+        (["--spp", "0"], "--spp: must be a whole number in [1, 1e6], got '0'"),
         (["--sampler", "magic"], "unknown sampler 'magic'"),
         (["--compare", "cosine,cosine"], "twice"),
         (["-o", "out.png"], "must be an .exr file"),

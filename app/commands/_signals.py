@@ -1,0 +1,73 @@
+"""Ctrl-C and SIGTERM on the command line: recorded, and cooperative where there is work to save.
+
+By default Ctrl-C raises ``KeyboardInterrupt`` at once (nothing is lost: every output is written atomically)
+and is *recorded*, so that an error it causes on its way out (an import cut in half, a thread join refused) is
+reported as the interrupt (exit 130), never as an internal error. While a render's passes run,
+:func:`cooperative` turns the first Ctrl-C (or SIGTERM) into a request: the pass in flight finishes, what was
+rendered is saved, and the command exits with 130 (143 for SIGTERM); a second Ctrl-C stops at once.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class Interrupts:
+    """What arrived during this command: ``seen`` any SIGINT/SIGTERM; ``signum`` the first."""
+
+    seen: bool = False
+    signum: int = 0
+    count: int = 0
+    stop: threading.Event = field(default_factory=threading.Event)
+    """Set by the first signal while a :func:`cooperative` block runs: finish the pass, then stop."""
+    saving: bool = False
+    """True inside a :func:`cooperative` block."""
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + (self.signum or signal.SIGINT)
+
+
+STATE = Interrupts()
+
+
+def _handler(signum: int, frame: Any) -> None:
+    STATE.seen = True
+    STATE.count += 1
+    STATE.signum = STATE.signum or signum
+    if STATE.saving and STATE.count == 1:
+        STATE.stop.set()
+        return
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def recorded() -> Iterator[Interrupts]:
+    """Install the handler (SIGINT; SIGTERM too) for the duration of a command; a fresh :data:`STATE`."""
+    global STATE
+    STATE = Interrupts()
+    if threading.current_thread() is not threading.main_thread():
+        yield STATE
+        return
+    previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield STATE
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+@contextmanager
+def cooperative() -> Iterator[threading.Event]:
+    """Within this block the first signal sets the returned event instead of raising."""
+    STATE.saving = True
+    try:
+        yield STATE.stop
+    finally:
+        STATE.saving = False
