@@ -1,23 +1,25 @@
 """Benchmark of the path tracer: throughput, and error against time for every sampling strategy.
 
-1. Throughput on the bundled demo scene (2 worker threads for Embree, numba kernels): rays per second over
-   whole passes (camera, bounce and shadow rays, shading included), and Embree alone on the same rays
-   (closest-hit queries of camera rays), so the cost of shading is visible.
+1. Throughput on the bundled demo scene (two threads): seconds per spp and rays per second over whole passes
+   (camera, bounce and shadow rays, shading included), against Embree alone on the very rays one pass traced
+   (recorded, then traced again with the same queries), so the cost of everything but Embree is visible.
 2. RMSE against a high-spp reference as a function of render time, for uniform, cosine, analytic, adaptive
    and every other registered strategy, at equal time (``--time`` seconds each, preparation excluded and
    reported separately). The reference is rendered once with a different seed (``--ref-spp``, analytic
    sampling) and cached under ``--out``.
 
-3. With ``--cornell``: Mitsuba 3's Cornell box (exported to our format) against Mitsuba itself: RMSE against a
-   high-spp Mitsuba ``scalar_rgb`` reference as a function of time, for us and for Mitsuba's ``scalar_rgb`` and
-   ``llvm_ad_rgb`` variants (the llvm variant is probed in a subprocess: it needs Debian's libllvm19), and the
-   time each takes to reach a few RMSE levels.
+3. With ``--cornell``: Mitsuba 3's Cornell box (exported to our format, 256x256, paths of 8 segments) against
+   Mitsuba itself, side by side in one run: RMSE against a high-spp Mitsuba reference (``llvm_ad_rgb``, cached)
+   as a function of time, for us and for Mitsuba's ``llvm_ad_rgb`` (probed in a subprocess: it needs Debian's
+   libllvm19) and ``scalar_rgb`` variants, the time each takes to reach a few RMSE levels (log-log interpolated
+   between measurements), and our time over Mitsuba's.
 
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
 ``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` under ``--out`` (default ``results/bench``).
 
     .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 256] [--strategies a,b] [--out DIR]
-    .venv/bin/python bench/render.py --cornell [--cornell-size 128] [--time 30]
+    .venv/bin/python bench/render.py --skip-strategies --throughput-samplers uniform,cosine,analytic,adaptive_warp
+    .venv/bin/python bench/render.py --cornell [--cornell-size 256] [--time 30]
 """
 
 from __future__ import annotations
@@ -38,40 +40,117 @@ from renderer.image_io import composite, image_errors, read_exr, write_error_cur
 from renderer.render import prepare
 
 
-def throughput(scene, size: int, passes: int) -> dict:  # type: ignore[no-untyped-def]
-    job = prepare(scene, sampler="cosine", width=size, height=size)
-    job.tracer.render_pass(10_000, 1)  # warm-up (first-call costs)
-    rays0 = job.tracer.stats.rays
+def _record_rays(accel):  # type: ignore[no-untyped-def]
+    """Wrap ``accel``'s queries so that every batch of rays the path tracer asks about is kept (inputs
+    copied) for :func:`_embree_alone`; returns the list they go to."""
+    batches: list[tuple] = []
+    trace, occluded = accel.trace, accel.occluded
+
+    def rec_trace(o32, d32, prim, t, u, v):  # type: ignore[no-untyped-def]
+        batches.append(("trace", o32.copy(), d32.copy()))
+        return trace(o32, d32, prim, t, u, v)
+
+    def rec_occluded(o, d, t_max=None):  # type: ignore[no-untyped-def]
+        batches.append(("occluded", o.copy(), d.copy(), None if t_max is None else t_max.copy()))
+        return occluded(o, d, t_max)
+
+    accel.trace, accel.occluded = rec_trace, rec_occluded
+    return batches
+
+
+def _embree_alone(accel, batches: list[tuple]) -> float:  # type: ignore[no-untyped-def]
+    """Seconds Embree alone takes for the recorded batches (same queries, same threads and chunks)."""
+    t0 = time.perf_counter()
+    for b in batches:
+        if b[0] == "trace":
+            n = len(b[1])
+            accel.trace(b[1], b[2], np.empty(n, np.int32), *(np.empty(n, np.float32) for _ in range(3)))
+        else:
+            accel.occluded(b[1], b[2], b[3])
+    return time.perf_counter() - t0
+
+
+def throughput(scene, size: int, passes: int, sampler: str = "cosine") -> dict:  # type: ignore[no-untyped-def]
+    """Whole passes against Embree alone on the very rays those passes traced (camera, bounce and shadow
+    rays), one after the other in one process."""
+    job = prepare(scene, sampler=sampler, width=size, height=size)
+    tracer, accel = job.tracer, job.world.accel
+    spp = job.batch
+    tracer.render_pass(10_000, spp)  # warm-up (first-call costs)
+    rays0 = tracer.stats.rays
     t0 = time.perf_counter()
     for k in range(passes):
-        job.tracer.render_pass(k, 1)
+        tracer.render_pass(k, spp)
     seconds = time.perf_counter() - t0
-    rays = job.tracer.stats.rays - rays0
-    cam = job.tracer.camera
-    pix = np.arange(size * size)
-    o, d = cam.rays(pix, np.random.default_rng(0).random((len(pix), 2)))
-    t1 = time.perf_counter()
-    for _ in range(5):
-        job.world.accel.intersect(o, d)
-    embree_s = (time.perf_counter() - t1) / 5
-    one = job.world.accel
-    one.threads, pool = 1, one._pool
-    one._pool = None
-    t2 = time.perf_counter()
-    one.intersect(o, d)
-    embree_1t = time.perf_counter() - t2
-    one._pool, one.threads = pool, 2
-    job.world.accel.close()
+    rays = tracer.stats.rays - rays0
+    trace, occluded = accel.trace, accel.occluded
+    batches = _record_rays(accel)
+    tracer.render_pass(0, spp)
+    accel.trace, accel.occluded = trace, occluded
+    recorded = sum(len(b[1]) for b in batches)
+    embree_s = min(_embree_alone(accel, batches) for _ in range(3))
+    accel.close()
+    pass_s = seconds / passes
     return {
         "size": size,
+        "sampler": sampler,
         "passes": passes,
+        "spp_per_pass": spp,
         "seconds": seconds,
         "rays": rays,
         "path_tracer_Mrays_s": rays / seconds / 1e6,
-        "embree_2threads_Mrays_s": len(o) / embree_s / 1e6,
-        "embree_1thread_Mrays_s": len(o) / embree_1t / 1e6,
-        "seconds_per_spp": seconds / passes,
+        "embree_alone_Mrays_s": recorded / embree_s / 1e6,
+        "share_of_embree": (rays / seconds) / (recorded / embree_s),
+        "seconds_per_spp": pass_s / spp,
     }
+
+
+def seconds_per_spp(scene_path: str, size: int, sampler: str, passes: int) -> dict:
+    """Seconds per spp of whole passes (preparation and one warm-up pass excluded), through the API every
+    version of the renderer has (``prepare``, ``tracer.render_pass``): what ``--baseline`` runs in an older
+    checkout."""
+    job = prepare(load_scene(scene_path), sampler=sampler, width=size, height=size, seed=1)
+    spp = max(1, int(getattr(job, "batch", 1)))
+    job.tracer.render_pass(10_000, spp)
+    t0 = time.perf_counter()
+    for k in range(passes):
+        job.tracer.render_pass(k, spp)
+    seconds = time.perf_counter() - t0
+    job.world.accel.close()
+    return {"sampler": sampler, "seconds_per_spp": seconds / (passes * spp)}
+
+
+def baseline_seconds_per_spp(rev: str, scene_path: str, size: int, samplers: list[str], passes: int) -> dict:
+    """:func:`seconds_per_spp` of every strategy in a checkout of git revision ``rev`` (a temporary worktree,
+    its own numba cache folder, a subprocess that imports that checkout's packages)."""
+    import os
+    import subprocess
+    import tempfile
+
+    root = Path(__file__).resolve().parent.parent
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = Path(tmp) / "baseline"
+        subprocess.run(["git", "-C", str(root), "worktree", "add", "--detach", str(tree), rev], check=True,
+                       capture_output=True)  # fmt: skip
+        try:
+            env = dict(os.environ, PYTHONPATH=str(tree))
+            env["BRDF_STUDIO_NUMBA_CACHE"] = str(
+                Path.home() / ".cache" / "brdf-studio" / f"numba-baseline-{rev}"
+            )
+            for s in samplers:
+                r = subprocess.run(
+                    [sys.executable, __file__, "--measure-spp", json.dumps([scene_path, size, s, passes])],
+                    env=env, cwd=str(tree), capture_output=True, text=True, check=False,
+                )  # fmt: skip
+                if r.returncode != 0:
+                    print(f"baseline {rev} {s}: failed\n{r.stderr[-2000:]}", file=sys.stderr)
+                    continue
+                out[s] = json.loads(r.stdout.strip().splitlines()[-1])["seconds_per_spp"]
+        finally:
+            subprocess.run(["git", "-C", str(root), "worktree", "remove", "--force", str(tree)], check=False,
+                           capture_output=True)  # fmt: skip
+    return out
 
 
 def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
@@ -112,61 +191,88 @@ def _llvm_works() -> bool:
 
 
 def _time_to(records: list[dict], level: float) -> float | None:
+    """Seconds to reach RMSE ``level``: interpolated (log-log) between the last record above it and the
+    first at or below it; ``None`` if never reached."""
+    prev = None
     for r in records:
         if r["rmse"] <= level:
-            return r["seconds"]
+            if prev is None or prev["rmse"] <= r["rmse"] or prev["seconds"] <= 0:
+                return r["seconds"]
+            x = (np.log(prev["rmse"]) - np.log(level)) / (np.log(prev["rmse"]) - np.log(r["rmse"]))
+            return float(
+                np.exp(np.log(prev["seconds"]) + x * (np.log(r["seconds"]) - np.log(prev["seconds"])))
+            )
+        prev = r
     return None
 
 
 def cornell(args: argparse.Namespace, out: Path) -> int:
+    """Mitsuba 3's own Cornell box, rendered by us and by Mitsuba (``llvm_ad_rgb`` when it works, and
+    ``scalar_rgb``) in one run against one high-spp Mitsuba reference; seconds to reach each RMSE level and
+    our time over Mitsuba's."""
     import tempfile
 
     import mitsuba as mi
 
     from renderer.mitsuba_scene import cornell_dict, export_cornell_box
 
-    size, bounces = args.cornell_size, 6
-    ref_path = out / f"cornell_reference_{size}_{args.cornell_ref_spp}spp.exr"
+    size, bounces = args.cornell_size, args.cornell_bounces
+    llvm = _llvm_works()
+    ref_variant = "llvm_ad_rgb" if llvm else "scalar_rgb"
+    ref_path = out / f"cornell_reference_{size}_{bounces}b_{args.cornell_ref_spp}spp.exr"
     if ref_path.is_file():
         ref = read_exr(ref_path)
     else:
         t0 = time.perf_counter()
         ref = np.array(
-            mi.render(mi.load_dict(cornell_dict(size, bounces)), spp=args.cornell_ref_spp, seed=99)
+            mi.render(
+                mi.load_dict(cornell_dict(size, bounces, ref_variant)), spp=args.cornell_ref_spp, seed=99
+            ),
+            dtype=np.float64,
         )
         write_exr(
-            ref_path, ref.astype(np.float32), {"spp": args.cornell_ref_spp, "renderer": "mitsuba scalar_rgb"}
+            ref_path,
+            ref.astype(np.float32),
+            {"spp": args.cornell_ref_spp, "renderer": f"mitsuba {ref_variant}"},
         )
-        print(f"reference (Mitsuba scalar_rgb, {args.cornell_ref_spp} spp): {time.perf_counter() - t0:.0f} s")
+        print(
+            f"reference (Mitsuba {ref_variant}, {args.cornell_ref_spp} spp): {time.perf_counter() - t0:.0f} s"
+        )
     curves: dict[str, list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         job = prepare(load_scene(export_cornell_box(Path(tmp), size, bounces)), sampler="cosine", seed=1)
-        curves["brdf-studio (cosine)"] = [
+        ours = "brdf-studio (cosine)"
+        curves[ours] = [
             {"spp": f.spp, "seconds": f.elapsed, **image_errors(f.image, ref)}
             for f in job.passes(time_s=args.time)
         ]
         job.world.accel.close()
-    variants = ["scalar_rgb"] + (["llvm_ad_rgb"] if _llvm_works() else [])
-    if "llvm_ad_rgb" not in variants:
-        print(
-            "Mitsuba llvm_ad_rgb: unavailable here (needs Debian's libllvm19); compared with scalar_rgb only"
-        )
+    variants = (["llvm_ad_rgb"] if llvm else []) + ([] if args.skip_scalar else ["scalar_rgb"])
+    if not llvm:
+        print("Mitsuba llvm_ad_rgb: unavailable here (needs Debian's libllvm19)")
     for variant in variants:
         recs = []
         mscene = mi.load_dict(cornell_dict(size, bounces, variant))
         mi.render(mscene, spp=1, seed=0)  # warm-up (llvm: kernel compilation)
         spp = 1
         while True:
-            t0 = time.perf_counter()
-            img = np.array(mi.render(mscene, spp=spp, seed=1), dtype=np.float64)
-            el = time.perf_counter() - t0
+            # each spp count timed twice, the faster kept: a new count may cost Dr.Jit a kernel compile,
+            # which a user rendering many images pays once (our kernels are compiled at setup)
+            times = []
+            for seed in (1, 2):
+                t0 = time.perf_counter()
+                img = np.array(mi.render(mscene, spp=spp, seed=seed), dtype=np.float64)
+                times.append(time.perf_counter() - t0)
+            el = min(times)
             recs.append({"spp": spp, "seconds": el, **image_errors(img, ref)})
-            if el > args.time or spp >= 4096:
+            if el > args.time or spp >= 8192:
                 break
             spp *= 2
         curves[f"mitsuba {variant}"] = recs
-    levels = (0.05, 0.03, 0.02, 0.01)
-    print(f"\nCornell box {size}x{size}, {bounces} bounces: seconds to reach an RMSE against the reference")
+    levels = (0.05, 0.03, 0.02, 0.015, 0.01)
+    print(
+        f"\nCornell box {size}x{size}, {bounces + 1} segments: seconds to reach an RMSE against the reference"
+    )
     print(
         f"{'renderer':<24}"
         + "".join(f"{'RMSE ' + format(lv, 'g'):>12}" for lv in levels)
@@ -177,8 +283,30 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
             f"{(format(t, '.2f') if (t := _time_to(recs, lv)) is not None else '-'):>12}" for lv in levels
         )
         print(f"{name:<24}{cells}{min(r['rmse'] for r in recs):>12.4g}")
+    rows = []
+    for variant in variants:
+        other = curves[f"mitsuba {variant}"]
+        ratios = []
+        for lv in levels:
+            a, b = _time_to(curves[ours], lv), _time_to(other, lv)
+            ratios.append(a / b if a is not None and b is not None else None)
+        rows.append(
+            {"against": variant, **{f"ratio_{lv:g}": r for lv, r in zip(levels, ratios, strict=True)}}
+        )
+        print(
+            f"{'ours / ' + variant:<24}" + "".join(f"{(format(r, '.2f') if r else '-'):>12}" for r in ratios)
+        )
     write_error_curves(out / "cornell_error", curves, title=f"Cornell box {size}x{size}")
-    print(f"wrote {out / 'cornell_error.csv'}, {out / 'cornell_error.png'}")
+    with open(out / "cornell_ratio.csv", "w") as fh:
+        fh.write("against," + ",".join(f"ratio_{lv:g}" for lv in levels) + "\n")
+        for r in rows:
+            fh.write(
+                r["against"]
+                + ","
+                + ",".join("" if r[f"ratio_{lv:g}"] is None else f"{r[f'ratio_{lv:g}']:.4g}" for lv in levels)
+                + "\n"
+            )
+    print(f"wrote {out / 'cornell_error.csv'}, {out / 'cornell_error.png'}, {out / 'cornell_ratio.csv'}")
     return 0
 
 
@@ -200,6 +328,13 @@ def main(argv: list[str] | None = None) -> int:
         help="options for one strategy, e.g. adaptive:theta_step=5,phi_bins=8 (repeatable)",
     )
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--skip-strategies", action="store_true", help="only the throughput table")
+    ap.add_argument(
+        "--baseline",
+        metavar="GIT_REV",
+        help="also time every throughput strategy in a checkout of GIT_REV, side by side (seconds per spp)",
+    )
+    ap.add_argument("--measure-spp", help=argparse.SUPPRESS)
     ap.add_argument(
         "--material-sampler",
         action="append",
@@ -209,9 +344,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--out", default="results/bench", help="output folder")
     ap.add_argument("--cornell", action="store_true", help="only the Cornell box comparison with Mitsuba 3")
-    ap.add_argument("--cornell-size", type=int, default=128)
-    ap.add_argument("--cornell-ref-spp", type=int, default=2048)
+    ap.add_argument("--cornell-size", type=int, default=256)
+    ap.add_argument("--cornell-bounces", type=int, default=7, help="bounces (default 7: paths of 8 segments)")
+    ap.add_argument("--cornell-ref-spp", type=int, default=8192)
+    ap.add_argument("--skip-scalar", action="store_true", help="Cornell box: leave out Mitsuba's scalar_rgb")
+    ap.add_argument(
+        "--throughput-samplers", default="cosine", help="comma-separated strategies for the throughput table"
+    )
     args = ap.parse_args(argv)
+    if args.measure_spp:  # the subprocess of --baseline (imports whichever checkout PYTHONPATH names)
+        print(json.dumps(seconds_per_spp(*json.loads(args.measure_spp))))
+        return 0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if args.cornell:
@@ -235,20 +378,41 @@ def main(argv: list[str] | None = None) -> int:
         overrides.setdefault(strategy, {})[mname] = s2
     if not args.skip_throughput:
         report_throughput(scene, args, out)
-    run_strategies(scene, args, out, per_strategy, overrides)
+    if not args.skip_strategies:
+        run_strategies(scene, args, out, per_strategy, overrides)
     return 0
 
 
 def report_throughput(scene, args: argparse.Namespace, out: Path) -> None:  # type: ignore[no-untyped-def]
-    tp = throughput(scene, args.size, args.passes)
-    print(
-        f"throughput at {args.size}x{args.size}: path tracer {tp['path_tracer_Mrays_s']:.2f} M rays/s "
-        f"({tp['seconds_per_spp']:.2f} s per spp); Embree alone {tp['embree_2threads_Mrays_s']:.1f} M rays/s "
-        f"on 2 threads, {tp['embree_1thread_Mrays_s']:.1f} on 1"
-    )
-    (out / "render_throughput.csv").write_text(
-        ",".join(tp) + "\n" + ",".join(f"{v:.6g}" for v in tp.values()) + "\n"
-    )
+    samplers = args.throughput_samplers.split(",")
+    rows = [throughput(scene, args.size, args.passes, s) for s in samplers]
+    base = {}
+    if args.baseline:
+        base = baseline_seconds_per_spp(args.baseline, str(scene.source), args.size, samplers, args.passes)
+    print(f"throughput at {args.size}x{args.size} (whole passes against Embree alone on the same rays)")
+    head = f"{'strategy':<14}{'s per spp':>10}{'M rays/s':>10}{'Embree alone':>14}{'share':>8}"
+    if base:
+        head += f"{'s/spp ' + args.baseline[:8]:>18}{'speed-up':>10}"
+    print(head)
+    for tp in rows:
+        line = (
+            f"{tp['sampler']:<14}{tp['seconds_per_spp']:>10.3f}{tp['path_tracer_Mrays_s']:>10.2f}"
+            f"{tp['embree_alone_Mrays_s']:>14.2f}{tp['share_of_embree']:>8.2f}"
+        )
+        if tp["sampler"] in base:
+            tp["baseline_seconds_per_spp"] = base[tp["sampler"]]
+            tp["speed_up"] = base[tp["sampler"]] / tp["seconds_per_spp"]
+            line += f"{tp['baseline_seconds_per_spp']:>18.3f}{tp['speed_up']:>10.2f}"
+        print(line)
+    keys = list(dict.fromkeys(k for tp in rows for k in tp))
+    with open(out / "render_throughput.csv", "w") as fh:
+        fh.write(",".join(keys) + "\n")
+        for tp in rows:
+            fh.write(",".join(_cell(tp.get(k, "")) for k in keys) + "\n")
+
+
+def _cell(v) -> str:  # type: ignore[no-untyped-def]
+    return v if isinstance(v, str) else f"{v:.6g}"
 
 
 def run_strategies(  # type: ignore[no-untyped-def]

@@ -34,7 +34,10 @@ from core.model import LUMINANCE
 from core.scene import Scene
 from renderer.envmap import env_args
 from renderer.kernels import (
+    BY_SAMPLER,
+    COMPILED_STRATEGIES,
     add_rows,
+    bsdf_stage,
     bsdf_step,
     camera_rays,
     camera_stage,
@@ -111,7 +114,7 @@ class _Buffers:
         self.path, self.prev_pdf = np.empty(n, i64), np.empty(n, f64)
         self.prim, self.t = np.empty(n, np.int32), np.empty(n, f32)
         self.bu, self.bv = np.empty(n, f32), np.empty(n, f32)
-        self.mat, self.order = np.empty(n, i64), np.empty(n, i64)
+        self.mat, self.order, self.s_mat = np.empty(n, i64), np.empty(n, i64), np.empty(n, i64)
         # surface vertices, sorted by material
         self.ng, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(4))
         self.frame = np.empty((n, 3, 3), f64)
@@ -168,8 +171,30 @@ class PathTracer:
             np.ascontiguousarray(x) if isinstance(x, np.ndarray) else x for x in env_args(world.env)
         )
         self._buffers: _Buffers | None = None
+        self._strategies()
         self.threads = max(1, int(getattr(world, "threads", 1)))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+
+    def _strategies(self) -> None:
+        """Per material index: whether its BRDF samples are drawn in compiled code (a strategy without
+        tables: ``uniform``, ``cosine``, ``analytic``) or by its sampler object, the model's dispatch id and
+        its parameters (rows padded to one length)."""
+        from core.sampling.basic import AnalyticSampler, CosineSampler, UniformSampler
+
+        compiled = (UniformSampler, CosineSampler, AnalyticSampler)
+        rts = self.world.materials_by_index
+        n = len(rts)
+        self.mat_strategy = np.full(n, BY_SAMPLER, dtype=np.int64)
+        self.mat_model = np.zeros(n, dtype=np.int64)
+        width = max([len(rt.brdf.params) for rt in rts if rt is not None] + [1])
+        self.mat_params = np.zeros((n, width))
+        for m, rt in enumerate(rts):
+            if rt is None:
+                continue
+            self.mat_model[m] = rt.brdf.model.id
+            self.mat_params[m, : len(rt.brdf.params)] = rt.brdf.params
+            if type(rt.sampler) in compiled:
+                self.mat_strategy[m] = COMPILED_STRATEGIES[rt.sampler.name]
 
     def _rng(self, pass_index: int, depth: int, role: int) -> np.random.Generator:
         return np.random.default_rng([self.seed, pass_index, depth + 1, role])
@@ -266,20 +291,26 @@ class PathTracer:
             if n_s == 0:
                 break
             self._run(
-                surface_stage, n_s, B.order, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
+                surface_stage, n_s, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
                 w.tri_normal, w.tri_vnormals, w.tri_smooth,
                 self.has_nee_lights, n_pix, int(spp), pass_index, self._seed_key, depth,
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
                 env_kind, env_rad, env_row, env_col, env_pmf, env_img, env_rot,
-                B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
+                B.s_mat, B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
                 B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
             )  # fmt: skip
-            # ---- the samplers, material by material, on contiguous slices
+            # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
+            # the others by their sampler objects, material by material, on contiguous slices
+            self._run(
+                bsdf_stage, n_s, n_pix, int(spp), pass_index, self._seed_key, depth, self.has_nee_lights,
+                self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
+                B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
+            )  # fmt: skip
             for m in range(n_mat):
                 a, b = int(offsets[m]), int(offsets[m + 1])
-                if a == b:
+                if a == b or self.mat_strategy[m] != BY_SAMPLER:
                     continue
                 sampler = w.materials_by_index[m].sampler
                 if self.has_nee_lights:

@@ -28,19 +28,36 @@ import math
 import numpy as np
 from numba import njit
 
+from core.dispatch import eval_model, pdf_model, sample_model
+from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
 from renderer.envmap import env_eval_one, env_sample_one
-from renderer.qmc import key, sobol2, uniform
+from renderer.qmc import key, pair, sobol2, uniform
 
 NO_MATERIAL = -1
+
+# how a material's BRDF samples are drawn: by its sampler object, slice by slice (strategies with tables), or
+# here, in compiled code, through the model's dispatch id (strategies without tables)
+BY_SAMPLER = 0
+UNIFORM = 1
+COSINE = 2
+ANALYTIC = 3
+COMPILED_STRATEGIES = {"uniform": UNIFORM, "cosine": COSINE, "analytic": ANALYTIC}
+INV_TWO_PI = 0.15915494309189535
 
 # roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
 _U_LIGHT_TYPE = 0
 _U_LIGHT_PICK = 1
 _U_ENV_JITTER = 2
 _U_RR = 4
-# pairs of low-discrepancy dimensions: (pixel) and (light point at bounce k) get their own scrambles
+_U_LOBE = 5
+# pairs of low-discrepancy dimensions: the pixel, the light point at bounce k and the BRDF sample at bounce k
+# get their own scrambles
 _PAIR_PIXEL = 0
 _PAIR_LIGHT = 1
+_PAIR_BSDF = 1 << 16
+SOBOL_DEPTH = 2
+"""Vertices below this bounce draw their light points and BRDF samples from Sobol pairs; deeper ones from
+independent uniforms (stratification pays where a pixel's variance comes from: the first bounces)."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -244,14 +261,15 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
 
 @njit(nogil=True, cache=True)
 def surface_stage(
-    a, b, order, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
+    a, b, order, mat, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
     # light sampling
     nee, n_pix, spp, pass_index, seed_key, depth, c_area, c_point, p_area, p_point, p_env,
     emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
     point_pos, point_intensity, point_cdf, point_pmf,
     env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_pmf, env_image, env_rotation,
     # outputs, one row per surface vertex (sorted order)
-    s_ng, s_frame, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta, l_cand,
+    s_mat, s_ng, s_frame, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
+    l_cand,
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
     offset origin, and one light sample (light type by ``c_area``/``c_point``, then a light, then a point
@@ -278,6 +296,7 @@ def surface_stage(
         s_origin[s, 0], s_origin[s, 1], s_origin[s, 2] = px, py, pz
         p = path[i]
         s_path[s] = p
+        s_mat[s] = mat[i]
         for c in range(3):
             s_beta[s, c] = beta[i, c]
         l_cand[s] = False
@@ -290,7 +309,9 @@ def surface_stage(
         u_type = uniform(vk, _U_LIGHT_TYPE)
         u_pick = uniform(vk, _U_LIGHT_PICK)
         pixel = p % n_pix
-        ux, uy = sobol2(pass_index * spp + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth))
+        ux, uy = pair(
+            pass_index * spp + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
+        )
         wx, wy, wz = 0.0, 0.0, 1.0
         lr, lg, lb = 0.0, 0.0, 0.0
         pdf = 0.0
@@ -338,6 +359,56 @@ def surface_stage(
         l_tmax[s] = t_max
         if pdf > 0.0 and lz > 0.0 and (lr > 0.0 or lg > 0.0 or lb > 0.0):
             l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
+
+
+@njit(nogil=True, cache=True)
+def bsdf_stage(
+    a, b, n_pix, spp, pass_index, seed_key, depth, nee, mat_strategy, mat_model, mat_params, s_mat, s_path,
+    s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f,
+):  # fmt: skip
+    """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
+    ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
+    and the strategy's pdf at the light sample (if a candidate), and one BRDF sample with ``f`` there, the
+    model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]``. The sample's first
+    two uniforms are an Owen-scrambled Sobol pair of the pixel's sample number."""
+    for s in range(a, b):
+        m = s_mat[s]
+        kind = mat_strategy[m]
+        if kind == BY_SAMPLER:
+            continue
+        mid = mat_model[m]
+        prm = mat_params[m]
+        wo = (s_wo[s, 0], s_wo[s, 1], s_wo[s, 2])
+        if nee and l_cand[s]:
+            wi = (l_wi_local[s, 0], l_wi_local[s, 1], l_wi_local[s, 2])
+            l_f[s, 0], l_f[s, 1], l_f[s, 2] = eval_model(mid, wi, wo, prm)
+            if kind == UNIFORM:
+                l_pdf_brdf[s] = INV_TWO_PI if wi[2] >= 0.0 else 0.0
+            elif kind == COSINE:
+                l_pdf_brdf[s] = cosine_hemisphere_pdf(wi[2])
+            else:
+                l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
+        p = s_path[s]
+        u1, u2 = pair(
+            pass_index * spp + p // n_pix,
+            key(key(seed_key, p % n_pix), _PAIR_BSDF + depth),
+            depth < SOBOL_DEPTH,
+        )
+        if kind == UNIFORM:
+            x, y, z = uniform_hemisphere(u1, u2)
+            q = INV_TWO_PI
+        elif kind == COSINE:
+            x, y, z = cosine_hemisphere(u1, u2)
+            q = cosine_hemisphere_pdf(z)
+        else:
+            u3 = uniform(key(key(key(seed_key, pass_index), p), depth), _U_LOBE)
+            x, y, z, q = sample_model(mid, wo, prm, u1, u2, u3)
+        wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
+        pdf[s] = q
+        if q > 0.0:
+            f[s, 0], f[s, 1], f[s, 2] = eval_model(mid, (x, y, z), wo, prm)
+        else:
+            f[s, 0], f[s, 1], f[s, 2] = 0.0, 0.0, 0.0
 
 
 @njit(nogil=True, cache=True)

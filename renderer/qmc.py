@@ -111,13 +111,25 @@ def _sobol_dim1(i):
 def sobol2(index, k):
     """Point ``index`` of the Owen-scrambled 2D Sobol sequence of key ``k``: ``(x, y)`` in ``[0, 1)^2``.
 
-    The first dimension of Sobol's sequence is the bit reversal of the index, so its Owen scramble
+    The three 32-bit scramble seeds (index shuffle, x, y) are the halves of ``k`` and of its hash. The first
+    dimension of Sobol's sequence is the bit reversal of the index, so its Owen scramble
     ``reverse(hash(reverse(reverse(i))))`` needs a single reversal."""
-    seed = key(k, 0x50B0)
-    i = owen_scramble(index, seed & _M32)
-    x = _reverse32(_laine_karras(i, (seed >> np.uint64(32)) & _M32))
-    y = owen_scramble(_sobol_dim1(i), key(seed, 1) & _M32)
+    k = np.uint64(k)
+    k2 = mix64(k)
+    i = owen_scramble(index, k & _M32)
+    x = _reverse32(_laine_karras(i, k >> np.uint64(32)))
+    y = owen_scramble(_sobol_dim1(i), k2 & _M32)
     return float(x) * _INV32, float(y) * _INV32
+
+
+@njit(inline="always", nogil=True, cache=True)
+def pair(index, k, low_discrepancy):
+    """Two uniforms for sample ``index`` under key ``k``: the Owen-scrambled Sobol point when
+    ``low_discrepancy``, else two independent hashes of the key and index."""
+    if low_discrepancy:
+        return sobol2(index, k)
+    j = key(k, index)
+    return float(j >> np.uint64(11)) * _INV53, float(mix64(j) >> np.uint64(11)) * _INV53
 
 
 @njit(nogil=True, cache=True)
