@@ -45,6 +45,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
     )
     parser.add_argument("--debug", action="store_true", help="show the full traceback of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
+    parser.commands = sub.choices  # type: ignore[attr-defined]
     handlers: dict[str, object] = {}
     for name in _command_modules():
         module = importlib.import_module(name)
@@ -59,7 +60,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv and argv[0] not in handlers and not argv[0].startswith("-") and argv[0].endswith(".json"):
         argv = ["open", *argv]
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the command's own parser: "brdf-studio eval: error: unrecognized arguments: ..."
+            command = parser.commands.get(args.command, parser)  # type: ignore[attr-defined]
+            command.error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # a bad argument (one line printed) or --help: the same code in-process
         return exc.code if isinstance(exc.code, int) else 2
     if args.command is None:

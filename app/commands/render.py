@@ -149,7 +149,9 @@ def strategy_options(strategy: str, scene_options: dict[str, Any], n_max: float 
 
 
 def _output_stem(args: argparse.Namespace, scene_path: Path) -> Path:
-    out = Path(args.output) if args.output else Path(scene_path.stem + ".exr")
+    if args.output is not None and not args.output.strip():
+        raise ParameterError("-o needs a file name (OUT.exr)")
+    out = Path(args.output) if args.output is not None else Path(scene_path.stem + ".exr")
     if out.suffix.lower() != ".exr":
         raise ParameterError(f"the output must be an .exr file, got '{out}'")
     if out.is_dir():
@@ -162,7 +164,23 @@ def _output_stem(args: argparse.Namespace, scene_path: Path) -> Path:
             pass
     except OSError as exc:
         raise OutputError(f"cannot write '{out}': {exc.strerror or exc}") from None
-    return output_stem(out, (".exr",))
+    stem = output_stem(out, (".exr",))
+    if args.output is None and with_extension(stem, ".json").resolve() == scene_path.resolve():
+        stem = stem.with_name(stem.name + "_render")  # the default's sidecar would be the scene file itself
+    return stem
+
+
+def _check_collisions(stem: Path, strategies: list[str], protected: list[Path]) -> None:
+    """No output may overwrite an input (the scene file, the reference image)."""
+    stems = [stem] if len(strategies) == 1 else [stem.with_name(f"{stem.name}_{s}") for s in strategies]
+    outputs = [with_extension(s, ext) for s in stems for ext in (".exr", ".png", ".json")]
+    outputs += [with_extension(stem, x) for x in ("_compare.png", "_error.csv", "_error.png")]
+    inputs = {p.resolve(): p for p in protected}
+    for out in outputs:
+        if out.resolve() in inputs:
+            raise ParameterError(
+                f"'{out}' would overwrite the input '{inputs[out.resolve()]}'; choose another -o"
+            )
 
 
 def _check_finite(image: np.ndarray, strategy: str) -> None:
@@ -190,6 +208,7 @@ def run(args: argparse.Namespace) -> int:
     stem = _output_stem(args, scene_path)
     scene = load_scene(scene_path)
     strategies = _strategies(args, scene.render.sampler)
+    _check_collisions(stem, strategies, [scene_path] + ([Path(args.reference)] if args.reference else []))
     options = {s: strategy_options(s, dict(scene.render.sampler_options), args.n_max) for s in strategies}
     if args.n_max is not None and not any("n_max" in o for o in options.values()):
         raise ParameterError(
@@ -266,7 +285,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"side by side: {out}")
     if curves:
         csv_path, png_path = write_error_curves(
-            stem.with_name(f"{stem.name}_error"), curves, title=scene.source
+            # ".csv" given here, so that its with_suffix() replaces that, not a dot of the stem (out_t1.1)
+            stem.with_name(f"{stem.name}_error.csv"),
+            curves,
+            title=scene.source,
         )
         print(f"error vs time: {csv_path}, {png_path}")
     if interrupted or _signals.STATE.seen:

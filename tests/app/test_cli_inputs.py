@@ -1,0 +1,413 @@
+"""Every input a user can give gets a clear answer (issue 18): a generated corpus of bad inputs swept over every
+command, scene field, MERL header and mesh file.
+
+A bad input must end with exit code 2 and one line ``brdf-studio COMMAND: error: ...`` on stderr that names
+no Python exception and shows no traceback; a scene that validation lets through must render (exit 0) to a
+finite image. Run in-process through ``app.cli.main`` (the console script's code path); the generated scene,
+MERL and mesh corpora use hypothesis with a fixed derandomized seed, a small set here and a larger one under
+``-m slow``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from app.cli import main
+from tests.renderer.scenes import quad, sphere
+
+EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Warning|Interrupt)\b|Traceback|internal error")
+
+BAD_NUMBERS = ["nan", "inf", "-inf", "1e308", "-1e308", "1e400", "x", "", "0x10", "1e20", "-1e20"]
+BAD_NAMES = ["nope", "", " ", "../../etc/passwd", "a" * 300, "adaptive;rm"]
+BAD_ANGLE_PAIRS = ["nan,0", "0,inf", "91,0", "1e308,0", "x", "", ",", "0,0,0", "-1,0"]
+BAD_PARAMS = ["kd=nan", "kd=1e308", "kd", "=1", "zz=1", "kd=1,2", "kd=-1", "kd=x", "kd=inf"]
+
+
+def run_cli(capsys, argv: list[str]) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def problem(command: str, code: int, err: str) -> str | None:
+    """What is wrong with the answer to a bad input (``None``: a clear one)."""
+    lines = err.strip().splitlines()
+    if code != 2:
+        return f"exit code {code}"
+    if len(lines) != 1:
+        return f"{len(lines)} lines on stderr"
+    if not lines[0].startswith(f"brdf-studio {command}: error: "):
+        return "not a 'brdf-studio COMMAND: error:' line"
+    if EXCEPTION_NAME.search(lines[0]):
+        return "names a Python exception"
+    return None
+
+
+def sweep(capsys, command: str, cases: list[list[str]]) -> None:
+    """Run every case; fail once, listing every case whose answer is not a clear one."""
+    failures = []
+    for argv in cases:
+        code, _, err = run_cli(capsys, argv)
+        why = problem(command, code, err)
+        if why:
+            failures.append(f"{' '.join(argv)!r}: {why}: {err.strip()[:300]!r}")
+    assert not failures, f"{len(failures)} of {len(cases)} bad inputs:\n" + "\n".join(failures)
+
+
+def substitute(base: list[str], option: str, values: list[str]) -> list[list[str]]:
+    """``base`` with ``option``'s value replaced by (or, if absent, ``option`` added with) each of ``values``."""
+    out = []
+    for v in values:
+        argv = list(base)
+        if option in argv:
+            argv[argv.index(option) + 1] = v
+        else:
+            argv += [option, v]
+        out.append(argv)
+    return out
+
+
+# ------------------------------------------------------------------------------------------- the commands
+EVAL = ["eval", "--model", "lambert", "--wi", "30,0", "--wo", "30,0"]
+ALBEDO = ["albedo", "--model", "lambert", "--theta", "30"]
+CHECK = ["check", "--model", "lambert", "--sampler", "cosine", "--theta", "30", "--samples", "1000"]
+
+
+def test_eval_bad_inputs(capsys):
+    cases = [*substitute(EVAL, "--wi", BAD_ANGLE_PAIRS), *substitute(EVAL, "--wo", BAD_ANGLE_PAIRS)]
+    cases += substitute(EVAL, "--model", BAD_NAMES) + substitute(EVAL, "--param", BAD_PARAMS)
+    cases += [["eval", "--wi", "0,0", "--wo", "0,0"], [*EVAL, "--measured", "x.binary"], [*EVAL, "--bogus"]]
+    sweep(capsys, "eval", cases)
+
+
+def test_albedo_bad_inputs(capsys, tmp_path):
+    cases = [*substitute(ALBEDO, "--theta", BAD_NUMBERS), *substitute(ALBEDO, "--phi", BAD_NUMBERS)]
+    cases += substitute(ALBEDO, "--rtol", [*BAD_NUMBERS, "0", "1", "-0.5"])
+    cases += substitute(ALBEDO, "--param", BAD_PARAMS) + substitute(ALBEDO, "--model", BAD_NAMES)
+    cases += [
+        ["albedo", "--measured", str(tmp_path)],
+        ["albedo", "--measured", str(tmp_path / "none.binary")],
+    ]
+    cases += [[*ALBEDO[:-1], "30,", ","], ["albedo", "--model", "lambert", "--theta"]]
+    sweep(capsys, "albedo", cases)
+
+
+def test_sample_bad_inputs(capsys, tmp_path):
+    base = ["sample", "--model", "lambert", "--sampler", "cosine", "--theta", "30", "-n", "10"]
+    base += ["-o", str(tmp_path / "x.csv")]
+    cases = [*substitute(base, "--theta", BAD_NUMBERS), *substitute(base, "--phi", BAD_NUMBERS)]
+    cases += substitute(base, "-n", [*BAD_NUMBERS, "0", "-5", "2.5", "1e16"])
+    cases += substitute(base, "--seed", [*BAD_NUMBERS, "-1", "4294967296"])
+    cases += substitute(base, "--n-max", [*BAD_NUMBERS, "1", "0.5", "1001"])
+    cases += substitute(base, "--sampler", BAD_NAMES)
+    folder = tmp_path / "folder.csv"
+    folder.mkdir()
+    outs = [str(tmp_path), str(folder), str(tmp_path / "no" / "x.csv"), "x.txt", "", str(tmp_path / "x")]
+    cases += substitute(base, "-o", outs)
+    # the budget: a request this large is refused before any work, naming the need
+    cases += substitute(base, "-n", ["1e15"])
+    cases += [[*base[:-2], "--n-max", "3", "-o", str(tmp_path / "y.csv")]]  # n_max: cosine takes no options
+    sweep(capsys, "sample", cases)
+
+
+def test_check_bad_inputs(capsys):
+    cases = [*substitute(CHECK, "--theta", BAD_NUMBERS), *substitute(CHECK, "--phi", BAD_NUMBERS)]
+    cases += substitute(CHECK, "--samples", [*BAD_NUMBERS, "0", "1e13", "2.5"])
+    cases += substitute(CHECK, "--seed", ["-1", "nan", "1e300"])
+    cases += substitute(CHECK, "--n-max", ["1", "nan", "0.5", "1e308"]) + substitute(
+        CHECK, "--sampler", BAD_NAMES
+    )
+    cases += [[*CHECK, "--n-max", "2"], [*CHECK, "--theta", "0", "30", "95"], [*CHECK, "--theta", ",,"]]
+    sweep(capsys, "check", cases)
+
+
+def test_bench_and_demo_and_models_bad_inputs(capsys, tmp_path):
+    base = ["bench", "samplers", "--quick", "--out", str(tmp_path / "study")]
+    cases = substitute(base, "--theta", BAD_NUMBERS) + substitute(base, "--models", ["nope", ",,"])
+    cases += substitute(base, "--samplers", ["nope", ",,"]) + [["bench", "nope"], ["bench"]]
+    sweep(capsys, "bench", cases)
+    sweep(capsys, "demo", [["demo", "--material", m] for m in ("nope", "", "a" * 300)])
+    sweep(capsys, "models", [["models", "--bogus"], ["models", "extra"]])
+
+
+# ------------------------------------------------------------------------------------------------ render
+SCENE = {
+    "version": 2,
+    "camera": {"position": [0, 1, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 45},
+    "materials": [
+        {"name": "floor", "model": "lambert", "params": {"kd": 0.5}},
+        {"name": "ball", "model": "phong", "params": {"n": 50}},
+    ],
+    "meshes": [
+        {"path": "floor.obj", "material": "floor"},
+        {"path": "ball.obj", "material": "ball", "transform": {"translate": [0, 0, 0], "scale": 1.0}},
+    ],
+    "lights": [
+        {"type": "point", "position": [1, 3, 1], "intensity": 5},
+        {"type": "quad", "corner": [-1, 2, -1], "edge1": [1, 0, 0], "edge2": [0, 0, 1], "radiance": 2},
+    ],
+    "environment": {"type": "constant", "radiance": 0.2},
+    "render": {"width": 8, "height": 6, "spp": 1, "max_depth": 2, "sampler": "cosine", "sampler_options": {}},
+}
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("inputs")
+    quad(folder / "floor.obj", size=3.0, y=-1.0)
+    sphere(folder / "ball.obj", subdivisions=1)
+    (folder / "scene.json").write_text(json.dumps(SCENE))
+    return folder
+
+
+def test_render_bad_arguments(capsys, scene_dir, tmp_path):
+    base = ["render", str(scene_dir / "scene.json"), "--quiet", "-o", str(tmp_path / "out.exr")]
+    cases = []
+    for option in ("--spp", "--time", "--width", "--height", "--max-depth", "--ris", "--seed", "--exposure"):
+        cases += substitute(base, option, BAD_NUMBERS)
+    cases += substitute(base, "--spp", ["0", "1000001", "2.5"]) + substitute(
+        base, "--time", ["0", "-1", "1e7"]
+    )
+    cases += substitute(base, "--max-depth", ["0", "100000"]) + substitute(base, "--ris", ["-1", "1e9"])
+    cases += substitute(base, "--width", ["0", "100000"]) + substitute(base, "--n-max", ["1", "nan", "3"])
+    cases += substitute(base, "--compare", [",,", "nope", "cosine,cosine", ","]) + substitute(
+        base, "--sampler", BAD_NAMES
+    )
+    cases += [[*base, "--spp", "1", "--time", "1"], [*base, "--spp", "1", "--until-cancelled"]]
+    cases += [
+        [*base, "--sampler", "cosine", "--compare", "uniform"],
+        ["render"],
+        ["render", "--demo", "x.json"],
+    ]
+    folder = tmp_path / "folder.exr"
+    folder.mkdir()
+    outs = [str(tmp_path), str(folder), str(tmp_path / "no" / "o.exr"), "o.png", "o", ""]
+    cases += substitute(base, "-o", outs)
+    cases += substitute(
+        base, "--reference", [str(tmp_path / "missing.exr"), str(tmp_path), str(scene_dir / "ball.obj")]
+    )
+    for scene in ("missing.json", str(tmp_path), str(scene_dir / "ball.obj")):
+        cases.append(["render", scene, "--quiet", "-o", str(tmp_path / "o.exr")])
+    # memory budgets: refused before any work, naming what is needed and what the machine has
+    cases += [
+        [*base, "--width", "16384", "--height", "16384"],
+        [*base, "--width", "16384", "--height", "1024", "--ris", "1024"],
+    ]
+    t0 = time.perf_counter()
+    sweep(capsys, "render", cases)
+    assert time.perf_counter() - t0 < 60.0  # every one refused before preparing the scene
+
+
+def test_budget_messages_name_the_need_the_machine_and_the_option(capsys, scene_dir, tmp_path):
+    code, _, err = run_cli(capsys, [*CHECK[:-1], "1e12"])
+    assert code == 2 and re.search(
+        r"needs [\d.]+ TiB; this machine has [\d.]+ [GMT]iB available; use --samples", err
+    )
+    code, _, err = run_cli(
+        capsys,
+        [
+            "render",
+            str(scene_dir / "scene.json"),
+            "--quiet",
+            "--width",
+            "16384",
+            "--height",
+            "16384",
+            "--spp",
+            "1",
+        ],
+    )
+    assert code == 2 and re.search(r"16384x16384 render needs .*available; use --width \d+ --height \d+", err)
+
+
+def test_output_names_keep_every_dot_but_the_extension(capsys, scene_dir, tmp_path):
+    (tmp_path / "shot.png").write_bytes(b"unrelated")
+    for name in ("out_t1.1.exr", "shot.final.exr"):
+        code, _, err = run_cli(
+            capsys, ["render", str(scene_dir / "scene.json"), "--quiet", "-o", str(tmp_path / name)]
+        )
+        assert code == 0, err
+        stem = name[: -len(".exr")]
+        for ext in (".exr", ".png", ".json"):
+            assert (tmp_path / (stem + ext)).is_file(), stem + ext
+    assert (tmp_path / "shot.png").read_bytes() == b"unrelated"
+    assert not (tmp_path / "out_t1.exr").exists()
+
+
+# --------------------------------------------------------------------- generated scene, MERL, mesh corpora
+LEAF_VALUES = st.sampled_from(
+    [float("nan"), float("inf"), -float("inf"), 1e308, -1e308, 1e300, -1.0, 0.0, 1e12, 10**400, "x", "", None,
+     True, [], {}, [1.0], [1.0, 2.0, 3.0, 4.0], {"a": 1}, -(2**70), 2**70, 1e-320]
+)  # fmt: skip
+
+
+def _leaves(data, path=()):
+    """Every path to a value in ``data`` (a scene dict), containers included."""
+    yield path
+    if isinstance(data, dict):
+        for k, v in data.items():
+            yield from _leaves(v, (*path, k))
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            yield from _leaves(v, (*path, i))
+
+
+PATHS = [p for p in _leaves(SCENE) if p]
+
+
+@st.composite
+def broken_scenes(draw):
+    """The test scene with one to three fields replaced by bad values, keys added or removed."""
+    scene = json.loads(json.dumps(SCENE))
+    for _ in range(draw(st.integers(1, 3))):
+        path = draw(st.sampled_from(PATHS))
+        parent = scene
+        try:
+            for k in path[:-1]:
+                parent = parent[k]
+            kind = draw(st.sampled_from(["replace", "replace", "replace", "delete", "add"]))
+            if kind == "replace":
+                parent[path[-1]] = draw(LEAF_VALUES)
+            elif kind == "delete" and isinstance(parent, dict):
+                del parent[path[-1]]
+            elif isinstance(parent, dict):
+                parent[draw(st.sampled_from(["extra", "radiance", "scale", "type"]))] = draw(LEAF_VALUES)
+        except (KeyError, IndexError, TypeError):
+            continue  # an earlier mutation removed or replaced the container
+    return scene
+
+
+def render_scene_json(capsys, folder: Path, text: str, out: Path) -> tuple[int, str]:
+    path = folder / "broken.json"
+    path.write_text(text)
+    code, _, err = run_cli(capsys, ["render", str(path), "--quiet", "-o", str(out), "--spp", "1"])
+    return code, err
+
+
+def check_answer(code: int, err: str, out: Path) -> None:
+    if code == 0:
+        from renderer.image_io import read_exr
+
+        assert np.all(np.isfinite(read_exr(out)))  # read_exr refuses non-finite pixels too
+    else:
+        assert problem("render", code, err) is None, err
+
+
+def _scene_sweep(capsys, scene_dir, scene) -> None:
+    out = scene_dir / "broken_out.exr"
+    out.unlink(missing_ok=True)
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), out)
+    check_answer(code, err, out)
+
+
+SWEEP_SETTINGS = dict(
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+
+@settings(max_examples=30, **SWEEP_SETTINGS)
+@given(scene=broken_scenes())
+def test_generated_broken_scenes(capsys, scene_dir, scene):
+    _scene_sweep(capsys, scene_dir, scene)
+
+
+@pytest.mark.slow
+@settings(max_examples=400, **SWEEP_SETTINGS)
+@given(scene=broken_scenes())
+def test_generated_broken_scenes_large(capsys, scene_dir, scene):
+    _scene_sweep(capsys, scene_dir, scene)
+
+
+@pytest.mark.parametrize(
+    ("edit", "where"),
+    [
+        ({"lights": [{"type": "point", "position": [0, 3, 0], "intensity": 1e308}]}, "lights[0].intensity"),
+        ({"environment": {"type": "constant", "radiance": 1e308}}, "environment.radiance"),
+        (
+            {"meshes": [{"path": "ball.obj", "material": "ball", "transform": {"translate": [1e300, 0, 0]}}]},
+            "translate",
+        ),
+        ({"meshes": [{"path": "ball.obj", "material": "ball", "transform": {"scale": 1e200}}]}, "scale"),
+        ({"render": {"width": 16384, "height": 16384, "sampler": "cosine"}}, "needs"),
+        ({"render": {"sampler": "cosine", "sampler_options": {"n_max": 0.5}}}, "takes no options"),
+        ({"render": {"sampler": "adaptive", "sampler_options": {"theta_step": 0}}}, "no option 'theta_step'"),
+        ({"render": {"sampler": "adaptive", "sampler_options": {"cache": 5}}}, "'cache'"),
+        ({"render": {"sampler": "adaptive", "sampler_options": {"threads": "x"}}}, "'threads'"),
+        ({"render": {"sampler": "adaptive", "sampler_options": {"max_level": -3}}}, "[2, 14]"),
+        ({"render": {"spp": 10**20}}, "render.spp"),
+        ({"render": {"time_s": 1e300}}, "render.time_s"),
+    ],
+)
+def test_absurd_scene_values_are_refused_with_the_field_and_range(capsys, scene_dir, edit, where):
+    scene = {**json.loads(json.dumps(SCENE)), **edit}
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), scene_dir / "absurd.exr")
+    assert problem("render", code, err) is None, err
+    assert where in err
+
+
+def test_deeply_nested_json_is_refused(capsys, scene_dir):
+    code, err = render_scene_json(capsys, scene_dir, "[" * 100_000 + "]" * 100_000, scene_dir / "deep.exr")
+    assert problem("render", code, err) is None and "nested too deeply" in err
+    deep = {**SCENE, "name": "x"}
+    text = json.dumps(deep)[:-1] + ', "extra": ' + "[" * 5000 + "]" * 5000 + "}"
+    code, err = render_scene_json(capsys, scene_dir, text, scene_dir / "deep.exr")
+    assert problem("render", code, err) is None and "nested too deeply" in err
+
+
+def _exr(path: Path, image: np.ndarray) -> None:
+    from renderer.image_io import write_exr
+
+    write_exr(path, image.astype(np.float32))
+
+
+@pytest.mark.parametrize(("value", "expected"), [(-0.5, "negative"), (3e38, "brightest")])
+def test_environment_maps_with_negative_or_overflowing_pixels(capsys, scene_dir, value, expected):
+    img = np.full((8, 16, 3), 0.5)
+    img[2, 3, 1] = value
+    _exr(scene_dir / "sky_bad.exr", img)
+    scene = {**json.loads(json.dumps(SCENE)), "environment": {"type": "map", "path": "sky_bad.exr"}}
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), scene_dir / "sky_out.exr")
+    assert problem("render", code, err) is None and expected in err, err
+
+
+@settings(max_examples=25, **SWEEP_SETTINGS)
+@given(
+    dims=st.tuples(st.integers(-3, 400), st.integers(-3, 400), st.integers(-3, 400)),
+    body=st.integers(0, 5000),
+)
+def test_generated_corrupt_merl_files(capsys, tmp_path_factory, dims, body):
+    path = tmp_path_factory.mktemp("merl") / "bad.binary"
+    path.write_bytes(np.array(dims, dtype="<i4").tobytes() + np.ones(body).tobytes())
+    code, _, err = run_cli(capsys, ["albedo", "--measured", str(path), "--theta", "30"])
+    assert problem("albedo", code, err) is None, err
+
+
+MESH_TEXT = st.lists(
+    st.sampled_from(
+        ["v 0 0 0", "v 1 0 0", "v 0 1 0", "v nan 0 0", "v 1e300 0 0", "f 1 2 3", "f 1 2 9", "f 0 0 0", "f 1 1 1",
+         "vn 0 0 1", "g part", "o obj", "f 1/1 2/2 3/3", "v x y z", "garbage", "f -1 -2 -3", "usemtl m", ""]
+    ),
+    max_size=12,
+)  # fmt: skip
+
+
+@settings(max_examples=25, **SWEEP_SETTINGS)
+@given(lines=MESH_TEXT, suffix=st.sampled_from([".obj", ".ply", ".stl", ".off"]))
+def test_generated_broken_meshes(capsys, scene_dir, lines, suffix):
+    (scene_dir / f"bad{suffix}").write_text("\n".join(lines) + "\n")
+    scene = json.loads(json.dumps(SCENE))
+    scene["meshes"][1]["path"] = f"bad{suffix}"
+    out = scene_dir / "mesh_out.exr"
+    out.unlink(missing_ok=True)
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), out)
+    check_answer(code, err, out)
