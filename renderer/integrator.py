@@ -293,7 +293,7 @@ class PathTracer:
             self._run(
                 surface_stage, n_s, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
                 w.tri_normal, w.tri_vnormals, w.tri_smooth,
-                self.has_nee_lights, n_pix, int(spp), pass_index, self._seed_key, depth,
+                self.has_nee_lights, n_pix, int(spp), pass_index, self._seed_key, pass_key, depth,
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
@@ -304,7 +304,7 @@ class PathTracer:
             # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
             # the others by their sampler objects, material by material, on contiguous slices
             self._run(
-                bsdf_stage, n_s, n_pix, int(spp), pass_index, self._seed_key, depth, self.has_nee_lights,
+                bsdf_stage, n_s, n_pix, int(spp), pass_index, self._seed_key, pass_key, depth, self.has_nee_lights,
                 self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
                 B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip

@@ -263,7 +263,7 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
 def surface_stage(
     a, b, order, mat, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
     # light sampling
-    nee, n_pix, spp, pass_index, seed_key, depth, c_area, c_point, p_area, p_point, p_env,
+    nee, n_pix, spp, pass_index, seed_key, pass_key, depth, c_area, c_point, p_area, p_point, p_env,
     emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
     point_pos, point_intensity, point_cdf, point_pmf,
     env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_pmf, env_image, env_rotation,
@@ -305,7 +305,7 @@ def surface_stage(
         if not nee:
             continue
         # ---- one light sample
-        vk = key(key(seed_key, p), depth)
+        vk = key(key(pass_key, p), depth)
         u_type = uniform(vk, _U_LIGHT_TYPE)
         u_pick = uniform(vk, _U_LIGHT_PICK)
         pixel = p % n_pix
@@ -363,7 +363,7 @@ def surface_stage(
 
 @njit(nogil=True, cache=True)
 def bsdf_stage(
-    a, b, n_pix, spp, pass_index, seed_key, depth, nee, mat_strategy, mat_model, mat_params, s_mat, s_path,
+    a, b, n_pix, spp, pass_index, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, s_mat, s_path,
     s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f,
 ):  # fmt: skip
     """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
@@ -401,7 +401,7 @@ def bsdf_stage(
             x, y, z = cosine_hemisphere(u1, u2)
             q = cosine_hemisphere_pdf(z)
         else:
-            u3 = uniform(key(key(key(seed_key, pass_index), p), depth), _U_LOBE)
+            u3 = uniform(key(key(pass_key, p), depth), _U_LOBE)
             x, y, z, q = sample_model(mid, wo, prm, u1, u2, u3)
         wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
         pdf[s] = q
