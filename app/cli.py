@@ -20,7 +20,8 @@ from collections.abc import Sequence
 from app.commands import _signals as signals
 from app.commands._args import OneLineParser
 from app.commands._signals import recorded
-from core.errors import BrdfStudioError
+
+# Nothing here imports core (numba) at module level: a Ctrl-C during those imports, in main(), is an interrupt.
 
 
 def _command_modules() -> list[str]:
@@ -55,7 +56,16 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, object]]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    """Run one command; the exit code (0, 1 for a failed check, 2 for bad input, 130/143 interrupted)."""
+    with recorded():
+        try:
+            return _main(list(sys.argv[1:] if argv is None else argv))
+        except KeyboardInterrupt:  # while the commands were imported or the arguments parsed
+            print("brdf-studio: interrupted", file=sys.stderr)
+            return signals.STATE.exit_code
+
+
+def _main(argv: list[str]) -> int:
     parser, handlers = build_parser()
     if argv and argv[0] not in handlers and not argv[0].startswith("-") and argv[0].endswith(".json"):
         argv = ["open", *argv]
@@ -72,11 +82,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             parser.print_help()
             return 0
-    with recorded():
-        return _run(handlers[args.command], args)
+    return _run(handlers[args.command], args)
 
 
 def _run(handler: object, args: argparse.Namespace) -> int:
+    from core.errors import BrdfStudioError
+
     try:
         return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
