@@ -252,12 +252,15 @@ class PathTracer:
         return {m: np.concatenate(v) for m, v in found.items()}
 
     # ------------------------------------------------------------------------------------------ a pass
-    def render_pass(self, pass_index: int, spp: int = 1) -> np.ndarray:
+    def render_pass(self, pass_index: int, spp: int = 1, first_sample: int | None = None) -> np.ndarray:
         """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``.
 
         Passes with different ``pass_index`` are independent (their random numbers are keyed by it); path
-        ``j`` of a pass is sample ``pass_index * spp + j // pixels`` of pixel ``j % pixels``.
+        ``j`` of a pass is sample ``first_sample + j // pixels`` of pixel ``j % pixels`` in the pixel's
+        low-discrepancy sequence (default ``pass_index * spp``: passes of equal size; a progressive render
+        passes the number of samples it already has, so that no sample number is used twice).
         """
+        first = pass_index * int(spp) if first_sample is None else int(first_sample)
         w = self.world
         n_pix = self.width * self.height
         n = n_pix * int(spp)
@@ -267,7 +270,7 @@ class PathTracer:
         radiance = np.zeros((n, 3))
         pass_key = _key(self._seed_key, pass_index)
         cam = self.camera
-        self._run(camera_stage, n, n_pix, int(spp), pass_index, self._seed_key, self.width, self.height,
+        self._run(camera_stage, n, n_pix, first, self._seed_key, self.width, self.height,
                   cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
         self.stats.paths += n
@@ -293,7 +296,7 @@ class PathTracer:
             self._run(
                 surface_stage, n_s, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
                 w.tri_normal, w.tri_vnormals, w.tri_smooth,
-                self.has_nee_lights, n_pix, int(spp), pass_index, self._seed_key, pass_key, depth,
+                self.has_nee_lights, n_pix, first, self._seed_key, pass_key, depth,
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
@@ -304,7 +307,7 @@ class PathTracer:
             # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
             # the others by their sampler objects, material by material, on contiguous slices
             self._run(
-                bsdf_stage, n_s, n_pix, int(spp), pass_index, self._seed_key, pass_key, depth, self.has_nee_lights,
+                bsdf_stage, n_s, n_pix, first, self._seed_key, pass_key, depth, self.has_nee_lights,
                 self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
                 B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip

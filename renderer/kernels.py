@@ -120,14 +120,14 @@ def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_h
 
 @njit(nogil=True, cache=True)
 def camera_stage(
-    a, b, n_pix, spp, pass_index, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
+    a, b, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
     o, d, o32, d32, beta, path, prev_pdf,
 ):  # fmt: skip
-    """Camera rays of paths ``[a, b)``: path ``j`` is sample ``pass_index * spp + j // n_pix`` of pixel
+    """Camera rays of paths ``[a, b)``: path ``j`` is sample ``first_sample + j // n_pix`` of pixel
     ``j % n_pix``, through the pixel's Owen-scrambled Sobol point of that sample number."""
     for j in range(a, b):
         pixel = j % n_pix
-        sample = pass_index * spp + j // n_pix
+        sample = first_sample + j // n_pix
         jx, jy = sobol2(sample, key(key(seed_key, pixel), _PAIR_PIXEL))
         row = pixel // width
         col = pixel - row * width
@@ -263,7 +263,7 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
 def surface_stage(
     a, b, order, mat, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
     # light sampling
-    nee, n_pix, spp, pass_index, seed_key, pass_key, depth, c_area, c_point, p_area, p_point, p_env,
+    nee, n_pix, first_sample, seed_key, pass_key, depth, c_area, c_point, p_area, p_point, p_env,
     emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
     point_pos, point_intensity, point_cdf, point_pmf,
     env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_pmf, env_image, env_rotation,
@@ -310,7 +310,7 @@ def surface_stage(
         u_pick = uniform(vk, _U_LIGHT_PICK)
         pixel = p % n_pix
         ux, uy = pair(
-            pass_index * spp + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
+            first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
         )
         wx, wy, wz = 0.0, 0.0, 1.0
         lr, lg, lb = 0.0, 0.0, 0.0
@@ -363,7 +363,7 @@ def surface_stage(
 
 @njit(nogil=True, cache=True)
 def bsdf_stage(
-    a, b, n_pix, spp, pass_index, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, s_mat, s_path,
+    a, b, n_pix, first_sample, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, s_mat, s_path,
     s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f,
 ):  # fmt: skip
     """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
@@ -390,7 +390,7 @@ def bsdf_stage(
                 l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
         p = s_path[s]
         u1, u2 = pair(
-            pass_index * spp + p // n_pix,
+            first_sample + p // n_pix,
             key(key(seed_key, p % n_pix), _PAIR_BSDF + depth),
             depth < SOBOL_DEPTH,
         )

@@ -27,6 +27,9 @@ from renderer.film import Film
 from renderer.integrator import PathTracer
 from renderer.world import StepCallback, World
 
+PASS_PATHS = 1 << 18
+"""Paths a pass traces at least (in whole samples per pixel, at most 64)."""
+
 
 @dataclass
 class Frame:
@@ -54,8 +57,9 @@ class RenderJob:
         self.film = Film(self.tracer.width, self.tracer.height)
         self.elapsed = 0.0
         self.passes_done = 0
-        # small images trace several samples per pixel per pass (Python overhead is per bounce, not per ray)
-        self.batch = int(np.clip(65536 // (self.tracer.width * self.tracer.height), 1, 16))
+        # a pass traces at least ~2^18 paths (several samples per pixel for small images): the wavefront's
+        # Python calls and thread hand-offs are per bounce, not per ray, and cost ~1 ms a bounce
+        self.batch = int(np.clip(PASS_PATHS // (self.tracer.width * self.tracer.height), 1, 64))
 
     def passes(
         self,
@@ -82,7 +86,7 @@ class RenderJob:
             batch = self.batch if spp is None else min(self.batch, spp - self.film.spp)
             t0 = time.perf_counter()
             self.world.refresh_samplers()  # better tables built in the background, between passes only
-            radiance = self.tracer.render_pass(self.passes_done, batch)
+            radiance = self.tracer.render_pass(self.passes_done, batch, first_sample=self.film.spp)
             self.passes_done += 1
             self.film.add_pass(radiance, batch)
             self.elapsed += time.perf_counter() - t0

@@ -43,7 +43,8 @@ def scene_file(tmp_path: Path) -> Path:
 def test_progressive_passes_callback_and_cancel(scene_file: Path) -> None:
     from core.scene import load_scene
 
-    job = prepare(load_scene(scene_file), width=256, height=256)  # one sample per pixel per pass
+    job = prepare(load_scene(scene_file), width=512, height=512)
+    assert job.batch == 1  # one sample per pixel per pass at this size
     seen = []
     cancel = threading.Event()
 
@@ -55,9 +56,31 @@ def test_progressive_passes_callback_and_cancel(scene_file: Path) -> None:
     frames = list(job.passes(spp=10, cancel=cancel, callback=on_frame))
     assert [f.spp for f in frames] == [1, 2] and [s for s, _ in seen] == [1, 2]
     assert seen[1][1] >= seen[0][1] > 0
-    assert frames[-1].image.shape == (256, 256, 3)
+    assert frames[-1].image.shape == (512, 512, 3)
     # resuming continues where it stopped: the film keeps its samples
     assert job.run(spp=3).spp == 3
+
+
+def test_passes_of_any_size_use_each_sample_number_once(scene_file: Path) -> None:
+    """A progressive render numbers its samples by what the film holds, so passes of unequal size (a last
+    pass cut to the budget, a resumed render with another batch) never reuse a pixel's low-discrepancy
+    points: 3 + 1 + 4 samples in three passes are samples 0-2, 3 and 4-7."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=32, height=32)
+    used = []
+    real = job.tracer.render_pass
+
+    def spy(pass_index, spp=1, first_sample=None):  # type: ignore[no-untyped-def]
+        used.append((first_sample, spp))
+        return real(pass_index, spp, first_sample)
+
+    job.tracer.render_pass = spy  # type: ignore[method-assign]
+    job.batch = 3
+    job.run(spp=4)
+    job.batch = 4
+    job.run(spp=8)
+    assert used == [(0, 3), (3, 1), (4, 4)]
 
 
 def test_pre_pass_finds_the_directions_each_material_is_seen_from(scene_file: Path) -> None:
