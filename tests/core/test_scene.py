@@ -84,6 +84,51 @@ def test_transform_matrix_rotates_then_translates() -> None:
         (lambda d: d["camera"].update(up=[0, 0, 1]), "camera.up"),
         (lambda d: d["render"].update(sampler="magic"), "render.sampler: unknown sampler 'magic'"),
         (lambda d: d["render"].update(spp=0), "render.spp"),
+        (
+            lambda d: d["lights"][0].update(intensity=1e308),
+            "lights[0].intensity[0]: Input should be less than",
+        ),
+        (lambda d: d["lights"][1].update(radiance=[1, 1e10, 1]), "lights[1].radiance[1]"),
+        (lambda d: d["lights"][0].update(position=[0, 1e300, 0]), "lights[0].position[1]"),
+        (lambda d: d["materials"][1].update(emission=1e308), "materials[1].emission[0]"),
+        (lambda d: d.update(environment={"type": "constant", "radiance": 1e308}), "environment.radiance[0]"),
+        (lambda d: d["meshes"][0].update(transform={"translate": [1e300, 0, 0]}), "transform.translate[0]"),
+        (lambda d: d["meshes"][0].update(transform={"scale": 1e200}), "meshes[0].transform.scale"),
+        (lambda d: d["meshes"][0].update(transform={"scale": 1e-300}), "meshes[0].transform.scale"),
+        (lambda d: d["meshes"][0].update(transform={"rotate_deg": [1e300, 0, 0]}), "transform.rotate_deg[0]"),
+        (lambda d: d["camera"].update(position=[0, 0, 1e300]), "camera.position[2]"),
+        (
+            lambda d: d["render"].update(spp=10**20),
+            "render.spp: Input should be less than or equal to 1000000",
+        ),
+        (lambda d: d["render"].update(time_s=1e300), "render.time_s"),
+        (lambda d: d["render"].update(seed=-1), "render.seed"),
+        (lambda d: d["render"].update(seed=2**70), "render.seed"),
+        (lambda d: d["render"].update(rr_depth=10**9), "render.rr_depth"),
+        (
+            lambda d: d["render"].update(sampler_options={"n_max": 0.5}),
+            "render.sampler_options: the sampler 'cosine' takes no options, got 'n_max'",
+        ),
+        (
+            lambda d: d["render"].update(sampler="adaptive", sampler_options={"m_theta": 0}),
+            "render.sampler_options: the sampler 'adaptive' has no option 'm_theta'; its options: ",
+        ),
+        (
+            lambda d: d["render"].update(
+                sampler="adaptive", sampler_options={"min_spacing_deg": float("nan")}
+            ),
+            "option 'min_spacing_deg' of the sampler 'adaptive' must be a number in [0.001, 10], got nan",
+        ),
+        (
+            lambda d: d["render"].update(sampler="adaptive_warp", sampler_options={"cache": 5}),
+            "option 'cache' of the sampler 'adaptive_warp' must be true, false or a folder, got 5",
+        ),
+        (
+            lambda d: d.update(
+                name=[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]]
+            ),
+            "nested too",
+        ),
         (lambda d: d.pop("version"), "version: required"),
         (lambda d: d.update(version=99), "version: schema version 99"),
     ],
@@ -105,6 +150,11 @@ def test_nan_parameter_is_rejected(tmp_path: Path) -> None:
     data["materials"][0]["params"]["kd"] = float("nan")
     with pytest.raises(SceneError, match=r"materials\[0\]\.params\.kd: .*finite"):
         load_scene(_write(tmp_path, data))
+
+
+def test_json_nested_deeper_than_the_interpreter_recurses_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match="scene.json: the JSON is nested too deeply"):
+        load_scene(_write(tmp_path, "[" * 100_000 + "]" * 100_000))
 
 
 def test_broken_json_gives_line_and_column(tmp_path: Path) -> None:
