@@ -74,6 +74,7 @@ class MainWindow(QMainWindow):
         self.viewport.object_picked.connect(lambda name: self.document.select_object(name or None))
         self.render_view = self.render_panel = RenderPanel(self.render_scene, self.jobs)
         self.render_view.error.connect(lambda msg: self.show_error("Render", msg))
+        self.render_view.project_provider = lambda: self.document.path
         self.document.events.materials.connect(lambda _items: self.render_view.scene_changed())
         for name in ("meshes", "lights", "environment", "camera", "render"):
             self.document.events[name].connect(lambda _items: self.render_view.scene_changed())
@@ -100,7 +101,7 @@ class MainWindow(QMainWindow):
         self.document.path_changed.connect(self._update_title)
         self._history_changed()
         self.statusBar().showMessage("Ready")
-        self.restore_layout()
+        self.layout_restored = self.restore_layout()
         self.schedule("brdf")
         if warm_up:
             snapshot_process.prewarm()
@@ -131,24 +132,31 @@ class MainWindow(QMainWindow):
 
     # ---- layout: sized to content on first open, then what the user left ----------------------------
     def size_docks_to_content(self) -> None:
-        """Docks as wide as their content needs: every name in the scene tree readable, the editors' rows
-        whole (capped at a third of the window each)."""
-        cap = max(200, self.width() // 3)
-        tree = min(cap, self.scene_tree.content_width())
-        editor = min(cap, max(380, self.material_dock.widget().sizeHint().width() + 24))
+        """Docks as wide as their content needs: every name in the scene tree readable (at most a quarter of
+        the window), the editors' rows whole (at most a third)."""
+        tree = min(max(200, self.width() // 4), self.scene_tree.content_width())
+        editor = min(
+            max(200, self.width() // 3), max(380, self.material_dock.widget().sizeHint().width() + 24)
+        )
         self.resizeDocks([self.tree_dock, self.material_dock], [tree, editor], Qt.Orientation.Horizontal)
 
-    def restore_layout(self) -> None:
-        settings = QSettings()
+    def restore_layout(self) -> bool:
+        """The layout the user left (True), or docks sized to their content once the window has its size."""
+        settings = QSettings(QSettings.Format.IniFormat, QSettings.Scope.UserScope, "brdf-studio", APP_NAME)
         geometry, state = settings.value("window/geometry"), settings.value("window/state")
-        if geometry is not None and state is not None and settings.value("window/version") == LAYOUT_VERSION:
+        if (
+            geometry is not None
+            and state is not None
+            and int(settings.value("window/version", 0)) == LAYOUT_VERSION
+        ):
             self.restoreGeometry(geometry)
             self.restoreState(state, LAYOUT_VERSION)
-        else:
-            QTimer.singleShot(0, self.size_docks_to_content)  # once the window has its size
+            return True
+        QTimer.singleShot(0, self.size_docks_to_content)
+        return False
 
     def save_layout(self) -> None:
-        settings = QSettings()
+        settings = QSettings(QSettings.Format.IniFormat, QSettings.Scope.UserScope, "brdf-studio", APP_NAME)
         settings.setValue("window/geometry", self.saveGeometry())
         settings.setValue("window/state", self.saveState(LAYOUT_VERSION))
         settings.setValue("window/version", LAYOUT_VERSION)
@@ -215,6 +223,8 @@ class MainWindow(QMainWindow):
         elif not empty:
             self.open_project(demo_scene_path(), confirm=False, remember=False)
             self.document.set_path(None)  # "Save" asks where: never overwrite the bundled file
+        if not self.layout_restored:
+            QTimer.singleShot(0, self.size_docks_to_content)  # to the names of the project just opened
 
     def new_project(self) -> None:
         self.files.new_project()
@@ -274,7 +284,7 @@ class MainWindow(QMainWindow):
 
     def make_reference(self) -> None:
         self.tabs.setCurrentWidget(self.render_panel)
-        self.render_view.make_reference(self.document.path)
+        self.render_view.make_reference()
 
     def load_reference(self, path: Path | str | None = None) -> bool:
         if path is None:

@@ -1,5 +1,5 @@
 """*Make reference* in the background: chunks of the reference render sent to a render process of its own,
-merged into the stored reference as each one ends (:mod:`app.reference`), until :data:`TARGET_SPP`.
+merged into the stored reference as each one ends (:mod:`app.reference`), until :data:`app.reference.TARGET_SPP`.
 
 The runner pauses while the render panel's comparison renders (both would share the CPU, and an equal-time
 comparison must not), and resumes after it; stopping loses at most the chunk in progress. A change of the
@@ -13,7 +13,8 @@ from pathlib import Path
 
 from PySide6.QtCore import QObject, Signal
 
-from app.reference import CHUNK_SPP, SAMPLER, TARGET_SPP, Reference, ReferenceStore, location, scene_key
+from app import reference as ref_files
+from app.reference import SAMPLER, Reference, ReferenceStore, location, scene_key
 from app.render_process import RenderServer
 from core.scene import Scene, scene_to_dict
 
@@ -72,11 +73,11 @@ class ReferenceRunner(QObject):
         width, height = self.size
         self.job = self.server.submit({
             "scene": scene_to_dict(self.scene), "base_dir": str(self.scene.base_dir), "source": self.scene.source,
-            "strategies": [SAMPLER], "mode": "spp", "budget": CHUNK_SPP, "width": width, "height": height,
+            "strategies": [SAMPLER], "mode": "spp", "budget": ref_files.CHUNK_SPP, "width": width, "height": height,
             "seed": SEED_BASE + chunk, "reference": None,
         })  # fmt: skip
         done = self.reference.spp if self.reference is not None else 0
-        self.status.emit(f"Making the reference: {done} of {TARGET_SPP} spp ...")
+        self.status.emit(f"Making the reference: {done} of {ref_files.TARGET_SPP} spp ...")
 
     def _on_events(self, events: list[dict]) -> None:
         for event in events:

@@ -3,9 +3,9 @@
     .venv/bin/python bench/screenshots.py [--out docs/screenshots] [--only render,scene,...]
 
 Opens the app on the bundled demo scene (under Xvfb when there is no display), drives it to a meaningful
-state (a glossy material at 45 degrees, the sampler view, a short side-by-side render of the demo scene:
-uniform against adaptive sampling at equal samples per pixel) and grabs each panel from the screen, so the
-OpenGL views are captured too.
+state (a glossy material at 45 degrees, the sampler view, the demo scene's reference made in the app with
+*Make reference*, then uniform against adaptive sampling at equal time with the live RMSE/relMSE plot and the
+verdict) and grabs each panel from the screen, so the OpenGL views are captured too.
 """
 
 from __future__ import annotations
@@ -31,8 +31,9 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "screenshots")
     parser.add_argument("--material", default="polished copper")
     parser.add_argument("--render-a", default="uniform", help="the render panel's first strategy")
-    parser.add_argument("--render-b", default="adaptive", help="the render panel's second strategy")
-    parser.add_argument("--render-spp", type=int, default=4, help="samples per pixel of each render")
+    parser.add_argument("--render-b", default="adaptive_warp", help="the render panel's second strategy")
+    parser.add_argument("--render-seconds", type=float, default=20.0, help="equal time of each strategy")
+    parser.add_argument("--reference-spp", type=int, default=512, help="samples per pixel of the reference")
     parser.add_argument("--render-size", default="288x192", help="render size, WIDTHxHEIGHT")
     parser.add_argument(
         "--only", default="", help="comma-separated screenshot names to write (default: all of them)"
@@ -106,7 +107,7 @@ def main() -> int:
         grab(window.sampling_panel, "sampling")
 
     window.tabs.setCurrentWidget(window.scene_panel)
-    objects = [o.name for o in doc.data.objects]
+    objects = [o.name for o in doc.objects()]
     if objects:
         doc.select_object(objects[min(1, len(objects) - 1)])
     settle(0.5)
@@ -122,14 +123,24 @@ def main() -> int:
         panel = window.render_view
         panel.width_box.setValue(width)
         panel.height_box.setValue(height)
-        panel.mode.setCurrentIndex(panel.mode.findData("spp"))
-        panel.spp.setValue(args.render_spp)
+        from app import reference
+
+        reference.TARGET_SPP = args.reference_spp
+        t0 = time.monotonic()
+        window.make_reference()
+        runner = panel.reference_runner
+        settle(0.5, until=lambda: not runner.wanted, timeout=7200)
+        done = runner.reference.spp if runner.reference is not None else 0
+        print(f"reference: {done} spp ({time.monotonic() - t0:.0f} s with preparation)")
+        panel.mode.setCurrentIndex(panel.mode.findData("time"))
+        panel.seconds.setValue(args.render_seconds)
         panel.strategy_a.setCurrentText(args.render_a)
         panel.strategy_b.setCurrentText(args.render_b)
         t0 = time.monotonic()
         window.start_render()
         settle(0.5, until=lambda: not panel.running, timeout=3600)
         print(f"render: {panel.status_text} ({time.monotonic() - t0:.0f} s with preparation)")
+        print(f"verdict: {panel.error_plot.verdict}")
         if window.errors:
             print("errors: " + "; ".join(window.errors))
         grab(window.render_panel, "render")

@@ -77,8 +77,7 @@ class SceneTree(QTreeWidget):
         self._relabel_materials()
         self.blockSignals(False)
         self._selection_from_document()
-        self.resizeColumnToContents(0)
-        self.resizeColumnToContents(1)
+        self.resizeColumnToContents(0)  # every name whole; the choosers' column takes the rest
 
     def _rebuild_scene_items(self) -> None:
         """Only the lights, environment and camera (their edits leave objects and materials alone)."""

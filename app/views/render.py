@@ -54,6 +54,10 @@ class RenderPanel(QWidget):
         self.reference_runner.progressed.connect(self._reference_progressed)
         self.reference_runner.status.connect(self.set_status)
         jobs.on_shutdown(self.reference_runner.shutdown)
+        self.project_provider: Callable[[], Path | None] = lambda: None
+        """The project file (reference files are stored beside it)."""
+        self.reference_note = ""
+        """What the last render's start found about the reference (shown with the status)."""
         self.reference_key: str | None = None
         """The scene key of a reference made in the app (``None``: none, or one loaded from a file)."""
         self.job: int | None = None  # the id of the render in progress
@@ -93,23 +97,35 @@ class RenderPanel(QWidget):
         self.height_box.setValue(192)
         self.start_button = QPushButton("Render")
         self.start_button.setToolTip("Start (or restart) the render (F5)")
+        self.reference_button = QPushButton("Make reference")
+        self.reference_button.setToolTip(
+            "Render a long, high-spp reference of this scene in the background (stored beside the project; "
+            "resumes where it stopped); errors against it are measured live (Ctrl+R)"
+        )
+        self.reference_button.clicked.connect(self.make_reference)
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
         self.mode.currentIndexChanged.connect(self._mode_changed)
         self.start_button.clicked.connect(self.start)
         self.cancel_button.clicked.connect(self.cancel)
 
-        controls = QHBoxLayout()
-        for label, w in (
-            ("A", self.strategy_a), ("B", self.strategy_b), ("", self.mode), ("", self.spp), ("", self.seconds),
-            ("size", self.width_box), ("x", self.height_box),
+        # Two rows, so that the panel's minimum width leaves the docks room (one row was ~950 px wide).
+        strategies, budget = QHBoxLayout(), QHBoxLayout()
+        for row, label, w in (
+            (strategies, "A", self.strategy_a), (strategies, "B", self.strategy_b), (budget, "", self.mode),
+            (budget, "", self.spp), (budget, "", self.seconds), (budget, "size", self.width_box),
+            (budget, "x", self.height_box),
         ):  # fmt: skip
             if label:
-                controls.addWidget(QLabel(label))
-            controls.addWidget(w)
-        controls.addWidget(self.start_button)
-        controls.addWidget(self.cancel_button)
-        controls.addStretch(1)
+                row.addWidget(QLabel(label))
+            row.addWidget(w)
+        for b in (self.start_button, self.cancel_button, self.reference_button):
+            strategies.addWidget(b)
+        for row in (strategies, budget):
+            row.addStretch(1)
+        controls = QVBoxLayout()
+        controls.addLayout(strategies)
+        controls.addLayout(budget)
 
         self.view_a = ImageView()
         self.view_b = ImageView()
@@ -193,7 +209,8 @@ class RenderPanel(QWidget):
         self._plot_errors()
         self.start_button.setText("Restart")
         self.cancel_button.setEnabled(True)
-        self.set_status("Starting the render process ..." if self.server.pid is None else "Starting ...")
+        starting = "Starting the render process ..." if self.server.pid is None else "Starting ..."
+        self.set_status(f"{self.reference_note} {starting}".strip())
         self.job = self.server.submit(job)
         if self.reference_runner.running:
             self.reference_runner.pause()  # an equal-time comparison must not share the CPU with it
@@ -294,26 +311,37 @@ class RenderPanel(QWidget):
         self.error_plot.show_curves(self.curves)
 
     # ---- reference and exports --------------------------------------------------------------------------
-    def make_reference(self, project: Path | None) -> None:
+    def make_reference(self) -> None:
         """Render the current scene's reference in the background (resuming a stored one)."""
         try:
             scene = self.scene_provider()
         except BrdfStudioError as exc:
             self.error.emit(str(exc))
             return
-        self.reference_runner.start(scene, self.width_box.value(), self.height_box.value(), project)
+        self.reference_runner.start(
+            scene, self.width_box.value(), self.height_box.value(), self.project_provider()
+        )
 
     def _reference_progressed(self, ref: Reference) -> None:
         self.reference, self.reference_key = ref.image, ref.key
 
     def _check_reference(self, scene: Scene) -> None:
-        """Before a render: a reference made in the app for another scene (or size) is not used."""
-        if self.reference_key is None:
+        """Before a render: a reference made in the app for another scene (or size) is not used; one stored
+        for this scene and size (made earlier, or before an undo) is."""
+        self.reference_note = ""
+        if self.reference is not None and self.reference_key is None:
+            return  # loaded from a file: the user's choice
+        width, height = self.width_box.value(), self.height_box.value()
+        key = scene_key(scene, width, height)
+        if key == self.reference_key:
             return
-        key = scene_key(scene, self.width_box.value(), self.height_box.value())
-        if key != self.reference_key:
+        stored = self.reference_runner.find(scene, width, height, self.project_provider())
+        if stored is not None:
+            self.reference, self.reference_key = stored.image, stored.key
+            self.reference_note = f"Using the stored reference of this scene ({stored.spp} spp)."
+        elif self.reference is not None:
             self.reference, self.reference_key = None, None
-            self.set_status(
+            self.reference_note = (
                 "The reference is of another scene or size: errors are not measured (Make reference)."
             )
 

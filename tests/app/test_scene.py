@@ -246,11 +246,11 @@ def test_camera_page_moves_the_viewport_and_the_view_records_the_camera(fresh, t
     w.scene_tree.setCurrentItem(w.scene_tree.item_for("camera"))
     page = w.item_editor.camera_page
     assert w.item_editor.current_page() is page and w.material_dock.windowTitle() == "Camera"
-    page.rows["fov_deg"].spin.setValue(30.0)
+    page.rows["fov_deg"].spin.setValue(35.0)
     page.rows["position"].spins[2].setValue(9.0)
     cam = w.viewport.plotter.camera
-    assert cam.view_angle == pytest.approx(30.0) and cam.position[2] == pytest.approx(9.0)
-    assert w.render_scene().camera.fov_deg == pytest.approx(30.0)
+    assert cam.view_angle == pytest.approx(35.0) and cam.position[2] == pytest.approx(9.0)
+    assert w.render_scene().camera.fov_deg == pytest.approx(35.0)
     assert w.render_scene().camera.position[2] == pytest.approx(9.0)
     before = w.document.scene.camera
     page.rows["target"].set_value((before.position[0] + 1.0, *before.position[1:]))
