@@ -39,6 +39,7 @@ DEFAULT_SAMPLERS = (
     "uniform_cdf",
     "compress_cdf",
     "factored",
+    "rgl_warp",
     "ris",
 )
 RIS_CANDIDATES = 8

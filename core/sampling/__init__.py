@@ -6,6 +6,7 @@ family of strategies.
 ``basic``           ``uniform``, ``cosine`` and ``analytic`` (the model's own sampler)
 ``tabulated``       ``uniform_cdf`` and ``compress_cdf`` (Matusik et al. 2003, Lawrence et al. 2005)
 ``factored``        ``factored`` (Lawrence, Rusinkiewicz & Ramamoorthi 2004)
+``rgl_warp``        ``rgl_warp`` (Dupuy & Jakob 2018: luminance warp over the VNDF parameterization)
 ``ris``             resampled importance sampling of BRDF x light on top of any strategy
 ==================  ==========================================================================================
 

@@ -1,0 +1,113 @@
+"""Scaling of the folder study on Dask: the same tasks on a local cluster of 1 and of 2 workers.
+
+    .venv/bin/python bench/make_materials.py --out results/materials      # the 22-material folder, once
+    .venv/bin/python bench/folder_study.py --materials results/materials [--workers 1 2] [--out results/bench]
+
+Runs ``core.study_folder.run_folder_study`` (the code behind ``brdf-studio bench samplers --materials DIR``)
+with the ``--quick`` study settings (one view angle, 30 degrees: one task per file) and the samplers
+``uniform cosine analytic adaptive_warp factored`` — the exact ``adaptive`` mode is left out because its
+tables for anisotropic measured files take ~80 s each and would make the run ~30 min per worker count; what
+is measured is the cluster's scaling, not a sampler. Each run starts from an empty table cache
+(``BRDF_STUDIO_CACHE`` set to a fresh folder, inherited by the workers), so no run reuses another's tables.
+Wall time includes starting the cluster. Target: 2 workers in <= 0.6 x the time of 1. Prints a table, writes
+``folder_study.csv`` and ``folder_study.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.study import StudyConfig  # noqa: E402
+from core.study_folder import material_files, run_folder_study  # noqa: E402
+
+SAMPLERS = ("uniform", "cosine", "analytic", "adaptive_warp", "factored")
+TARGET = 0.6
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--materials", type=Path, required=True, help="folder (bench/make_materials.py)")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--samplers", nargs="+", default=list(SAMPLERS))
+    parser.add_argument("--out", type=Path, default=Path("results/bench"))
+    args = parser.parse_args(argv)
+    files = material_files(args.materials)
+    config = StudyConfig(
+        thetas=(30.0,),
+        counts=(16, 64, 256),
+        batch=1 << 14,
+        reference_samples=1 << 17,
+        samplers=tuple(args.samplers),
+    )
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for workers in args.workers:
+        with tempfile.TemporaryDirectory() as cache:
+            saved = os.environ.get("BRDF_STUDIO_CACHE")
+            os.environ["BRDF_STUDIO_CACHE"] = cache
+            try:
+                load = os.getloadavg()[0]
+                t0 = time.perf_counter()
+                study = run_folder_study(args.materials, config, workers=workers, files=files)
+                seconds = time.perf_counter() - t0
+            finally:
+                if saved is None:
+                    os.environ.pop("BRDF_STUDIO_CACHE", None)
+                else:
+                    os.environ["BRDF_STUDIO_CACHE"] = saved
+        rows.append(
+            {
+                "workers": workers,
+                "tasks": study.tasks,
+                "failed": len(study.failures),
+                "seconds": round(seconds, 1),
+                "load_before": round(load, 2),
+                "load_after": round(os.getloadavg()[0], 2),
+            }
+        )
+        print(
+            f"{workers} worker(s): {seconds:.1f} s for {study.tasks} tasks ({len(study.failures)} failed)",
+            flush=True,
+        )
+    base = rows[0]["seconds"]
+    print("\n| workers | tasks | failed | wall s | × the first | load avg before / after |")
+    print("|---|---|---|---|---|---|")
+    for r in rows:
+        r["ratio"] = round(r["seconds"] / base, 3)
+        print(
+            f"| {r['workers']} | {r['tasks']} | {r['failed']} | {r['seconds']:.1f} | {r['ratio']:.2f} | "
+            f"{r['load_before']} / {r['load_after']} |"
+        )
+    with open(args.out / "folder_study.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.bar([str(r["workers"]) for r in rows], [r["seconds"] for r in rows])
+    ax.axhline(TARGET * base, color="C3", ls="--", label=f"target {TARGET} x the first")
+    ax.set_xlabel("Dask workers")
+    ax.set_ylabel("wall time (s)")
+    ax.set_title(f"Folder study, {len(files)} materials")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(args.out / "folder_study.png", dpi=120)
+    print(f"wrote {args.out / 'folder_study.csv'}, {args.out / 'folder_study.png'}")
+    met = len(rows) < 2 or rows[-1]["ratio"] <= TARGET
+    print(f"target (2 workers <= {TARGET} x 1 worker): {'met' if met else 'missed'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
