@@ -66,6 +66,24 @@ def _measured() -> None:
         MeasuredBRDF(table, None, interpolate).eval(wo, wi)
 
 
+def _rgl() -> None:
+    """RGL ``.bsdf`` materials: the exporter's loops (:func:`core.rgl.export.tabulate`, small tables) and the
+    ``rgl_warp`` sampler's draws and densities (the lookups are in the switch above)."""
+    from core.model import make_brdf
+    from core.rgl.export import ExportOptions, tabulate
+    from core.rgl.material import RGLBRDF
+    from core.sampling import make_sampler
+
+    small = ExportOptions(
+        n_theta_i=3, vndf=(4, 4), samples=(4, 4), ndf=(4, 4), sigma=(4, 4), quadrature=(8, 8)
+    )
+    brdf = RGLBRDF(tabulate(make_brdf("lambert"), small))
+    _, wo = _directions()
+    sampler = make_sampler("rgl_warp", brdf)
+    drawn = sampler.sample_each(wo, seed=1)
+    sampler.pdf(wo, drawn.wi)
+
+
 def _basic_samplers() -> None:
     """``uniform``, ``cosine`` and ``analytic`` (sample, ``f`` and pdf)."""
     from core.model import make_brdf
@@ -133,6 +151,7 @@ def _random_streams() -> None:
 WARM_UPS: list[WarmUp] = [
     WarmUp("models: eval, sample, pdf batches", _model_batches),
     WarmUp("measured (MERL) lookups and writer", _measured),
+    WarmUp("measured (RGL .bsdf) exporter and the rgl_warp sampler", _rgl),
     WarmUp("samplers: uniform, cosine, analytic", _basic_samplers),
     WarmUp("samplers: uniform_cdf, compress_cdf, factored", _tabulated_samplers),
     WarmUp("random streams", _random_streams),
