@@ -388,7 +388,8 @@ def report_throughput(scene, args: argparse.Namespace, out: Path) -> None:  # ty
     rows = [throughput(scene, args.size, args.passes, s) for s in samplers]
     base = {}
     if args.baseline:
-        base = baseline_seconds_per_spp(args.baseline, str(scene.source), args.size, samplers, args.passes)
+        path = str(Path(args.scene or demo_scene_path()).resolve())
+        base = baseline_seconds_per_spp(args.baseline, path, args.size, samplers, args.passes)
     print(f"throughput at {args.size}x{args.size} (whole passes against Embree alone on the same rays)")
     head = f"{'strategy':<14}{'s per spp':>10}{'M rays/s':>10}{'Embree alone':>14}{'share':>8}"
     if base:
