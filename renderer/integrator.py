@@ -63,6 +63,10 @@ def _key(a: int, b: int) -> np.uint64:
     return np.uint64(key(np.uint64(a), np.uint64(b)))
 
 
+SAMPLER_SLICE = 1 << 15
+"""Rows of one material a sampler object is given at a time (slices run on the integrator's threads)."""
+
+
 @dataclass
 class PassStats:
     paths: int = 0
@@ -199,8 +203,8 @@ class PathTracer:
     def _rng(self, pass_index: int, depth: int, role: int) -> np.random.Generator:
         return np.random.default_rng([self.seed, pass_index, depth + 1, role])
 
-    def _seed(self, pass_index: int, depth: int, material: int) -> int:
-        ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A])
+    def _seed(self, pass_index: int, depth: int, material: int, part: int = 0) -> int:
+        ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A, part])
         return int(ss.generate_state(1, dtype=np.uint32)[0])
 
     def _run(self, stage, n: int, *args) -> int:  # type: ignore[no-untyped-def]
@@ -311,17 +315,7 @@ class PathTracer:
                 self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
                 B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
-            for m in range(n_mat):
-                a, b = int(offsets[m]), int(offsets[m + 1])
-                if a == b or self.mat_strategy[m] != BY_SAMPLER:
-                    continue
-                sampler = w.materials_by_index[m].sampler
-                if self.has_nee_lights:
-                    c = a + np.flatnonzero(B.l_cand[a:b])
-                    if len(c):
-                        B.l_f[c], B.l_pdf_brdf[c] = sampler.eval_pdf(B.wo[c], B.l_wi_local[c])
-                drawn = sampler.sample_each(B.wo[a:b], seed=self._seed(pass_index, depth, m))
-                B.wi_local[a:b], B.pdf[a:b], B.f[a:b] = drawn.wi, drawn.pdf, drawn.f
+            self._draw_by_samplers(offsets, pass_index, depth)
             if self.ris:
                 bad += self._ris_environment(radiance, pass_index, depth, n_s, offsets)
             rr_key = _key(_key(pass_key, depth), 0x7272)
@@ -341,6 +335,37 @@ class PathTracer:
                 bad += self._run(shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance)
         self.stats.nonfinite += bad
         return radiance.reshape(int(spp), n_pix, 3).sum(axis=0) / spp
+
+    def _draw_by_samplers(self, offsets: np.ndarray, pass_index: int, depth: int) -> None:
+        """The vertices of materials whose strategy has tables: their sampler objects evaluate ``f`` and the
+        pdf at the light samples and draw the BRDF samples (with ``f``), in slices of at most
+        ``SAMPLER_SLICE`` rows of one material, run on the integrator's threads. Each slice's draws are seeded
+        by ``(seed, pass, bounce, material, slice)``: the image does not depend on the threads."""
+        B = self._buffers
+        assert B is not None
+        jobs = []
+        for m in range(len(offsets) - 1):
+            a, b = int(offsets[m]), int(offsets[m + 1])
+            if a == b or self.mat_strategy[m] != BY_SAMPLER:
+                continue
+            sampler = self.world.materials_by_index[m].sampler
+            for k, lo in enumerate(range(a, b, SAMPLER_SLICE)):
+                jobs.append((sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k)))
+
+        def run(job) -> None:  # type: ignore[no-untyped-def]
+            sampler, lo, hi, seed = job
+            if self.has_nee_lights:
+                c = lo + np.flatnonzero(B.l_cand[lo:hi])
+                if len(c):
+                    B.l_f[c], B.l_pdf_brdf[c] = sampler.eval_pdf(B.wo[c], B.l_wi_local[c])
+            drawn = sampler.sample_each(B.wo[lo:hi], seed=seed)
+            B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi] = drawn.wi, drawn.pdf, drawn.f
+
+        if self._pool is None or len(jobs) < 2:
+            for job in jobs:
+                run(job)
+        else:
+            list(self._pool.map(run, jobs))
 
     def _ris_environment(
         self, radiance: np.ndarray, pass_index: int, depth: int, n_s: int, offsets: np.ndarray

@@ -180,6 +180,7 @@ class AdaptiveSampler(Sampler):
         self.violations = 0
         self.trials = 0
         self.samples = 0
+        self._counts_lock = threading.Lock()  # a renderer draws slices of one material on several threads
 
     # ------------------------------------------------------------------------------------------ the table
     @property
@@ -314,9 +315,10 @@ class AdaptiveSampler(Sampler):
                 for a, b in zip(bounds[:-1], bounds[1:], strict=True)
             ]
             v = sum(job.result() for job in jobs)
-        self.violations += int(v)
-        self.trials += int(trials.sum())
-        self.samples += n
+        with self._counts_lock:
+            self.violations += int(v)
+            self.trials += int(trials.sum())
+            self.samples += n
         return SampleBatch(wi, pdf, f), trials
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
