@@ -136,7 +136,7 @@ class MainWindow(QMainWindow):
         the window), the editors' rows whole (at most a third)."""
         tree = min(max(200, self.width() // 4), self.scene_tree.content_width())
         editor = min(
-            max(200, self.width() // 3), max(380, self.material_dock.widget().sizeHint().width() + 24)
+            max(200, self.width() // 3), max(380, self.material_dock.widget().minimumSizeHint().width() + 24)
         )
         self.resizeDocks([self.tree_dock, self.material_dock], [tree, editor], Qt.Orientation.Horizontal)
 

@@ -37,3 +37,5 @@ class ExplorePanel(QSplitter):
         self.addWidget(left)
         self.addWidget(right)
         self.setSizes([700, 360])
+        self.setStretchFactor(0, 2)  # the lobe takes two thirds of any extra width, the plots one
+        self.setStretchFactor(1, 1)

@@ -63,7 +63,7 @@ def test_every_action_calls_a_window_method(window):
     for spec in ACTIONS:
         assert callable(getattr(window, spec.method, None)), spec.method
         if spec.attribute:
-            assert getattr(window, spec.attribute).text() == spec.text
+            assert getattr(window, spec.attribute).text().startswith(spec.text)  # Undo adds what it undoes
     titles = [a.text() for a in window.menuBar().actions()]
     assert titles[:4] == ["&File", "&Edit", "&Render", "&View"]
 
