@@ -89,7 +89,7 @@ class Param:
                 raise ParameterError(f"{where} must be true or false, got {value!r}")
             try:
                 f = float(value)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise ParameterError(f"{where} must be true or false, got {value!r}") from None
             if f not in (0.0, 1.0):
                 raise ParameterError(f"{where} must be true or false, got {value!r}")
@@ -110,7 +110,7 @@ class Param:
     def _check_number(self, where: str, v: Any) -> float:
         try:
             f = float(v)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ParameterError(f"{where} must be a number in {self.range_text()}, got {v!r}") from None
         if not math.isfinite(f):
             raise ParameterError(f"{where} must be a finite number in {self.range_text()}, got {f}")
