@@ -132,11 +132,11 @@ class MainWindow(QMainWindow):
 
     # ---- layout: sized to content on first open, then what the user left ----------------------------
     def size_docks_to_content(self) -> None:
-        """Docks as wide as their content needs: every name in the scene tree readable (at most a quarter of
-        the window), the editors' rows whole (at most a third)."""
-        tree = min(max(200, self.width() // 4), self.scene_tree.content_width())
+        """Docks as wide as their content needs: every name in the scene tree readable (at most 30 % of the
+        window), the editors' rows whole (at most a third)."""
+        tree = min(max(200, int(0.3 * self.width())), self.scene_tree.content_width())
         editor = min(
-            max(200, self.width() // 3), max(380, self.material_dock.widget().minimumSizeHint().width() + 24)
+            max(200, self.width() // 3), max(380, self.material_dock.widget().sizeHint().width() + 24)
         )
         self.resizeDocks([self.tree_dock, self.material_dock], [tree, editor], Qt.Orientation.Horizontal)
 

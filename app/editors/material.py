@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (
 
 from app.document import Document
 from app.editors.params import ParamEditor
+from app.editors.rows import EmissionRow
 from core.errors import BrdfStudioError
 from core.model import Model, all_models, get_model
 
@@ -82,6 +83,10 @@ class MaterialEditor(QWidget):
         self.notes = QPlainTextEdit()
         self.notes.setPlaceholderText("Notes about this material")
         self.notes.setMaximumHeight(80)
+        self.emission = EmissionRow("emission", "W/(m^2 sr)")
+        self.emission.setToolTip("Emitted radiance: every object of this material becomes an area light")
+        self.emission.edited.connect(lambda _f, value: self._guard(self._set_emission, value))
+        self.emission.released.connect(document.end_merge)
         self.tags = QLineEdit()
         self.tags.setPlaceholderText("tags, comma separated")
 
@@ -104,6 +109,7 @@ class MaterialEditor(QWidget):
         QVBoxLayout(info_box).addWidget(self.info)
         layout.addWidget(info_box)
         meta = QFormLayout()
+        meta.addRow("Emission", self.emission)
         meta.addRow("Notes", self.notes)
         meta.addRow("Tags", self.tags)
         layout.addLayout(meta)
@@ -205,6 +211,11 @@ class MaterialEditor(QWidget):
             self.notes.blockSignals(False)
         if not self.tags.hasFocus():
             self.tags.setText(", ".join(mat.tags))
+        self.emission.set_value(mat.emission)
+
+    def _set_emission(self, value: tuple[float, float, float]) -> None:
+        index = self.document.material_names().index(self.document.current_material or "")
+        self.document.set_field(("materials", index, "emission"), value, "Set emission")
 
     def set_info(self, key: str, line: str) -> None:
         """Show one computed fact (``albedo``, ``adaptive``), replacing the previous line of that key."""

@@ -30,6 +30,7 @@ class LobeView(QWidget):
         super().__init__(parent)
         self.directions = hemisphere_grid(n_theta, n_phi)
         self.caption = QLabel("")
+        self.caption.setWordWrap(True)  # a long model name wraps instead of widening the Explore tab
         self.absolute = QCheckBox("Absolute scale")
         self.absolute.setToolTip("Radius = f cos in sr^-1 instead of normalized to the lobe's maximum")
         # auto_update=False: no 5 Hz re-render timer (each frame costs the GUI thread tens of ms in software

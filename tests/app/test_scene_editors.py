@@ -108,3 +108,14 @@ def test_environment_constant_then_map_scale_rotation_and_undo(scene, tmp_path):
     for _ in range(4):
         doc.redo()
     assert doc.scene.environment == env
+
+
+def test_material_emission_makes_an_area_light_and_undoes(scene):
+    w, doc = scene, scene.document
+    name = doc.object("cube").material
+    doc.select_material(name)
+    w.material_editor.emission.spins[0].setValue(2.0)
+    assert doc.material(name).emission == (2.0, 0.0, 0.0) and doc.material(name).emissive
+    assert w.render_scene().environment is None  # an emitter lights the scene: no fallback sky
+    doc.undo()
+    assert not doc.material(name).emissive and w.material_editor.emission.value() == (0.0, 0.0, 0.0)
