@@ -67,6 +67,11 @@ SAMPLER_SLICE = 1 << 15
 """Rows of one material a sampler object is given at a time (slices run on the integrator's threads)."""
 
 
+WAVEFRONT = 1 << 18
+"""Paths traced together at most: a pass of a large image runs several wavefronts one after the other, so the
+per-path buffers (~600 bytes a path) stay within ~160 MB whatever the image size."""
+
+
 @dataclass
 class PassStats:
     paths: int = 0
@@ -200,11 +205,11 @@ class PathTracer:
             if type(rt.sampler) in compiled:
                 self.mat_strategy[m] = COMPILED_STRATEGIES[rt.sampler.name]
 
-    def _rng(self, pass_index: int, depth: int, role: int) -> np.random.Generator:
-        return np.random.default_rng([self.seed, pass_index, depth + 1, role])
+    def _rng(self, pass_index: int, depth: int, role: int, wave: int = 0) -> np.random.Generator:
+        return np.random.default_rng([self.seed, pass_index, depth + 1, role, wave])
 
-    def _seed(self, pass_index: int, depth: int, material: int, part: int = 0) -> int:
-        ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A, part])
+    def _seed(self, pass_index: int, depth: int, material: int, part: int = 0, wave: int = 0) -> int:
+        ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A, part, wave])
         return int(ss.generate_state(1, dtype=np.uint32)[0])
 
     def _run(self, stage, n: int, *args) -> int:  # type: ignore[no-untyped-def]
@@ -265,16 +270,28 @@ class PathTracer:
         passes the number of samples it already has, so that no sample number is used twice).
         """
         first = pass_index * int(spp) if first_sample is None else int(first_sample)
+        n_pix = self.width * self.height
+        n_all = n_pix * int(spp)
+        radiance = np.zeros((n_all, 3))
+        pass_key = _key(self._seed_key, pass_index)
+        bad = 0
+        for j0 in range(0, n_all, WAVEFRONT):
+            bad += self._wavefront(j0, min(n_all, j0 + WAVEFRONT) - j0, radiance, pass_index, pass_key, first)
+        self.stats.nonfinite += bad
+        return radiance.reshape(int(spp), n_pix, 3).sum(axis=0) / spp
+
+    def _wavefront(
+        self, j0: int, n: int, radiance: np.ndarray, pass_index: int, pass_key: np.uint64, first: int
+    ) -> int:
+        """Paths ``j0 .. j0 + n - 1`` of a pass, bounce by bounce, their light added to ``radiance`` (rows by
+        path); returns the number of non-finite contributions dropped."""
         w = self.world
         n_pix = self.width * self.height
-        n = n_pix * int(spp)
-        if self._buffers is None or len(self._buffers.path) != n:
+        if self._buffers is None or len(self._buffers.path) < n:
             self._buffers = _Buffers(n)
         B = self._buffers
-        radiance = np.zeros((n, 3))
-        pass_key = _key(self._seed_key, pass_index)
         cam = self.camera
-        self._run(camera_stage, n, n_pix, first, self._seed_key, self.width, self.height,
+        self._run(camera_stage, n, j0, n_pix, first, self._seed_key, self.width, self.height,
                   cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
         self.stats.paths += n
@@ -315,9 +332,9 @@ class PathTracer:
                 self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
                 B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
-            self._draw_by_samplers(offsets, pass_index, depth)
+            self._draw_by_samplers(offsets, pass_index, depth, j0 // WAVEFRONT)
             if self.ris:
-                bad += self._ris_environment(radiance, pass_index, depth, n_s, offsets)
+                bad += self._ris_environment(radiance, pass_index, depth, n_s, offsets, j0 // WAVEFRONT)
             rr_key = _key(_key(pass_key, depth), 0x7272)
             self._run(
                 continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta,
@@ -333,14 +350,13 @@ class PathTracer:
                 blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k])
                 self.stats.rays += k
                 bad += self._run(shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance)
-        self.stats.nonfinite += bad
-        return radiance.reshape(int(spp), n_pix, 3).sum(axis=0) / spp
+        return bad
 
-    def _draw_by_samplers(self, offsets: np.ndarray, pass_index: int, depth: int) -> None:
+    def _draw_by_samplers(self, offsets: np.ndarray, pass_index: int, depth: int, wave: int) -> None:
         """The vertices of materials whose strategy has tables: their sampler objects evaluate ``f`` and the
         pdf at the light samples and draw the BRDF samples (with ``f``), in slices of at most
         ``SAMPLER_SLICE`` rows of one material, run on the integrator's threads. Each slice's draws are seeded
-        by ``(seed, pass, bounce, material, slice)``: the image does not depend on the threads."""
+        by ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads."""
         B = self._buffers
         assert B is not None
         jobs = []
@@ -350,7 +366,9 @@ class PathTracer:
                 continue
             sampler = self.world.materials_by_index[m].sampler
             for k, lo in enumerate(range(a, b, SAMPLER_SLICE)):
-                jobs.append((sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k)))
+                jobs.append(
+                    (sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k, wave))
+                )
 
         def run(job) -> None:  # type: ignore[no-untyped-def]
             sampler, lo, hi, seed = job
@@ -368,7 +386,7 @@ class PathTracer:
             list(self._pool.map(run, jobs))
 
     def _ris_environment(
-        self, radiance: np.ndarray, pass_index: int, depth: int, n_s: int, offsets: np.ndarray
+        self, radiance: np.ndarray, pass_index: int, depth: int, n_s: int, offsets: np.ndarray, wave: int
     ) -> int:
         """Direct light from the sky by resampled importance sampling at the ``n_s`` surface vertices:
         ``M`` candidates from the material's sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos
@@ -391,14 +409,16 @@ class PathTracer:
                 continue
             rows = slice(a * m_c, b * m_c)
             sampler = w.materials_by_index[m].sampler
-            drawn = sampler.sample_each(wo_rep[rows], seed=self._seed(pass_index, depth, m + 0x10000))
+            drawn = sampler.sample_each(
+                wo_rep[rows], seed=self._seed(pass_index, depth, m + 0x10000, 0, wave)
+            )
             wi_l[rows], pdf[rows], f[rows] = drawn.wi, drawn.pdf, drawn.f
         rep = (np.repeat(x, m_c, axis=0) for x in (tb, bb, ns, ng))
         wi, ok, fcos_over_p = bsdf_step(wi_l, pdf, f, *rep, np.ones((n * m_c, 3)))
         le = w.env.lookup(wi)[0]
         weight = np.where(ok, (fcos_over_p * le) @ LUMINANCE, 0.0).reshape(n, m_c)  # p_hat / p
         total = weight.sum(axis=1)
-        u = self._rng(pass_index, depth, 7).random(n)
+        u = self._rng(pass_index, depth, 7, wave).random(n)
         pick = np.minimum((np.cumsum(weight, axis=1) <= (u * total)[:, None]).sum(axis=1), m_c - 1)
         chosen = np.arange(n) * m_c + pick
         fcos_le = f[chosen] * wi_l[chosen, 2:3] * le[chosen]

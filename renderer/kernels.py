@@ -120,12 +120,13 @@ def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_h
 
 @njit(nogil=True, cache=True)
 def camera_stage(
-    a, b, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
+    a, b, j0, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
     o, d, o32, d32, beta, path, prev_pdf,
 ):  # fmt: skip
-    """Camera rays of paths ``[a, b)``: path ``j`` is sample ``first_sample + j // n_pix`` of pixel
-    ``j % n_pix``, through the pixel's Owen-scrambled Sobol point of that sample number."""
-    for j in range(a, b):
+    """Camera rays of rows ``[a, b)``: row ``r`` is path ``j = j0 + r``, sample ``first_sample + j // n_pix``
+    of pixel ``j % n_pix``, through the pixel's Owen-scrambled Sobol point of that sample number."""
+    for r in range(a, b):
+        j = j0 + r
         pixel = j % n_pix
         sample = first_sample + j // n_pix
         jx, jy = sobol2(sample, key(key(seed_key, pixel), _PAIR_PIXEL))
@@ -134,14 +135,14 @@ def camera_stage(
         dx, dy, dz = camera_ray(
             col + jx, row + jy, width, height, origin, forward, right, up, tan_half, aspect
         )
-        o[j, 0], o[j, 1], o[j, 2] = origin[0], origin[1], origin[2]
-        d[j, 0], d[j, 1], d[j, 2] = dx, dy, dz
+        o[r, 0], o[r, 1], o[r, 2] = origin[0], origin[1], origin[2]
+        d[r, 0], d[r, 1], d[r, 2] = dx, dy, dz
         for c in range(3):
-            o32[j, c] = o[j, c]
-            d32[j, c] = d[j, c]
-            beta[j, c] = 1.0
-        path[j] = j
-        prev_pdf[j] = 0.0
+            o32[r, c] = o[r, c]
+            d32[r, c] = d[r, c]
+            beta[r, c] = 1.0
+        path[r] = j
+        prev_pdf[r] = 0.0
 
 
 @njit(nogil=True, cache=True)
