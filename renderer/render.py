@@ -59,7 +59,7 @@ class RenderJob:
         self.passes_done = 0
         # a pass traces at least ~2^18 paths (several samples per pixel for small images): the wavefront's
         # Python calls and thread hand-offs are per bounce, not per ray, and cost ~1 ms a bounce
-        self.batch = int(np.clip(PASS_PATHS // (self.tracer.width * self.tracer.height), 1, 64))
+        self.batch = pass_spp(self.tracer.width * self.tracer.height)
 
     def passes(
         self,
@@ -217,25 +217,33 @@ def prepare(
 
 
 # ------------------------------------------------------------------------------------------ budgets
-BYTES_PER_PATH = 1500
+BYTES_PER_PATH = 500
 """Peak memory of one path in a pass's wavefront (the integrator's ~40 per-path arrays, its temporaries and
 the samplers' batches), an upper bound of what ``python bench/budgets.py`` measures."""
 BYTES_PER_PIXEL = 72
 """The film's float64 running sum, the float32 image and its tone-mapped copy, per pixel."""
-BYTES_PER_RIS_CANDIDATE = 160
+BYTES_PER_RIS_CANDIDATE = 400
 """Each RIS candidate of a path: its direction, pdf, BRDF value, target and weight."""
-PASS_PIXELS = 65536
-"""A pass of a small image traces several samples per pixel, up to this many paths (``RenderJob.batch``)."""
+BYTES_PER_PASS_PATH = 24
+"""The radiance row every path of a pass keeps until the pass is summed per pixel."""
+
+
+def pass_spp(pixels: int) -> int:
+    """Samples per pixel a pass traces: at least ``PASS_PATHS`` paths for small images, at most 64."""
+    return int(np.clip(PASS_PATHS // max(1, int(pixels)), 1, 64))
 
 
 def render_memory(width: int, height: int, ris_candidates: int = 0) -> float:
-    """Bytes a render of ``width x height`` pixels needs at its peak (one pass's wavefront and the film)."""
+    """Bytes a render of ``width x height`` pixels needs at its peak: one wavefront's buffers (a pass runs in
+    wavefronts of at most ``renderer.integrator.WAVEFRONT`` paths), the pass's per-path radiance and the
+    film."""
+    from renderer.integrator import WAVEFRONT
+
     pixels = float(width) * float(height)
-    batch = min(16, max(1, PASS_PIXELS // max(1, int(pixels))))
-    paths = pixels * batch
-    return (
-        paths * (BYTES_PER_PATH + BYTES_PER_RIS_CANDIDATE * max(0, ris_candidates)) + pixels * BYTES_PER_PIXEL
-    )
+    paths = pixels * pass_spp(int(min(pixels, 2**62)))
+    wave = min(paths, float(WAVEFRONT))
+    per_path = BYTES_PER_PATH + BYTES_PER_RIS_CANDIDATE * max(0, ris_candidates)
+    return wave * per_path + paths * BYTES_PER_PASS_PATH + pixels * BYTES_PER_PIXEL
 
 
 def check_budget(width: int, height: int, ris_candidates: int = 0) -> None:
@@ -246,7 +254,10 @@ def check_budget(width: int, height: int, ris_candidates: int = 0) -> None:
     need = render_memory(width, height, ris_candidates)
     room = 0.8 * available_memory()
     if ris_candidates > 0 and render_memory(width, height) < room:
-        fit = int((room / (width * height) - BYTES_PER_PATH - BYTES_PER_PIXEL) // BYTES_PER_RIS_CANDIDATE)
+        from renderer.integrator import WAVEFRONT
+
+        wave = min(float(width) * float(height) * pass_spp(width * height), float(WAVEFRONT))
+        fit = int((room - render_memory(width, height)) // (wave * BYTES_PER_RIS_CANDIDATE))
         hint = f"use --ris {max(1, fit)} or fewer candidates"
     else:
         scale = (room / need) ** 0.5
