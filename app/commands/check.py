@@ -27,7 +27,7 @@ from core.sampling.base import check_sampler_options
 
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 N_MAXES = (1.3, 2.0, 3.0)
-BYTES_PER_SAMPLE = 400
+BYTES_PER_SAMPLE = 200
 """Peak memory of one chi-square test per sample drawn (directions, pdfs, BRDF values and the histogram's
 indices at once), an upper bound of what ``python bench/budgets.py`` measures."""
 MAX_SAMPLES = 10**12

@@ -198,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     from core.scene import load_scene
     from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
     from renderer.image_io import write_sidecar as write_json
-    from renderer.render import prepare
+    from renderer.render import check_budget, prepare
 
     if args.scene is None and args.compare and args.compare[-1].lower().endswith(".json"):
         args.scene = args.compare.pop()  # "--compare a,b scene.json": the list took the scene
@@ -220,6 +220,10 @@ def run(args: argparse.Namespace) -> int:
         time_s = math.inf
     elif spp is None and time_s is None:
         spp, time_s = (None, scene.render.time_s) if scene.render.time_s else (scene.render.spp, None)
+
+    width = args.width or scene.render.width
+    height = args.height or scene.render.height
+    check_budget(width, height, args.ris)  # also in prepare(); here before any progress bar is drawn
 
     from tqdm import tqdm
 

@@ -31,6 +31,12 @@ BAD_ANGLE_PAIRS = ["nan,0", "0,inf", "91,0", "1e308,0", "x", "", ",", "0,0,0", "
 BAD_PARAMS = ["kd=nan", "kd=1e308", "kd", "=1", "zz=1", "kd=1,2", "kd=-1", "kd=x", "kd=inf"]
 
 
+@pytest.fixture(autouse=True)
+def _machine_of_4_gib(monkeypatch):
+    """Budget refusals must not depend on the machine running the tests."""
+    monkeypatch.setenv("BRDF_STUDIO_MEMORY", str(4 << 30))
+
+
 def run_cli(capsys, argv: list[str]) -> tuple[int, str, str]:
     code = main(list(argv))
     out, err = capsys.readouterr()
@@ -81,14 +87,14 @@ ALBEDO = ["albedo", "--model", "lambert", "--theta", "30"]
 CHECK = ["check", "--model", "lambert", "--sampler", "cosine", "--theta", "30", "--samples", "1000"]
 
 
-def test_eval_bad_inputs(capsys):
+def corpus_eval(tmp_path: Path) -> list[list[str]]:
     cases = [*substitute(EVAL, "--wi", BAD_ANGLE_PAIRS), *substitute(EVAL, "--wo", BAD_ANGLE_PAIRS)]
     cases += substitute(EVAL, "--model", BAD_NAMES) + substitute(EVAL, "--param", BAD_PARAMS)
     cases += [["eval", "--wi", "0,0", "--wo", "0,0"], [*EVAL, "--measured", "x.binary"], [*EVAL, "--bogus"]]
-    sweep(capsys, "eval", cases)
+    return cases
 
 
-def test_albedo_bad_inputs(capsys, tmp_path):
+def corpus_albedo(tmp_path: Path) -> list[list[str]]:
     cases = [*substitute(ALBEDO, "--theta", BAD_NUMBERS), *substitute(ALBEDO, "--phi", BAD_NUMBERS)]
     cases += substitute(ALBEDO, "--rtol", [*BAD_NUMBERS, "0", "1", "-0.5"])
     cases += substitute(ALBEDO, "--param", BAD_PARAMS) + substitute(ALBEDO, "--model", BAD_NAMES)
@@ -97,10 +103,10 @@ def test_albedo_bad_inputs(capsys, tmp_path):
         ["albedo", "--measured", str(tmp_path / "none.binary")],
     ]
     cases += [[*ALBEDO[:-1], "30,", ","], ["albedo", "--model", "lambert", "--theta"]]
-    sweep(capsys, "albedo", cases)
+    return cases
 
 
-def test_sample_bad_inputs(capsys, tmp_path):
+def corpus_sample(tmp_path: Path) -> list[list[str]]:
     base = ["sample", "--model", "lambert", "--sampler", "cosine", "--theta", "30", "-n", "10"]
     base += ["-o", str(tmp_path / "x.csv")]
     cases = [*substitute(base, "--theta", BAD_NUMBERS), *substitute(base, "--phi", BAD_NUMBERS)]
@@ -109,16 +115,16 @@ def test_sample_bad_inputs(capsys, tmp_path):
     cases += substitute(base, "--n-max", [*BAD_NUMBERS, "1", "0.5", "1001"])
     cases += substitute(base, "--sampler", BAD_NAMES)
     folder = tmp_path / "folder.csv"
-    folder.mkdir()
+    folder.mkdir(exist_ok=True)
     outs = [str(tmp_path), str(folder), str(tmp_path / "no" / "x.csv"), "x.txt", "", str(tmp_path / "x")]
     cases += substitute(base, "-o", outs)
     # the budget: a request this large is refused before any work, naming the need
     cases += substitute(base, "-n", ["1e15"])
     cases += [[*base[:-2], "--n-max", "3", "-o", str(tmp_path / "y.csv")]]  # n_max: cosine takes no options
-    sweep(capsys, "sample", cases)
+    return cases
 
 
-def test_check_bad_inputs(capsys):
+def corpus_check(tmp_path: Path) -> list[list[str]]:
     cases = [*substitute(CHECK, "--theta", BAD_NUMBERS), *substitute(CHECK, "--phi", BAD_NUMBERS)]
     cases += substitute(CHECK, "--samples", [*BAD_NUMBERS, "0", "1e13", "2.5"])
     cases += substitute(CHECK, "--seed", ["-1", "nan", "1e300"])
@@ -126,16 +132,30 @@ def test_check_bad_inputs(capsys):
         CHECK, "--sampler", BAD_NAMES
     )
     cases += [[*CHECK, "--n-max", "2"], [*CHECK, "--theta", "0", "30", "95"], [*CHECK, "--theta", ",,"]]
-    sweep(capsys, "check", cases)
+    return cases
 
 
-def test_bench_and_demo_and_models_bad_inputs(capsys, tmp_path):
+def corpus_bench(tmp_path: Path) -> list[list[str]]:
     base = ["bench", "samplers", "--quick", "--out", str(tmp_path / "study")]
     cases = substitute(base, "--theta", BAD_NUMBERS) + substitute(base, "--models", ["nope", ",,"])
-    cases += substitute(base, "--samplers", ["nope", ",,"]) + [["bench", "nope"], ["bench"]]
-    sweep(capsys, "bench", cases)
-    sweep(capsys, "demo", [["demo", "--material", m] for m in ("nope", "", "a" * 300)])
-    sweep(capsys, "models", [["models", "--bogus"], ["models", "extra"]])
+    return cases + substitute(base, "--samplers", ["nope", ",,"]) + [["bench", "nope"], ["bench"]]
+
+
+def corpus_demo(tmp_path: Path) -> list[list[str]]:
+    return [["demo", "--material", m] for m in ("nope", "", "a" * 300)]
+
+
+def corpus_models(tmp_path: Path) -> list[list[str]]:
+    return [["models", "--bogus"], ["models", "extra"]]
+
+
+def corpus_open(tmp_path: Path) -> list[list[str]]:
+    return [["open", "--quit-after", "x"], ["open", "a.json", "b.json"], ["open", "--bogus"]]
+
+
+@pytest.mark.parametrize("command", ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open"])
+def test_bad_arguments_of_each_command(capsys, tmp_path, command):
+    sweep(capsys, command, CORPORA[command](tmp_path))
 
 
 # ------------------------------------------------------------------------------------------------ render
@@ -161,14 +181,10 @@ SCENE = {
 
 @pytest.fixture(scope="module")
 def scene_dir(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("inputs")
-    quad(folder / "floor.obj", size=3.0, y=-1.0)
-    sphere(folder / "ball.obj", subdivisions=1)
-    (folder / "scene.json").write_text(json.dumps(SCENE))
-    return folder
+    return write_scene_dir(tmp_path_factory.mktemp("inputs"))
 
 
-def test_render_bad_arguments(capsys, scene_dir, tmp_path):
+def corpus_render(tmp_path: Path, scene_dir: Path) -> list[list[str]]:
     base = ["render", str(scene_dir / "scene.json"), "--quiet", "-o", str(tmp_path / "out.exr")]
     cases = []
     for option in ("--spp", "--time", "--width", "--height", "--max-depth", "--ris", "--seed", "--exposure"):
@@ -188,7 +204,7 @@ def test_render_bad_arguments(capsys, scene_dir, tmp_path):
         ["render", "--demo", "x.json"],
     ]
     folder = tmp_path / "folder.exr"
-    folder.mkdir()
+    folder.mkdir(exist_ok=True)
     outs = [str(tmp_path), str(folder), str(tmp_path / "no" / "o.exr"), "o.png", "o", ""]
     cases += substitute(base, "-o", outs)
     cases += substitute(
@@ -201,9 +217,34 @@ def test_render_bad_arguments(capsys, scene_dir, tmp_path):
         [*base, "--width", "16384", "--height", "16384"],
         [*base, "--width", "16384", "--height", "1024", "--ris", "1024"],
     ]
+    return cases
+
+
+def test_render_bad_arguments(capsys, scene_dir, tmp_path):
     t0 = time.perf_counter()
-    sweep(capsys, "render", cases)
+    sweep(capsys, "render", corpus_render(tmp_path, scene_dir))
     assert time.perf_counter() - t0 < 60.0  # every one refused before preparing the scene
+
+
+CORPORA = {
+    "eval": corpus_eval,
+    "albedo": corpus_albedo,
+    "sample": corpus_sample,
+    "check": corpus_check,
+    "bench": corpus_bench,
+    "demo": corpus_demo,
+    "models": corpus_models,
+    "open": corpus_open,
+}
+"""Each command's corpus of bad arguments (``render``'s, which needs a scene, is :func:`corpus_render`)."""
+
+
+def write_scene_dir(folder: Path) -> Path:
+    """The small valid scene every render case starts from."""
+    quad(folder / "floor.obj", size=3.0, y=-1.0)
+    sphere(folder / "ball.obj", subdivisions=1)
+    (folder / "scene.json").write_text(json.dumps(SCENE))
+    return folder
 
 
 def test_budget_messages_name_the_need_the_machine_and_the_option(capsys, scene_dir, tmp_path):
