@@ -3,8 +3,8 @@
 *Make reference* renders the current scene for a long time in chunks of :data:`CHUNK_SPP` samples per pixel,
 each chunk with its own seed; the stored reference is the mean of the chunks weighted by their samples, so
 rendering can stop after any chunk and resume later (another session, even) where it stopped. It is stored
-beside the project (``<project>.reference.exr`` with ``<project>.reference.json``; an unsaved project's in
-the config folder) under a key of the scene: its geometry, materials, lights, camera and path length, and the
+beside the project (``<project>.reference.exr`` with ``<project>.reference.json``; an unsaved project's, or
+a bundled scene's, in the config folder) under a key of the scene: its geometry, materials, lights, camera and path length, and the
 image size. A reference whose key is not the current scene's is out of date and is not used.
 
 :func:`equal_time_verdict` puts the comparison of two error curves in words.
@@ -45,14 +45,18 @@ def scene_key(scene: Scene, width: int, height: int) -> str:
 
 
 def location(project: Path | None) -> Path:
-    """The stem of a project's reference files: beside the project, or in the config folder."""
-    if project is not None:
+    """The stem of a project's reference files: beside the project; in the config folder for an unsaved
+    project or one of the bundled scenes (the package's files are not the user's to write)."""
+    from importlib.resources import files
+
+    bundled = Path(str(files("resources"))).resolve()
+    if project is not None and not Path(project).resolve().is_relative_to(bundled):
         return Path(project).with_suffix("")
     from app.settings import config_dir
 
     folder = config_dir() / "references"
     folder.mkdir(parents=True, exist_ok=True)
-    return folder / "untitled"
+    return folder / (Path(project).stem if project is not None else "untitled")
 
 
 @dataclass

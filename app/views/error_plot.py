@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from matplotlib.ticker import NullFormatter
 from PySide6.QtWidgets import QWidget
 
 from app.reference import equal_time_verdict
@@ -64,6 +65,7 @@ class ErrorPlot(FigureView):
                 ax.set_xscale("log")
                 ax.set_yscale("log")
                 ax.set_xlabel("render time (s)")
+                ax.xaxis.set_minor_formatter(NullFormatter())  # log minor labels crowd a short axis
                 ax.set_title(label, fontsize=9)
                 ax.grid(alpha=0.3, which="both")
         added = False

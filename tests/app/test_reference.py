@@ -61,3 +61,13 @@ def test_store_merges_chunks_by_their_samples_and_resumes(tmp_path):
     again = ReferenceStore(tmp_path / "project").load("k")  # another session
     assert again.spp == 64 and np.array_equal(again.image, ref.image)
     assert ReferenceStore(tmp_path / "project").load("another scene") is None
+
+
+def test_references_go_beside_the_project_but_never_into_the_bundled_scenes(tmp_path):
+    from app.main_window import demo_scene_path
+    from app.reference import location
+
+    assert location(tmp_path / "proj.json") == tmp_path / "proj"
+    demo = location(demo_scene_path())
+    assert not demo.resolve().is_relative_to(demo_scene_path().parent.resolve()) and demo.name == "demo"
+    assert location(None).name == "untitled"
