@@ -41,6 +41,7 @@ from renderer.kernels import (
     bsdf_step,
     camera_rays,
     camera_stage,
+    compact_counts,
     compact_stage,
     continue_stage,
     hit_stage,
@@ -212,12 +213,43 @@ class PathTracer:
         ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A, part, wave])
         return int(ss.generate_state(1, dtype=np.uint32)[0])
 
+    def _cuts(self, n: int) -> np.ndarray:
+        """Row ranges a stage over ``[0, n)`` is split into: one, or one per thread for large ``n``."""
+        parts = 1 if self._pool is None or n < PARALLEL_MIN else self.threads
+        return np.linspace(0, n, parts + 1).astype(np.int64)
+
+    def _compact(self, n_s: int) -> tuple[int, int]:
+        """Pack the next rays and the shadow rays of ``n_s`` vertices (count per range, then write each range
+        from its offset); returns their numbers."""
+        B = self._buffers
+        assert B is not None
+        cuts = self._cuts(n_s)
+        ranges = list(zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True))
+        counts = np.zeros((len(ranges), 2), dtype=np.int64)
+        self._each(ranges, lambda a, b, c: compact_counts(a, b, B.alive, B.l_need, counts, c))
+        starts = np.vstack([np.zeros((1, 2), np.int64), np.cumsum(counts, axis=0)])
+        self._each(ranges, lambda a, b, c: compact_stage(
+            a, b, starts[c, 0], starts[c, 1], B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf,
+            B.l_wi, B.l_tmax, B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32,
+            B.shadow_slot,
+        ))  # fmt: skip
+        return int(starts[-1, 0]), int(starts[-1, 1])
+
+    def _each(self, ranges: list[tuple[int, int]], fn) -> None:  # type: ignore[no-untyped-def]
+        """``fn(a, b, index)`` for each range, on the threads when there are several."""
+        if self._pool is None or len(ranges) == 1:
+            for c, (a, b) in enumerate(ranges):
+                fn(a, b, c)
+        else:
+            for job in [self._pool.submit(fn, a, b, c) for c, (a, b) in enumerate(ranges)]:
+                job.result()
+
     def _run(self, stage, n: int, *args) -> int:  # type: ignore[no-untyped-def]
         """``stage(a, b, *args)`` over ``[0, n)``, in halves on two threads for large ``n``; the sum of what
         the calls return (counts of dropped contributions, or 0)."""
-        if self._pool is None or n < PARALLEL_MIN:
+        cuts = self._cuts(n)
+        if len(cuts) == 2:
             return int(stage(0, n, *args) or 0)
-        cuts = np.linspace(0, n, self.threads + 1).astype(np.int64)
         jobs = [
             self._pool.submit(stage, int(a), int(b), *args) for a, b in zip(cuts[:-1], cuts[1:], strict=True)
         ]
@@ -341,11 +373,7 @@ class PathTracer:
                 B.s_path, B.l_wi_local, B.l_le, B.l_pdf, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
                 B.wi_local, B.pdf, B.f, B.l_contrib, B.l_need, B.next_d, B.alive,
             )  # fmt: skip
-            n, k = compact_stage(
-                n_s, B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf, B.l_wi, B.l_tmax,
-                B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32, B.shadow_slot,
-            )  # fmt: skip
-            n, k = int(n), int(k)
+            n, k = self._compact(n_s)
             if k:
                 blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k])
                 self.stats.rays += k

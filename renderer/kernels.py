@@ -468,15 +468,28 @@ def continue_stage(
 
 
 @njit(nogil=True, cache=True)
-def compact_stage(
-    n, alive, l_need, s_origin, next_d, s_beta, s_path, pdf, l_wi, l_tmax,
-    o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32, shadow_slot,
-):  # fmt: skip
-    """The next bounce's rays (from the surviving BRDF samples) and the shadow rays (light samples that
-    need one), packed to the front of their arrays; returns ``(rays, shadow rays)``."""
+def compact_counts(a, b, alive, l_need, counts, chunk):
+    """``counts[chunk] = (rays, shadow rays)`` that the vertices ``[a, b)`` pass on (the first phase of a
+    parallel :func:`compact_stage`)."""
     m = 0
     k = 0
-    for s in range(n):
+    for s in range(a, b):
+        m += alive[s]
+        k += l_need[s]
+    counts[chunk, 0] = m
+    counts[chunk, 1] = k
+
+
+@njit(nogil=True, cache=True)
+def compact_stage(
+    a, b, m, k, alive, l_need, s_origin, next_d, s_beta, s_path, pdf, l_wi, l_tmax,
+    o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32, shadow_slot,
+):  # fmt: skip
+    """The next bounce's rays (from the surviving BRDF samples) and the shadow rays (light samples that need
+    one) of the vertices ``[a, b)``, packed from row ``m`` and row ``k`` of their arrays (the rows the
+    vertices before ``a`` took, from :func:`compact_counts`): the packed order is the vertices' order,
+    however the work is split."""
+    for s in range(a, b):
         if alive[s]:
             for c in range(3):
                 o[m, c] = s_origin[s, c]
@@ -494,7 +507,6 @@ def compact_stage(
             st32[k] = min(l_tmax[s], 1e30)
             shadow_slot[k] = s
             k += 1
-    return m, k
 
 
 @njit(nogil=True, cache=True)
