@@ -45,6 +45,13 @@ def demo_scene_path() -> Path:
     return Path(str(files("resources"))) / "scenes" / "demo" / "demo.json"
 
 
+def _layout_settings() -> QSettings:
+    """The window's layout, in the app's config folder beside recent files and autosaves (app.settings)."""
+    from app.settings import config_dir
+
+    return QSettings(str(config_dir() / "layout.ini"), QSettings.Format.IniFormat)
+
+
 def _warm_up_kernels():
     """Compile every model's batch evaluation once (numba), yielding each model's label."""
     wo = np.array([[0.0, 0.0, 1.0]])
@@ -142,7 +149,7 @@ class MainWindow(QMainWindow):
 
     def restore_layout(self) -> bool:
         """The layout the user left (True), or docks sized to their content once the window has its size."""
-        settings = QSettings(QSettings.Format.IniFormat, QSettings.Scope.UserScope, "brdf-studio", APP_NAME)
+        settings = _layout_settings()
         geometry, state = settings.value("window/geometry"), settings.value("window/state")
         if (
             geometry is not None
@@ -156,7 +163,7 @@ class MainWindow(QMainWindow):
         return False
 
     def save_layout(self) -> None:
-        settings = QSettings(QSettings.Format.IniFormat, QSettings.Scope.UserScope, "brdf-studio", APP_NAME)
+        settings = _layout_settings()
         settings.setValue("window/geometry", self.saveGeometry())
         settings.setValue("window/state", self.saveState(LAYOUT_VERSION))
         settings.setValue("window/version", LAYOUT_VERSION)
@@ -216,6 +223,8 @@ class MainWindow(QMainWindow):
     def start(self, path: Path | None = None, empty: bool = False, restore: str = "ask") -> None:
         """Once the window is shown: offer to restore a crashed session's edits, then open ``path``, or the
         bundled demo scene unless ``empty``. ``restore`` is ``"ask"``, ``"yes"`` or ``"no"``."""
+        if not self.layout_restored:
+            QTimer.singleShot(0, self.size_docks_to_content)  # to the names of the project opened below
         if restore != "no" and self.files.restore_autosave(ask=restore == "ask"):
             return
         if path is not None:
@@ -223,8 +232,6 @@ class MainWindow(QMainWindow):
         elif not empty:
             self.open_project(demo_scene_path(), confirm=False, remember=False)
             self.document.set_path(None)  # "Save" asks where: never overwrite the bundled file
-        if not self.layout_restored:
-            QTimer.singleShot(0, self.size_docks_to_content)  # to the names of the project just opened
 
     def new_project(self) -> None:
         self.files.new_project()

@@ -9,15 +9,11 @@ import pytest
 
 @pytest.fixture(scope="session", autouse=True)
 def _isolated_config(tmp_path_factory):
-    """Recent files, autosaves and the window layout of the tests go to a temporary folder, never the user's."""
-    from PySide6.QtCore import QSettings
-
+    """Recent files, autosaves and the window layout (all in app.settings.config_dir) of the tests go to a
+    temporary folder, never the user's."""
     folder = tmp_path_factory.mktemp("config")
     old = os.environ.get("BRDF_STUDIO_CONFIG_DIR")
     os.environ["BRDF_STUDIO_CONFIG_DIR"] = str(folder)
-    # the window's layout (QSettings) too: an ini file in the same folder
-    QSettings.setDefaultFormat(QSettings.Format.IniFormat)
-    QSettings.setPath(QSettings.Format.IniFormat, QSettings.Scope.UserScope, str(folder))
     yield folder
     if old is None:
         os.environ.pop("BRDF_STUDIO_CONFIG_DIR", None)
