@@ -120,7 +120,7 @@ def run_folder_study(
                     n_workers=workers,
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=None,
+                    dashboard_address=":0",
                     silence_logs=40,
                 )
             finally:
