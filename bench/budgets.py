@@ -1,7 +1,7 @@
 """Resource budgets and bad inputs (issue 18): peak memory per unit of work, and the bad-input sweep.
 
     .venv/bin/python bench/budgets.py [--parts memory,sweep,interrupts] [--max-samples 1e8] [--runs 20]
-                                      [--out results/bench]
+                                      [--requests sample,check,render] [--out results/bench]
 
 ``memory``: each request runs in a new process (``app.cli.main`` in-process there), which reports its peak
 resident memory (``ru_maxrss``):
@@ -68,26 +68,26 @@ def slope(xs: list[float], ys: list[float]) -> float:
     return float(np.polyfit(np.asarray(xs, dtype=float), np.asarray(ys, dtype=float), 1)[0])
 
 
-def memory(out: Path, max_samples: float) -> list[dict]:
+def memory(out: Path, max_samples: float, requests: set[str]) -> list[dict]:
     rows: list[dict] = []
     work = Path(tempfile.mkdtemp(prefix="budgets-"))
     n = 10**6
-    while n <= max_samples:
+    while "sample" in requests and n <= max_samples:
         f = work / "s.npy"
         rss, sec = peak_rss(["sample", "--model", "phong", "--sampler", "cosine", "--theta", "30", "-n", str(n),
                              "-o", str(f)], work)  # fmt: skip
         rows.append({"request": "sample", "size": n, "peak_bytes": rss, "seconds": sec})
         f.unlink(missing_ok=True)
         n *= 10
-    for n in (100_000, 1_000_000, 2_000_000, 4_000_000):
+    for n in (100_000, 1_000_000, 2_000_000, 4_000_000) if "check" in requests else ():
         rss, sec = peak_rss(["check", "--model", "lambert", "--sampler", "cosine", "--theta", "30", "--samples",
                              str(n)], work)  # fmt: skip
         rows.append({"request": "check", "size": n, "peak_bytes": rss, "seconds": sec})
-    for side in (128, 256, 512, 768):
+    for side in (128, 256, 512, 768) if "render" in requests else ():
         rss, sec = peak_rss(["render", "--demo", "--sampler", "cosine", "--spp", "1", "--width", str(side),
                              "--height", str(side), "-o", str(work / "r.exr"), "--quiet"], work)  # fmt: skip
         rows.append({"request": "render", "size": side * side, "peak_bytes": rss, "seconds": sec})
-    for m in (1, 16, 64):
+    for m in (1, 16, 64) if "render" in requests else ():
         rss, sec = peak_rss(["render", "--demo", "--sampler", "cosine", "--spp", "1", "--width", "256",
                              "--height", "256", "--ris", str(m), "-o", str(work / "r.exr"), "--quiet"], work)  # fmt: skip
         rows.append({"request": "render_ris_256", "size": m, "peak_bytes": rss, "seconds": sec})
@@ -101,12 +101,14 @@ def memory(out: Path, max_samples: float) -> list[dict]:
 
     def fit(name: str) -> float:
         sel = [r for r in rows if r["request"] == name]
-        return slope([r["size"] for r in sel], [r["peak_bytes"] for r in sel])
+        return (
+            slope([r["size"] for r in sel], [r["peak_bytes"] for r in sel]) if len(sel) > 1 else float("nan")
+        )
 
     from app.commands.check import BYTES_PER_SAMPLE
     from renderer.render import BYTES_PER_PATH, BYTES_PER_PIXEL, BYTES_PER_RIS_CANDIDATE
 
-    samples = [r for r in rows if r["request"] == "sample"]
+    samples = [r for r in rows if r["request"] == "sample"] or [{"peak_bytes": float("nan")}]
     print(f"sample: peak {min(r['peak_bytes'] for r in samples) / 2**20:.0f}-"
           f"{max(r['peak_bytes'] for r in samples) / 2**20:.0f} MiB over N = 1e6..{max_samples:.0e} (streamed)")  # fmt: skip
     print(f"check: {fit('check'):.0f} bytes/sample measured; budget assumes {BYTES_PER_SAMPLE}")
@@ -240,13 +242,14 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--parts", default="memory,sweep,interrupts")
     ap.add_argument("--max-samples", type=float, default=1e8, help="largest 'sample -n' measured")
+    ap.add_argument("--requests", default="sample,check,render", help="what 'memory' measures")
     ap.add_argument("--runs", type=int, default=20, help="interrupted renders")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     parts = args.parts.split(",")
     if "memory" in parts:
-        memory(args.out, args.max_samples)
+        memory(args.out, args.max_samples, set(args.requests.split(",")))
     if "sweep" in parts:
         sweep(args.out)
     if "interrupts" in parts:
