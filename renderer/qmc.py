@@ -35,14 +35,17 @@ def mix64(x):
 
 @njit(inline="always", nogil=True, cache=True)
 def key(a, b):
-    """A new key from key ``a`` and a counter ``b`` (both taken as 64-bit unsigned)."""
-    return mix64(np.uint64(a) ^ mix64(np.uint64(b) + np.uint64(0x9E3779B97F4A7C15)))
+    """A new key from key ``a`` and a counter ``b``: step ``b + 1`` of the splitmix64 sequence seeded by
+    ``a`` (one finalizer; for a well-mixed ``a`` and small counters, independent keys)."""
+    return mix64(np.uint64(a) + (np.uint64(b) + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15))
 
 
 @njit(inline="always", nogil=True, cache=True)
 def uniform(k, dim):
-    """A uniform double in ``[0, 1)`` for dimension ``dim`` of key ``k``."""
-    return float(key(k, dim) >> np.uint64(11)) * _INV53
+    """A uniform double in ``[0, 1)`` for dimension ``dim`` of key ``k`` (a splitmix64 step of its own
+    increment, so that no uniform equals a key derived from ``k``)."""
+    x = mix64(np.uint64(k) + (np.uint64(dim) + np.uint64(1)) * np.uint64(0xD1B54A32D192ED03))
+    return float(x >> np.uint64(11)) * _INV53
 
 
 @njit(inline="always", nogil=True, cache=True)
