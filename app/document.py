@@ -101,9 +101,9 @@ class Document(EventedModel[Scene], ViewState):
         if hit is not None and hit[0] == key:
             return hit[1]
         if mat.measured:
-            from core.merl import measured_brdf
+            from core.measured import load_measured
 
-            brdf = measured_brdf(mat.measured)
+            brdf = load_measured(mat.measured)
         else:
             brdf = get_model(mat.model or "").bind(mat.params)
         self._brdfs[mat.name] = (key, brdf)
@@ -178,10 +178,10 @@ class Document(EventedModel[Scene], ViewState):
         self._material_edit(f"Switch to {m.label}", material, change)
 
     def set_measured(self, path: str, material: str | None = None) -> None:
-        """Make a material measured from a MERL file (read now, so a bad file raises before any edit)."""
-        from core.merl import measured_brdf
+        """Make a material measured from a MERL or RGL file (read now, so a bad file raises before any edit)."""
+        from core.measured import load_measured
 
-        measured_brdf(str(path))
+        load_measured(str(path))
 
         def change(mat: Material) -> None:
             mat.model, mat.params, mat.measured = None, {}, str(path)

@@ -144,7 +144,7 @@ class FileManager:
     def load_measured(self, path: Path | str | None = None) -> bool:
         """Make the current material measured from a MERL file (a bad file shows why; nothing changes)."""
         if path is None:
-            path = self.dialog_path(False, "Load measured BRDF", "MERL BRDF (*.binary)")
+            path = self.dialog_path(False, "Load measured BRDF", "Measured BRDF (*.binary *.bsdf)")
             if path is None:
                 return False
         try:
@@ -160,7 +160,7 @@ class FileManager:
         for p in paths:
             if p.suffix.lower() == ".json":
                 self.open_project(p)
-            elif p.suffix.lower() == ".binary":
+            elif p.suffix.lower() in (".binary", ".bsdf"):
                 self.load_measured(p)
             elif p not in meshes:
                 self.window.show_error(

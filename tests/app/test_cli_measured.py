@@ -67,3 +67,20 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, ward_file, tmp_path, ca
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert len([line for line in err.splitlines() if line.strip()]) <= 2  # argparse adds its usage line
+
+
+def test_the_app_document_loads_a_bsdf_material(ward_file, tmp_path):
+    """The app's document makes a material measured from a .bsdf file, and refuses a corrupt one unchanged."""
+    from app.document import Document
+    from core.errors import FileFormatError
+    from core.scene import Material, Scene
+
+    doc = Document(Scene(materials=[Material(name="white", model="lambert", params={"kd": (0.8, 0.8, 0.8)})]))
+    doc.set_measured(str(ward_file))
+    assert doc.scene.materials[0].measured == str(ward_file)
+    assert doc.brdf().model.name == "rgl_anisotropic"
+    bad = tmp_path / "bad.bsdf"
+    bad.write_bytes(b"tensor_file")
+    with pytest.raises(FileFormatError, match="truncated"):
+        doc.set_measured(str(bad))
+    assert doc.scene.materials[0].measured == str(ward_file)
