@@ -13,12 +13,21 @@ from pathlib import Path
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer
 from PySide6.QtGui import QCloseEvent
-from PySide6.QtWidgets import QDockWidget, QMainWindow, QMessageBox, QScrollArea, QTabWidget
+from PySide6.QtWidgets import (
+    QDockWidget,
+    QMainWindow,
+    QMessageBox,
+    QScrollArea,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
 
 from app import snapshot_process
 from app.actions import install_actions
 from app.document import Document
 from app.editors.material import MaterialEditor
+from app.editors.object_editor import ObjectEditor
 from app.editors.scene_items import PropertiesStack, SceneItemEditor
 from app.editors.scene_tree import SceneTree
 from app.file_manager import FileManager
@@ -119,9 +128,16 @@ class MainWindow(QMainWindow):
         self.material_editor = MaterialEditor(self.document)
         self.material_editor.error.connect(lambda msg: self.show_error("Material", msg))
         self.material_editor.load_measured_requested.connect(lambda: self.load_measured())
+        self.object_editor = ObjectEditor(self.document)
+        self.object_editor.error.connect(lambda msg: self.show_error("Object", msg))
+        page = QWidget()
+        column = QVBoxLayout(page)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.addWidget(self.object_editor)
+        column.addWidget(self.material_editor, 1)
         scroll = QScrollArea()
         scroll.setWidgetResizable(True)
-        scroll.setWidget(self.material_editor)
+        scroll.setWidget(page)
         self.item_editor = SceneItemEditor(self.document, self.viewport.camera)
         self.item_editor.error.connect(lambda msg: self.show_error("Scene", msg))
         self.material_dock = QDockWidget("Material", self)

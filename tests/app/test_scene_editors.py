@@ -119,3 +119,22 @@ def test_material_emission_makes_an_area_light_and_undoes(scene):
     assert w.render_scene().environment is None  # an emitter lights the scene: no fallback sky
     doc.undo()
     assert not doc.material(name).emissive and w.material_editor.emission.value() == (0.0, 0.0, 0.0)
+
+
+def test_object_placement_moves_the_mesh_everywhere_and_undoes(scene):
+    w, doc = scene, scene.document
+    doc.select_object("cube")
+    editor = w.object_editor
+    assert editor.isVisibleTo(w) and set(editor.form.rows) == {"translate", "rotate_deg"}
+    editor.form.rows["translate"].spins[1].setValue(2.0)  # up by 2
+    assert doc.scene.meshes[0].transform.translate == (0.0, 2.0, 0.0)
+    assert w.viewport.meshes["cube"].bounds[2] == pytest.approx(2.0)  # the viewport's mesh moved
+    editor.smooth.setChecked(True)
+    assert doc.object("cube").smooth and w.render_scene().meshes[0].smooth
+    doc.undo()
+    doc.undo()
+    assert doc.scene.meshes[0].transform.translate == (0.0, 0.0, 0.0) and not doc.object("cube").smooth
+    assert w.viewport.meshes["cube"].bounds[2] == pytest.approx(0.0)
+    assert editor.form.rows["translate"].value() == (0.0, 0.0, 0.0)
+    doc.select_object(None)
+    assert not editor.isVisibleTo(w)
