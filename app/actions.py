@@ -8,6 +8,8 @@ Adding a command to the app is adding a line here (and the method it calls).
 
 from __future__ import annotations
 
+import functools
+import importlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,7 +25,8 @@ class ActionSpec:
     """Menu path, ``"&File"`` or ``"&File/&Export"``."""
     text: str
     method: str
-    """The window's method to call."""
+    """The window's method to call, or ``"module:function"``, called with the window (dialogs in their own
+    modules, imported on first use)."""
     args: tuple[Any, ...] = ()
     shortcut: str | QKeySequence.StandardKey | None = None
     attribute: str | None = None
@@ -48,6 +51,7 @@ ACTIONS: list[ActionSpec] = [
     ActionSpec("&Edit", "&Redo", "redo", shortcut=QKeySequence.StandardKey.Redo, attribute="redo_action"),
     ActionSpec("&Edit", "New &material", "new_material", shortcut="Ctrl+M", attribute="new_material_action", separator_before=True),
     ActionSpec("&Edit", "&Delete selected", "delete_selected", shortcut=QKeySequence.StandardKey.Delete, attribute="delete_action"),
+    ActionSpec("&Edit", "&Fit model to measured material ...", "app.views.fit_dialog:open_fit_dialog", separator_before=True),
     ActionSpec("&Render", "&Render / restart", "start_render", shortcut="F5", attribute="render_action"),
     ActionSpec("&Render", "&Cancel render", "cancel_render", shortcut="Esc", attribute="cancel_render_action"),
     ActionSpec("&Render", "Make &reference", "make_reference", shortcut="Ctrl+R", attribute="reference_action", separator_before=True),
@@ -68,6 +72,13 @@ def _menu(window: QMainWindow, menus: dict[str, QMenu], path: str) -> QMenu:
     return menus[path]
 
 
+def _target(window: QMainWindow, method: str) -> Any:
+    if ":" in method:
+        module, _, function = method.partition(":")
+        return functools.partial(getattr(importlib.import_module(module), function), window)
+    return getattr(window, method)
+
+
 def install_actions(window: QMainWindow, actions: list[ActionSpec] = ACTIONS) -> dict[str, QMenu]:
     """Build the menus of ``window`` from ``actions``; returns the menus by path."""
     menus: dict[str, QMenu] = {}
@@ -81,7 +92,7 @@ def install_actions(window: QMainWindow, actions: list[ActionSpec] = ACTIONS) ->
         if spec.shortcut is not None:
             action.setShortcut(QKeySequence(spec.shortcut))
         method, args = spec.method, spec.args
-        action.triggered.connect(lambda _checked=False, m=method, a=args: getattr(window, m)(*a))
+        action.triggered.connect(lambda _checked=False, m=method, a=args: _target(window, m)(*a))
         menu.addAction(action)
         if spec.attribute:
             setattr(window, spec.attribute, action)

@@ -317,3 +317,43 @@ def parameter_errors(fitted: Mapping[str, ParamValue], truth: Mapping[str, Param
 def free_parameters(model_name: str, fixed: Sequence[str] = ()) -> list[str]:
     model = get_model(model_name)
     return [p.name for p in model.params if p.kind != "bool" and p.name not in fixed]
+
+
+# --------------------------------------------------------------------------------------------- comparison views
+
+
+def incidence_plane(brdf: BRDF, theta_o_deg: float, n: int = 181) -> tuple[np.ndarray, np.ndarray]:
+    """``f cos theta_i`` (luminance) along the plane of incidence for outgoing ``theta_o``: signed ``theta_i``
+    in degrees ``(n,)`` (positive on the specular side, ``wo`` at ``-theta_o``) and the values ``(n,)``."""
+    t = np.radians(np.linspace(-89.5, 89.5, n))
+    to = math.radians(theta_o_deg)
+    wo = np.array([-math.sin(to), 0.0, math.cos(to)])
+    wi = np.stack([np.sin(t), np.zeros_like(t), np.cos(t)], axis=1)
+    lum = brdf.eval(np.broadcast_to(wo, wi.shape), wi) @ np.array([0.2126, 0.7152, 0.0722])
+    return np.degrees(t), lum * wi[:, 2]
+
+
+def error_map(
+    source: BRDF, fitted: BRDF, n_h: int = 45, n_d: int = 45, phi_d_deg: float = 90.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Relative error ``(g - f) / f`` of the fitted luminance against the source over ``(theta_h, theta_d)`` at
+    ``phi_d`` (the usual slice of a MERL table), ``phi_h = 0``: ``theta_h (n_h,)``, ``theta_d (n_d,)`` in
+    degrees and ``err (n_d, n_h)`` (NaN where a direction is below the horizon or ``f`` is 0)."""
+    th = np.radians(np.linspace(0.5, 89.5, n_h))
+    td = np.radians(np.linspace(0.5, 89.5, n_d))
+    hh, dd = np.meshgrid(th, td)
+    pd = math.radians(phi_d_deg)
+    d = np.stack([np.sin(dd) * math.cos(pd), np.sin(dd) * math.sin(pd) * np.ones_like(dd), np.cos(dd)], -1)
+    ct, st = np.cos(hh), np.sin(hh)
+    wi = np.stack([d[..., 0] * ct + d[..., 2] * st, d[..., 1], d[..., 2] * ct - d[..., 0] * st], -1).reshape(
+        -1, 3
+    )
+    h = np.stack([st, np.zeros_like(st), ct], -1).reshape(-1, 3)
+    wo = 2.0 * np.sum(wi * h, axis=1, keepdims=True) * h - wi
+    w = np.array([0.2126, 0.7152, 0.0722])
+    f = source.eval(wo, wi) @ w
+    g = fitted.eval(wo, wi) @ w
+    ok = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0) & (f > 0.0)
+    err = np.full(f.shape, np.nan)
+    err[ok] = (g[ok] - f[ok]) / f[ok]
+    return np.degrees(th), np.degrees(td), err.reshape(n_d, n_h)
