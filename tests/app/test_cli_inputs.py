@@ -338,6 +338,7 @@ def check_answer(code: int, err: str, out: Path) -> None:
         from renderer.image_io import read_exr
 
         assert np.all(np.isfinite(read_exr(out)))  # read_exr refuses non-finite pixels too
+        assert not EXCEPTION_NAME.search(err), err  # no warning or exception printed on the way either
     else:
         assert problem("render", code, err) is None, err
 

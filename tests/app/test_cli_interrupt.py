@@ -2,8 +2,8 @@
 
 The first signal while passes run finishes the pass in flight and saves the image of every completed pass
 (EXR, PNG and a JSON sidecar marked ``interrupted``), then exits with 130 (143 for SIGTERM), with no traceback
-and no "Exception ignored" report from a thread pool; a signal before the first pass ends leaves a previous
-output untouched.
+and no "Exception ignored" report from a thread pool; a signal before the first pass ends, or a kill -9 at any
+time, leaves a previous output untouched (outputs are written to a temporary file and renamed).
 """
 
 from __future__ import annotations
@@ -117,4 +117,19 @@ def test_signal_before_the_first_pass_leaves_the_previous_output(scene_file, tmp
         return
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "Exception ignored" not in err and "internal error" not in err
+    assert out.read_bytes() == b"previous render"
+
+
+def test_kill_9_while_rendering_leaves_the_previous_output(scene_file, tmp_path):
+    out = tmp_path / "keep.exr"
+    out.write_bytes(b"previous render")
+    proc = start(scene_file, out)
+    try:
+        wait_for_passes(proc)
+        proc.kill()
+        proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == -signal.SIGKILL
     assert out.read_bytes() == b"previous render"
