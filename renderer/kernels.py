@@ -412,6 +412,27 @@ def bsdf_stage(
             f[s, 0], f[s, 1], f[s, 2] = 0.0, 0.0, 0.0
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _throughput(x, y, z, tx, ty, tz, bx, by, bz, sx, sy, sz, gx, gy, gz, p, r, g, b, beta_r, beta_g, beta_b):
+    """A BRDF sample ``(x, y, z)`` of the frame ``(t, b, s)`` with density ``p`` and value ``(r, g, b)``: its
+    unit world direction, the throughput ``beta f cos / p`` and whether the path goes on (the pdf positive and
+    finite, ``f`` finite, the direction above both the shading and the geometric surface ``g``: reflection
+    only, and some throughput left)."""
+    wx = x * tx + y * bx + z * sx
+    wy = x * ty + y * by + z * sy
+    wz = x * tz + y * bz + z * sz
+    length = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if length > 0.0:
+        wx, wy, wz = wx / length, wy / length, wz / length
+    if not (p > 0.0 and math.isfinite(p) and z > 0.0) or wx * gx + wy * gy + wz * gz <= 0.0:
+        return wx, wy, wz, 0.0, 0.0, 0.0, False
+    if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+        return wx, wy, wz, 0.0, 0.0, 0.0, False
+    sc = z / p
+    br, bg, bb = beta_r * r * sc, beta_g * g * sc, beta_b * b * sc
+    return wx, wy, wz, br, bg, bb, br > 0.0 or bg > 0.0 or bb > 0.0
+
+
 @njit(nogil=True, cache=True)
 def continue_stage(
     a, b, power, rr, rr_key, s_ng, s_frame, s_beta, s_path, l_wi_local, l_le, l_pdf, l_delta, l_cand, l_f, l_pdf_brdf,
@@ -419,10 +440,8 @@ def continue_stage(
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` after their samplers ran: the light sample's contribution ``beta f L cos
     w / pdf_light`` (MIS weight ``w`` against the sampler's density; 1 for delta lights) and whether it
-    needs a shadow ray; the BRDF sample's world direction and updated throughput ``beta f cos / pdf`` (kept
-    where the pdf is positive and finite, ``f`` finite, and the direction above both the shading and the
-    geometric surface: reflection only), then Russian roulette when ``rr`` (survival ``min(0.95, max
-    beta)``, a uniform keyed by ``rr_key`` and the path)."""
+    needs a shadow ray; the BRDF sample's world direction and throughput (:func:`_throughput`), then Russian
+    roulette when ``rr`` (survival ``min(0.95, max beta)``, a uniform keyed by ``rr_key`` and the path)."""
     for s in range(a, b):
         # ---- the light sample
         l_need[s] = False
@@ -438,25 +457,14 @@ def continue_stage(
             l_need[s] = any_light
         # ---- the BRDF sample
         alive[s] = False
-        x, y, z = wi_local[s, 0], wi_local[s, 1], wi_local[s, 2]
-        wx = x * s_frame[s, 0, 0] + y * s_frame[s, 1, 0] + z * s_frame[s, 2, 0]
-        wy = x * s_frame[s, 0, 1] + y * s_frame[s, 1, 1] + z * s_frame[s, 2, 1]
-        wz = x * s_frame[s, 0, 2] + y * s_frame[s, 1, 2] + z * s_frame[s, 2, 2]
-        length = math.sqrt(wx * wx + wy * wy + wz * wz)
-        if length > 0.0:
-            wx, wy, wz = wx / length, wy / length, wz / length
+        fr = s_frame[s]
+        wx, wy, wz, br, bg, bb, ok = _throughput(
+            wi_local[s, 0], wi_local[s, 1], wi_local[s, 2], fr[0, 0], fr[0, 1], fr[0, 2], fr[1, 0], fr[1, 1],
+            fr[1, 2], fr[2, 0], fr[2, 1], fr[2, 2], s_ng[s, 0], s_ng[s, 1], s_ng[s, 2], pdf[s], f[s, 0], f[s, 1],
+            f[s, 2], s_beta[s, 0], s_beta[s, 1], s_beta[s, 2],
+        )  # fmt: skip
         next_d[s, 0], next_d[s, 1], next_d[s, 2] = wx, wy, wz
-        p = pdf[s]
-        if not (p > 0.0 and math.isfinite(p) and z > 0.0):
-            continue
-        if wx * s_ng[s, 0] + wy * s_ng[s, 1] + wz * s_ng[s, 2] <= 0.0:
-            continue
-        r, g, bl = f[s, 0], f[s, 1], f[s, 2]
-        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(bl)):
-            continue
-        sc = z / p
-        br, bg, bb = s_beta[s, 0] * r * sc, s_beta[s, 1] * g * sc, s_beta[s, 2] * bl * sc
-        if not (br > 0.0 or bg > 0.0 or bb > 0.0):
+        if not ok:
             continue
         if rr:
             q = min(0.95, max(br, max(bg, bb)))
@@ -533,32 +541,20 @@ def add_rows(radiance, path, contrib):
 
 @njit(nogil=True, cache=True)
 def bsdf_step(wi_l, pdf, f, tb, bb, ns, ng, beta):
-    """After a BRDF sample: world direction, validity, and the updated throughput ``beta * f cos / pdf``
-    (zero for samples with a non-positive or non-finite pdf, non-finite ``f``, or below either surface)."""
+    """After a BRDF sample, per row: world direction, validity, and the updated throughput (zero where the
+    path ends; :func:`_throughput`)."""
     n = wi_l.shape[0]
     wi = np.empty((n, 3))
     ok = np.zeros(n, dtype=np.bool_)
     out = np.zeros((n, 3))
     for i in range(n):
-        x, y, z = wi_l[i, 0], wi_l[i, 1], wi_l[i, 2]
-        wx = x * tb[i, 0] + y * bb[i, 0] + z * ns[i, 0]
-        wy = x * tb[i, 1] + y * bb[i, 1] + z * ns[i, 1]
-        wz = x * tb[i, 2] + y * bb[i, 2] + z * ns[i, 2]
-        length = math.sqrt(wx * wx + wy * wy + wz * wz)
-        if length > 0.0:
-            wx, wy, wz = wx / length, wy / length, wz / length
+        wx, wy, wz, br, bg, b_, good = _throughput(
+            wi_l[i, 0], wi_l[i, 1], wi_l[i, 2], tb[i, 0], tb[i, 1], tb[i, 2], bb[i, 0], bb[i, 1], bb[i, 2],
+            ns[i, 0], ns[i, 1], ns[i, 2], ng[i, 0], ng[i, 1], ng[i, 2], pdf[i], f[i, 0], f[i, 1], f[i, 2],
+            beta[i, 0], beta[i, 1], beta[i, 2],
+        )  # fmt: skip
         wi[i, 0], wi[i, 1], wi[i, 2] = wx, wy, wz
-        p = pdf[i]
-        if not (p > 0.0 and math.isfinite(p) and z > 0.0):
-            continue
-        if wx * ng[i, 0] + wy * ng[i, 1] + wz * ng[i, 2] <= 0.0:
-            continue
-        r, g, b = f[i, 0], f[i, 1], f[i, 2]
-        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
-            continue
-        s = z / p
-        out[i, 0] = beta[i, 0] * r * s
-        out[i, 1] = beta[i, 1] * g * s
-        out[i, 2] = beta[i, 2] * b * s
-        ok[i] = out[i, 0] > 0.0 or out[i, 1] > 0.0 or out[i, 2] > 0.0
+        if good:
+            out[i, 0], out[i, 1], out[i, 2] = br, bg, b_
+            ok[i] = True
     return wi, ok, out
