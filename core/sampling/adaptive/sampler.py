@@ -430,5 +430,16 @@ def _declared_options(modes: tuple[str, ...]) -> tuple[SamplerOption, ...]:
     )
 
 
-register_sampler("adaptive", _exact, _declared_options(MODES))
-register_sampler("adaptive_warp", _warp, _declared_options(("warp",)))
+def _table_bytes(brdf: BRDF, options: dict[str, Any]) -> float:
+    """An upper bound of a table's memory from its options: the trees being built at once (each node's
+    statistics over up to nine views, ~800 B) and every tree at its node capacity (~64 B a node)."""
+    defaults = TableOptions()
+    capacity = options.get("capacity", defaults.capacity)
+    trees = options.get("max_thetas", defaults.max_thetas)
+    if not brdf.model.isotropic:
+        trees *= options.get("phi_count", defaults.phi_count)
+    return (os.cpu_count() or 1) * capacity * 800.0 + trees * capacity * 64.0
+
+
+register_sampler("adaptive", _exact, _declared_options(MODES), _table_bytes)
+register_sampler("adaptive_warp", _warp, _declared_options(("warp",)), _table_bytes)
