@@ -41,10 +41,18 @@ def _handler(signum: int, frame: Any) -> None:
     STATE.seen = True
     STATE.count += 1
     STATE.signum = STATE.signum or signum
+    STATE.stop.set()  # also when the exception below is swallowed (raised inside a __del__, it only prints)
     if STATE.saving and STATE.count == 1:
-        STATE.stop.set()
         return
     raise KeyboardInterrupt
+
+
+def check() -> None:
+    """Raise ``KeyboardInterrupt`` if a signal arrived whose exception was lost: one raised while a finalizer
+    (``__del__``, a weakref callback) ran is printed and dropped by Python, so long commands call this at their
+    checkpoints (between preparation steps, before the passes)."""
+    if STATE.seen:
+        raise KeyboardInterrupt
 
 
 @contextmanager

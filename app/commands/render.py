@@ -233,6 +233,7 @@ def run(args: argparse.Namespace) -> int:
         bar = tqdm(total=1, desc=f"{strategy}: compiling", unit="step", disable=args.quiet, file=sys.stderr)
 
         def on_step(what: str, k: int, n: int, bar=bar, strategy=strategy) -> None:
+            _signals.check()
             bar.total = max(1, n)
             bar.n = k
             bar.set_description(f"{strategy}: prepare {what}")
@@ -251,6 +252,7 @@ def run(args: argparse.Namespace) -> int:
         )
         bar.close()
         try:
+            _signals.check()  # a Ctrl-C during preparation whose exception a finalizer swallowed
             if reference is not None:
                 h, w = reference.shape[:2]
                 if (job.tracer.width, job.tracer.height) != (w, h):
