@@ -1,0 +1,38 @@
+"""The render panel's error plot: RMSE and relMSE lines for both strategies, the verdict under them, and
+frames that move only the lines (a handful of full figure draws per render, not one per frame)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.views.error_plot import ErrorPlot
+
+pytestmark = pytest.mark.gui
+
+
+def test_lines_follow_the_frames_with_few_full_draws(qtbot):
+    plot = ErrorPlot()
+    qtbot.addWidget(plot)
+    plot.resize(760, 220)
+    plot.show()
+    qtbot.waitExposed(plot)
+    t = np.geomspace(0.5, 10.0, 40)
+    curves = {
+        name: [{"seconds": x, "rmse": k / np.sqrt(x), "relmse": k * k / x, "spp": i} for i, x in enumerate(t)]
+        for name, k in (("uniform", 0.2), ("adaptive", 0.05))
+    }
+    start = plot.full_draws
+    for n in range(2, len(t) + 1):
+        plot.show_curves({name: recs[:n] for name, recs in curves.items()})
+        plot.canvas.repaint()  # runs a pending full draw, if any
+    assert plot.full_draws - start <= 5  # limits grow in steps; the other frames are blitted
+    rmse = plot._lines[("adaptive", "rmse")]
+    assert np.allclose(rmse.get_ydata(), [r["rmse"] for r in curves["adaptive"]])
+    relmse = plot._lines[("uniform", "relmse")]
+    assert np.allclose(relmse.get_ydata(), [r["relmse"] for r in curves["uniform"]])
+    assert plot.verdict.startswith("adaptive reaches uniform's final RMSE in 1/")
+    assert plot.verdict in plot.status.text()
+    plot.show_curves({name: [{**r, "rmse": float("nan"), "relmse": float("nan")} for r in recs]
+                      for name, recs in curves.items()})  # fmt: skip
+    assert plot.verdict == "" and plot.axes.texts  # no reference: the placeholder says how to get one
