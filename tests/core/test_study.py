@@ -62,7 +62,7 @@ def test_results_files(rows, tmp_path):
     [
         (["bench", "samplers", "--models", "nope"], "unknown model 'nope'"),
         (["bench", "samplers", "--samplers", "magic"], "unknown sampler(s) magic"),
-        (["bench", "samplers", "--thetas", "95"], "within [0, 90]"),
+        (["bench", "samplers", "--thetas", "95"], "[0, 90]"),
     ],
 )
 def test_bad_input_is_a_clear_error(argv, message, capsys):
