@@ -1,7 +1,7 @@
 """Desktop-app responsiveness: parameter edit -> redraw time, and event-loop stalls while a render runs.
 
     .venv/bin/python bench/app_latency.py [--edits 15] [--render-seconds 8] [--models ggx,phong,...]
-        [--parts latency,stall] [--fresh] [--strategy-b adaptive_warp]
+        [--parts latency,stall] [--fresh] [--strategy-b adaptive_warp] [--reference-spp 64]
 
 1. ``latency``: for each analytic model, after a warm-up (kernel compilation excluded) and once the slow
    background jobs (albedo quadrature, adaptive-table facts) are done, ``--edits`` edits of one float
@@ -24,7 +24,8 @@
    (uniform against ``--strategy-b``, equal time), in three phases: ``start`` (from the click until both
    strategies have shown a frame: process start, preparation, compilation), ``render`` (until done) and
    ``cancel`` (a second render cancelled after its first frames, and the two seconds after). A tick's stall is
-   its delay beyond the interval; target: p99 <= 50 ms in every phase.
+   its delay beyond the interval; target: p99 <= 50 ms in every phase. First, *Make reference* renders a
+   ``--reference-spp`` reference (not timed), so that the panel plots RMSE and relMSE live as it does in use.
    ``--render-seconds 0`` skips it (as does leaving it out of ``--parts``).
 
 Prints tables; writes ``results/bench/app_latency.csv`` and ``results/bench/app_stall.csv``. Runs under Xvfb
@@ -281,6 +282,12 @@ def main() -> int:
     parser.add_argument(
         "--strategy-b", default="adaptive_warp", help="the render's second strategy (stall part)"
     )
+    parser.add_argument(
+        "--reference-spp",
+        type=int,
+        default=64,
+        help="make a reference first (0: none), so errors are plotted",
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     parser.add_argument(
         "--parts", default=",".join(PARTS), help="latency, stall and/or first (comma-separated)"
@@ -381,6 +388,13 @@ def main() -> int:
     panel.strategy_a.setCurrentText("uniform")
     panel.strategy_b.setCurrentText(args.strategy_b)
     names = panel.strategies()
+    if args.reference_spp > 0:  # the panel as it is used: errors against a reference, plotted live
+        from app import reference
+
+        reference.TARGET_SPP = reference.CHUNK_SPP = args.reference_spp
+        window.make_reference()
+        run_for(1800.0, until=lambda: not panel.reference_runner.wanted)
+        print(f"reference: {panel.reference_runner.reference.spp} spp (made in the app, before the probe)")
     timer = QTimer()
     timer.setInterval(interval_ms)
     timer.timeout.connect(tick)
