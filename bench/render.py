@@ -120,33 +120,42 @@ def seconds_per_spp(scene_path: str, size: int, sampler: str, passes: int) -> di
     return {"sampler": sampler, "seconds_per_spp": seconds / (passes * spp)}
 
 
-def baseline_seconds_per_spp(rev: str, scene_path: str, size: int, samplers: list[str], passes: int) -> dict:
-    """:func:`seconds_per_spp` of every strategy in a checkout of git revision ``rev`` (a temporary worktree,
-    its own numba cache folder, a subprocess that imports that checkout's packages)."""
+def compare_seconds_per_spp(
+    rev: str, scene_path: str, size: int, samplers: list[str], passes: int, rounds: int = 3
+) -> dict[str, tuple[float, float]]:
+    """:func:`seconds_per_spp` of every strategy here and in a checkout of git revision ``rev`` (a temporary
+    worktree with its own numba cache folder), each in its own process, alternating A B A B for ``rounds``
+    rounds so that both see the same machine; the fastest round of each: ``{sampler: (ours, rev's)}``."""
     import os
     import subprocess
     import tempfile
 
     root = Path(__file__).resolve().parent.parent
-    out: dict[str, float] = {}
+    out: dict[str, tuple[float, float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         tree = Path(tmp) / "baseline"
         subprocess.run(["git", "-C", str(root), "worktree", "add", "--detach", str(tree), rev], check=True,
                        capture_output=True)  # fmt: skip
         try:
-            env = dict(os.environ, PYTHONPATH=str(tree))
-            env["BRDF_STUDIO_NUMBA_CACHE"] = str(
-                Path.home() / ".cache" / "brdf-studio" / f"numba-baseline-{rev}"
-            )
+            cache = Path.home() / ".cache" / "brdf-studio" / f"numba-baseline-{rev}"
+            envs = {
+                "ours": (dict(os.environ, PYTHONPATH=str(root)), root),
+                "base": (dict(os.environ, PYTHONPATH=str(tree), BRDF_STUDIO_NUMBA_CACHE=str(cache)), tree),
+            }
             for s in samplers:
-                r = subprocess.run(
-                    [sys.executable, __file__, "--measure-spp", json.dumps([scene_path, size, s, passes])],
-                    env=env, cwd=str(tree), capture_output=True, text=True, check=False,
-                )  # fmt: skip
-                if r.returncode != 0:
-                    print(f"baseline {rev} {s}: failed\n{r.stderr[-2000:]}", file=sys.stderr)
-                    continue
-                out[s] = json.loads(r.stdout.strip().splitlines()[-1])["seconds_per_spp"]
+                times: dict[str, list[float]] = {"ours": [], "base": []}
+                for _ in range(rounds):
+                    for side, (env, cwd) in envs.items():
+                        arg = json.dumps([scene_path, size, s, passes])
+                        r = subprocess.run([sys.executable, __file__, "--measure-spp", arg], env=env, cwd=str(cwd),
+                                           capture_output=True, text=True, check=False)  # fmt: skip
+                        if r.returncode != 0:
+                            print(f"{side} {s}: failed\n{r.stderr[-2000:]}", file=sys.stderr)
+                            continue
+                        times[side].append(json.loads(r.stdout.strip().splitlines()[-1])["seconds_per_spp"])
+                if times["ours"] and times["base"]:
+                    out[s] = (min(times["ours"]), min(times["base"]))
+                    print(f"  {s}: {out[s][0]:.3f} s/spp against {out[s][1]:.3f} ({rev})", file=sys.stderr)
         finally:
             subprocess.run(["git", "-C", str(root), "worktree", "remove", "--force", str(tree)], check=False,
                            capture_output=True)  # fmt: skip
@@ -334,6 +343,7 @@ def main(argv: list[str] | None = None) -> int:
         metavar="GIT_REV",
         help="also time every throughput strategy in a checkout of GIT_REV, side by side (seconds per spp)",
     )
+    ap.add_argument("--rounds", type=int, default=3, help="A B rounds of --baseline (the fastest is kept)")
     ap.add_argument("--measure-spp", help=argparse.SUPPRESS)
     ap.add_argument(
         "--material-sampler",
@@ -386,25 +396,25 @@ def main(argv: list[str] | None = None) -> int:
 def report_throughput(scene, args: argparse.Namespace, out: Path) -> None:  # type: ignore[no-untyped-def]
     samplers = args.throughput_samplers.split(",")
     rows = [throughput(scene, args.size, args.passes, s) for s in samplers]
-    base = {}
-    if args.baseline:
-        path = str(Path(args.scene or demo_scene_path()).resolve())
-        base = baseline_seconds_per_spp(args.baseline, path, args.size, samplers, args.passes)
     print(f"throughput at {args.size}x{args.size} (whole passes against Embree alone on the same rays)")
-    head = f"{'strategy':<14}{'s per spp':>10}{'M rays/s':>10}{'Embree alone':>14}{'share':>8}"
-    if base:
-        head += f"{'s/spp ' + args.baseline[:8]:>18}{'speed-up':>10}"
-    print(head)
+    print(f"{'strategy':<14}{'s per spp':>10}{'M rays/s':>10}{'Embree alone':>14}{'share':>8}")
     for tp in rows:
-        line = (
+        print(
             f"{tp['sampler']:<14}{tp['seconds_per_spp']:>10.3f}{tp['path_tracer_Mrays_s']:>10.2f}"
             f"{tp['embree_alone_Mrays_s']:>14.2f}{tp['share_of_embree']:>8.2f}"
         )
-        if tp["sampler"] in base:
-            tp["baseline_seconds_per_spp"] = base[tp["sampler"]]
-            tp["speed_up"] = base[tp["sampler"]] / tp["seconds_per_spp"]
-            line += f"{tp['baseline_seconds_per_spp']:>18.3f}{tp['speed_up']:>10.2f}"
-        print(line)
+    if args.baseline:
+        path = str(Path(args.scene or demo_scene_path()).resolve())
+        pairs = compare_seconds_per_spp(args.baseline, path, args.size, samplers, args.passes, args.rounds)
+        print(
+            f"\nseconds per spp at {args.size}x{args.size}, each side in its own process, A B A B x {args.rounds}"
+        )
+        print(f"{'strategy':<14}{'here':>10}{args.baseline[:10]:>12}{'speed-up':>10}")
+        for tp in rows:
+            if tp["sampler"] in pairs:
+                here, base = pairs[tp["sampler"]]
+                tp.update(here_seconds_per_spp=here, baseline_seconds_per_spp=base, speed_up=base / here)
+                print(f"{tp['sampler']:<14}{here:>10.3f}{base:>12.3f}{base / here:>10.2f}")
     keys = list(dict.fromkeys(k for tp in rows for k in tp))
     with open(out / "render_throughput.csv", "w") as fh:
         fh.write(",".join(keys) + "\n")
