@@ -73,15 +73,17 @@ def _elevation(x, y, z):
 
 @njit(inline="always", nogil=True, cache=True)
 def _fold(p, wx, wy):
-    """Signs that mirror the conditioning direction ``(wx, wy)`` into the file's range of ``phi``."""
+    """Signs that mirror the conditioning direction ``(wx, wy)`` into the file's range of ``phi``. A zero
+    counts by its sign bit: ``+0`` flips to ``-0``, so that ``phi_o = 0`` folds to ``-pi`` (``atan2(-0, -x)``),
+    the first stored azimuth, and not to ``+pi``, outside the stored range."""
     sx = 1.0
     sy = 1.0
     if p[H_ISOTROPIC] == 0.0:
         reduction = int(p[H_REDUCTION])
         if reduction >= 2:
-            sy = -1.0 if wy > 0.0 else 1.0
+            sy = -1.0 if math.copysign(1.0, wy) > 0.0 else 1.0
             if reduction == 4:
-                sx = -1.0 if wx > 0.0 else 1.0
+                sx = -1.0 if math.copysign(1.0, wx) > 0.0 else 1.0
     return sx, sy
 
 
@@ -96,6 +98,8 @@ def _frame(p, wo, wi):
     if n == 0.0:
         return False, (0, 0, 0, 0.0, 0.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     mx, my, mz = mx / n, my / n, mz / n
+    if mz < 0.0:  # wi far below the horizon: the reflection about the upper-hemisphere normal -m (see sample)
+        mx, my, mz = -mx, -my, -mz
     theta_o = _elevation(ox, oy, oz)
     phi_o = math.atan2(oy, ox)
     theta_m = _elevation(mx, my, mz)
@@ -159,7 +163,8 @@ def eval_rgl(wi, wo, p):
 @njit(nogil=True, cache=True)
 def sample_rgl(wo, p, u1, u2, u3):
     """The luminance warp over the VNDF parameterization: ``(x, y, z, pdf_solid_angle)`` for outgoing ``wo``;
-    ``pdf = 0`` when nothing could be drawn (``wo`` below the horizon, or a half vector facing away)."""
+    ``pdf = 0`` when nothing could be drawn (``wo`` below the horizon). The density integrates to 1 over the
+    sphere (some draws land below the horizon)."""
     if wo[2] <= 0.0 or p.shape[0] < HEADER or p[H_MAGIC] != MAGIC:
         return 0.0, 0.0, 1.0, 0.0
     fx, fy = _fold(p, wo[0], wo[1])
@@ -198,9 +203,12 @@ def sample_rgl(wo, p, u1, u2, u3):
     st = math.sin(theta_m)
     mx, my, mz = math.cos(phi_m) * st, math.sin(phi_m) * st, math.cos(theta_m)
     o_dot_m = ox * mx + oy * my + oz * mz
-    if o_dot_m <= 0.0:
+    if o_dot_m == 0.0:
         return 0.0, 0.0, 1.0, 0.0
-    jac = max(2.0 * PI * PI * ux * st, JACOBIAN_FLOOR) * 4.0 * o_dot_m
+    # A half vector facing away from wo (o.m < 0: the bilinear VNDF spills over the visibility boundary) still
+    # reflects wo, to a direction below the horizon (wi.z = 2 (o.m) m.z - o.z < 0) that carries no energy; m
+    # is the upper-hemisphere one of +-(wo + wi), so the map stays one-to-one and the density exact.
+    jac = max(2.0 * PI * PI * ux * st, JACOBIAN_FLOOR) * 4.0 * abs(o_dot_m)
     pdf = vndf_pdf * lum_pdf / jac
     ix = 2.0 * o_dot_m * mx - ox
     iy = 2.0 * o_dot_m * my - oy
@@ -215,7 +223,7 @@ def pdf_rgl(wo, wi, p):
     if wo[2] <= 0.0 or p.shape[0] < HEADER or p[H_MAGIC] != MAGIC:
         return 0.0
     ok, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m = _frame(p, wo, wi)
-    if not ok or o_dot_m <= 0.0:
+    if not ok or o_dot_m == 0.0:
         return 0.0
     sx, sy, vndf_pdf = _vndf_invert(p, sl, ux_m, uy_m)
     lum = bilinear(
@@ -227,5 +235,5 @@ def pdf_rgl(wo, wi, p):
         sx,
         sy,
     )
-    jac = max(2.0 * PI * PI * ux_m * sin_m, JACOBIAN_FLOOR) * 4.0 * o_dot_m
+    jac = max(2.0 * PI * PI * ux_m * sin_m, JACOBIAN_FLOOR) * 4.0 * abs(o_dot_m)
     return max(vndf_pdf * lum / jac, 0.0)
