@@ -50,6 +50,16 @@ class ErrorPlot(FigureView):
                 ]
                 if pts:
                     points[(name, metric)] = pts
+        wanted = {(name, metric) for name in curves for metric, _ in METRICS}
+        if not points and self._lines and curves and not any(curves.values()) and set(self._lines) == wanted:
+            # a render of the same strategies has started and no frame has come yet: empty the lines, keep the
+            # axes (no full draw: the frames will most likely fit them)
+            for line in self._lines.values():
+                line.set_data([], [])  # type: ignore[attr-defined]
+            self.verdict = ""
+            self.status.setText("")
+            self.update_artists()
+            return
         if not points:
             if self._lines is not None or not self.axes.texts:
                 self._lines = None
@@ -62,7 +72,7 @@ class ErrorPlot(FigureView):
             self.verdict = ""
             self.status.setText("")
             return
-        if self._lines is None or set(self._lines) - set(points):
+        if self._lines is None or set(self._lines) - wanted:  # other strategies: new axes
             self._lines = {}
             self._limits_set = {}
             for metric, label in METRICS:

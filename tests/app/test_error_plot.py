@@ -36,3 +36,21 @@ def test_lines_follow_the_frames_with_few_full_draws(qtbot):
     plot.show_curves({name: [{**r, "rmse": float("nan"), "relmse": float("nan")} for r in recs]
                       for name, recs in curves.items()})  # fmt: skip
     assert plot.verdict == "" and plot.axes.texts  # no reference: the placeholder says how to get one
+
+
+def test_a_restart_of_the_same_strategies_costs_no_full_draw(qtbot):
+    plot = ErrorPlot()
+    qtbot.addWidget(plot)
+    plot.resize(760, 220)
+    plot.show()
+    qtbot.waitExposed(plot)
+    recs = [{"seconds": x, "rmse": 0.1 / x, "relmse": 0.01 / x, "spp": 1} for x in (0.5, 1.0, 2.0)]
+    plot.show_curves({"uniform": recs, "adaptive": recs})
+    plot.canvas.repaint()
+    draws = plot.full_draws
+    plot.show_curves({"uniform": [], "adaptive": []})  # Render again: no frame yet
+    plot.canvas.repaint()
+    assert plot.full_draws == draws and all(len(line.get_xdata()) == 0 for line in plot._lines.values())
+    plot.show_curves({"uniform": recs[:1], "adaptive": []})  # the first frame of one strategy
+    plot.canvas.repaint()
+    assert plot.full_draws == draws and len(plot._lines[("uniform", "rmse")].get_xdata()) == 1
