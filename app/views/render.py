@@ -37,6 +37,7 @@ from core.sampling import sampler_names
 from core.scene import Scene
 
 PLOT_INTERVAL_MS = 500
+FRAME_INTERVAL_MS = 100
 
 
 class RenderPanel(QWidget):
@@ -61,6 +62,13 @@ class RenderPanel(QWidget):
         self.reference_key: str | None = None
         """The scene key of a reference made in the app (``None``: none, or one loaded from a file)."""
         self.job: int | None = None  # the id of the render in progress
+        self._frames_due: dict[str, dict] = {}
+        """The newest frame of each strategy not drawn yet (frames of small images come faster than worth
+        drawing: the images are drawn at most every ``FRAME_INTERVAL_MS``)."""
+        self._frame_timer = QTimer(self)
+        self._frame_timer.setSingleShot(True)
+        self._frame_timer.setInterval(FRAME_INTERVAL_MS)
+        self._frame_timer.timeout.connect(self._show_due_frames)
         self._plot_timer = QTimer(self)
         self._plot_timer.setSingleShot(True)
         self._plot_timer.setInterval(PLOT_INTERVAL_MS)
@@ -205,6 +213,7 @@ class RenderPanel(QWidget):
             self.error.emit(str(exc))
             return
         self.frames.clear()
+        self._frames_due.clear()
         self.curves = {name: [] for name in job["strategies"]}
         self._plot_errors()
         self.start_button.setText("Restart")
@@ -267,8 +276,11 @@ class RenderPanel(QWidget):
                     self._failed(event["text"])
                 else:
                     self._finished()
-        for event in latest.values():
-            self._show_frame(event)
+        self._frames_due.update(latest)
+        if ended:
+            self._show_due_frames()  # the last image of each strategy, at once
+        elif latest and not self._frame_timer.isActive():
+            self._frame_timer.start()
         if latest or ended:
             self._plot_soon(immediately=ended)
 
@@ -282,6 +294,13 @@ class RenderPanel(QWidget):
         self.reference_runner.resume()
         self.cancel_button.setEnabled(False)
         self.start_button.setText("Render")
+
+    def _show_due_frames(self) -> None:
+        self._frame_timer.stop()
+        due, self._frames_due = self._frames_due, {}
+        for event in due.values():
+            if event["strategy"] in self.curves:  # of the render in progress (not one started since)
+                self._show_frame(event)
 
     def _plot_soon(self, immediately: bool = False) -> None:
         """Redraw the error plot at most every ``PLOT_INTERVAL_MS`` while rendering (a plot costs tens of ms)."""
