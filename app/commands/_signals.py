@@ -2,9 +2,11 @@
 
 By default Ctrl-C raises ``KeyboardInterrupt`` at once (nothing is lost: every output is written atomically)
 and is *recorded*, so that an error it causes on its way out (an import cut in half, a thread join refused) is
-reported as the interrupt (exit 130), never as an internal error. While a render's passes run,
-:func:`cooperative` turns the first Ctrl-C (or SIGTERM) into a request: the pass in flight finishes, what was
-rendered is saved, and the command exits with 130 (143 for SIGTERM); a second Ctrl-C stops at once.
+reported as the interrupt (exit 130), never as an internal error. While a render is prepared, :func:`deferred`
+holds the first signal until a safe point (the next preparation step; numba's cache is loaded through ctypes
+callbacks, where an exception would only be printed). While its passes run, :func:`cooperative` turns the
+first Ctrl-C (or SIGTERM) into a request: the pass in flight finishes, what was rendered is saved, and the
+command exits with 130 (143 for SIGTERM). A second Ctrl-C stops at once in either.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ class Interrupts:
     """Set by the first signal while a :func:`cooperative` block runs: finish the pass, then stop."""
     saving: bool = False
     """True inside a :func:`cooperative` block."""
+    deferring: bool = False
+    """True inside a :func:`deferred` block."""
 
     @property
     def exit_code(self) -> int:
@@ -42,7 +46,7 @@ def _handler(signum: int, frame: Any) -> None:
     STATE.count += 1
     STATE.signum = STATE.signum or signum
     STATE.stop.set()  # also when the exception below is swallowed (raised inside a __del__, it only prints)
-    if STATE.saving and STATE.count == 1:
+    if (STATE.saving or STATE.deferring) and STATE.count == 1:
         return
     raise KeyboardInterrupt
 
@@ -69,6 +73,19 @@ def recorded() -> Iterator[Interrupts]:
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+@contextmanager
+def deferred() -> Iterator[None]:
+    """Within this block the first signal is only recorded; :func:`check` raises it at the block's safe
+    points. For work that runs native code calling back into Python (numba loading its cache through llvmlite's
+    ctypes callbacks): an exception raised there is printed as "Exception ignored" and dropped."""
+    STATE.deferring = True
+    try:
+        yield
+    finally:
+        STATE.deferring = False
+    check()
 
 
 @contextmanager

@@ -239,17 +239,18 @@ def run(args: argparse.Namespace) -> int:
             bar.set_description(f"{strategy}: prepare {what}")
             bar.refresh()
 
-        job = prepare(
-            scene,
-            sampler=strategy,
-            sampler_options=options[strategy],
-            width=args.width,
-            height=args.height,
-            seed=args.seed,
-            max_depth=args.max_depth,
-            on_step=on_step,
-            ris_candidates=args.ris,
-        )
+        with _signals.deferred():  # a Ctrl-C here stops at the next step (and after the last)
+            job = prepare(
+                scene,
+                sampler=strategy,
+                sampler_options=options[strategy],
+                width=args.width,
+                height=args.height,
+                seed=args.seed,
+                max_depth=args.max_depth,
+                on_step=on_step,
+                ris_candidates=args.ris,
+            )
         bar.close()
         try:
             _signals.check()  # a Ctrl-C during preparation whose exception a finalizer swallowed
