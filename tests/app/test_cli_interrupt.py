@@ -106,7 +106,7 @@ def test_signal_before_the_first_pass_leaves_the_previous_output(scene_file, tmp
         env=env,
     )
     try:
-        time.sleep(1.0)  # within the imports and preparation (they take several seconds)
+        time.sleep(2.5)  # within the imports and preparation (they take several seconds)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=120)
     finally:
