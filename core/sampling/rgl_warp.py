@@ -9,7 +9,7 @@ any other BRDF it first builds them as the RGL acquisition would, with ``f`` in 
 continuous marginal warps of bilinear interpolants and the reflection's Jacobian), whatever the tables'
 resolution; only how closely it follows ``f cos`` depends on it. ``f`` comes from the BRDF itself, not from
 the tables. A draw whose half vector faces away from ``wo`` (the VNDF interpolant's spill over the visibility
-boundary, ~1e-4 of the draws below 80 degrees) returns ``pdf = 0``.
+boundary) reflects ``wo`` below the horizon, with its density: the density integrates to 1 over the sphere.
 
 Options ``n_theta`` (conditioning polar angles), ``vndf`` and ``samples`` (grid sides) set the tables of an
 analytic BRDF; a ``.bsdf`` material ignores them.

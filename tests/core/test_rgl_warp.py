@@ -1,6 +1,6 @@
 """The ``rgl_warp`` sampler (Dupuy & Jakob 2018's luminance warp) on analytic BRDFs, isotropic and
-anisotropic: draws carry their pdf, the lost share matches the missing mass, chi-square passes (Sidak-corrected
-1 % over the cases), and its weights are nearly constant for a glossy lobe (what the warp is for)."""
+anisotropic: draws carry their pdf, none is lost (the density integrates to 1 over the sphere), chi-square
+passes (Sidak-corrected 1 % over the cases), and its weights are nearly constant for a glossy lobe (what the warp is for)."""
 
 from __future__ import annotations
 
