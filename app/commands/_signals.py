@@ -32,6 +32,8 @@ class Interrupts:
     """True inside a :func:`cooperative` block."""
     deferring: bool = False
     """True inside a :func:`deferred` block."""
+    installed: bool = False
+    """True while :func:`recorded` has its handler installed."""
 
     @property
     def exit_code(self) -> int:
@@ -55,8 +57,17 @@ def check() -> None:
     """Raise ``KeyboardInterrupt`` if a signal arrived whose exception was lost: one raised while a finalizer
     (``__del__``, a weakref callback) ran is printed and dropped by Python, so long commands call this at their
     checkpoints (between preparation steps, before the passes)."""
+    reinstall()
     if STATE.seen:
         raise KeyboardInterrupt
+
+
+def reinstall() -> None:
+    """Put the handler back: a native library may have put its own in Python's place (LLVM, which numba
+    loads, installs one for SIGINT that ends the process). Called at every checkpoint and after every pass."""
+    if STATE.installed and threading.current_thread() is threading.main_thread():
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, _handler)
 
 
 @contextmanager
@@ -68,9 +79,11 @@ def recorded() -> Iterator[Interrupts]:
         yield STATE
         return
     previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    STATE.installed = True
     try:
         yield STATE
     finally:
+        STATE.installed = False
         for s, h in previous.items():
             signal.signal(s, h)
 

@@ -318,6 +318,7 @@ def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -
     try:
         with _signals.cooperative() as stop:
             for frame in job.passes(spp=spp, time_s=time_s, cancel=stop):
+                _signals.reinstall()
                 bar.n = (
                     frame.spp if spp is not None or forever else min(time_s or 0.0, round(frame.elapsed, 2))
                 )
