@@ -168,3 +168,19 @@ def output_stem(path: str | Path, extensions: Sequence[str]) -> Path:
 def with_extension(stem: Path, ext: str) -> Path:
     """``stem`` + ``ext`` without :meth:`Path.with_suffix` (which would replace ``.1`` in ``out_t1.1``)."""
     return stem.with_name(stem.name + ext)
+
+
+def check_output(path: str | Path) -> Path:
+    """An output path that can be written: not a folder, in a folder that exists (checked before any work,
+    so a long computation does not end on an unwritable name); :class:`~core.errors.OutputError` otherwise."""
+    from core.errors import OutputError
+
+    p = Path(path)
+    if not str(path).strip():
+        raise OutputError("the output needs a file name")
+    if p.is_dir():
+        raise OutputError(f"cannot write '{p}': it is a folder")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise OutputError(f"cannot write '{p}': folder '{folder}' does not exist")
+    return p

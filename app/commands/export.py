@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from app.commands._args import check_output
 from app.commands.eval import add_brdf_arguments, brdf_from_args
 from core.measured import SUFFIXES, format_of, load_measured, write_measured
 
@@ -24,6 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     fmt = format_of(args.out)  # a clear error for an unknown suffix before any work
+    check_output(args.out)
     brdf = brdf_from_args(args)
     write_measured(args.out, brdf)
     back = load_measured(args.out)

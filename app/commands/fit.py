@@ -8,21 +8,14 @@ import argparse
 import json
 from pathlib import Path
 
+from app.commands._args import check_output, seed, whole
 from core.errors import ParameterError
 from core.fit import METRICS, fit
 from core.io import atomic_write_text
 from core.measured import load_measured
 from core.model import get_model, parse_assignments
 
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
-    if value < 1 or value > 100:
-        raise argparse.ArgumentTypeError(f"must be a whole number in [1, 100], got {text!r}")
-    return value
+_positive_int = whole(1, 100)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
@@ -44,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p.add_argument(
         "--starts", type=_positive_int, default=3, help="starting points (default 3: defaults + 2 random)"
     )
-    p.add_argument("--seed", type=_positive_int, default=1, help="seed of the random starting points")
+    p.add_argument("--seed", type=seed, default=1, help="seed of the random starting points")
     p.add_argument("--out", type=Path, metavar="FILE.json", help="write the fitted material here")
     p.add_argument("--name", default=None, help="name of the fitted material (default: MODEL fit of FILE)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -63,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
         raise ParameterError(
             f"'{args.model}' is a measured model; fit an analytic one (see 'brdf-studio models')"
         )
+    if args.out is not None:
+        check_output(args.out)
     fixed = parse_assignments(args.fix)
     for k in fixed:
         model.param(k)  # a clear error for an unknown name

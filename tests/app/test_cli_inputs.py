@@ -149,11 +149,40 @@ def corpus_models(tmp_path: Path) -> list[list[str]]:
     return [["models", "--bogus"], ["models", "extra"]]
 
 
+def corpus_fit(tmp_path: Path) -> list[list[str]]:
+    from resources.materials import demo_materials
+
+    merl = next(m["measured"] for m in demo_materials() if "measured" in m)
+    base = ["fit", "--measured", str(merl), "--model", "phong"]
+    cases = substitute(base, "--starts", [*BAD_NUMBERS, "0", "101"])
+    cases += substitute(base, "--seed", [*BAD_NUMBERS, "-1"]) + substitute(base, "--fix", BAD_PARAMS)
+    cases += substitute(base, "--model", [*BAD_NAMES, "merl"]) + substitute(base, "--metric", ["x", ""])
+    cases += substitute(base, "--measured", [str(tmp_path), str(tmp_path / "none.binary"), "x.txt"])
+    folder = tmp_path / "fit_folder.json"
+    folder.mkdir(exist_ok=True)
+    return cases + substitute(
+        base, "--out", [str(tmp_path), str(folder), str(tmp_path / "no" / "x.json"), ""]
+    )
+
+
+def corpus_export(tmp_path: Path) -> list[list[str]]:
+    base = ["export", "--model", "lambert", "-o", str(tmp_path / "x.binary")]
+    folder = tmp_path / "export_folder.binary"
+    folder.mkdir(exist_ok=True)
+    cases = substitute(
+        base, "-o", [str(tmp_path), str(folder), str(tmp_path / "no" / "x.binary"), "x.txt", ""]
+    )
+    cases += substitute(base, "--param", BAD_PARAMS) + substitute(base, "--model", BAD_NAMES)
+    return cases + [["export", "-o", str(tmp_path / "y.binary")], ["export", "--model", "lambert"]]
+
+
 def corpus_open(tmp_path: Path) -> list[list[str]]:
     return [["open", "--quit-after", "x"], ["open", "a.json", "b.json"], ["open", "--bogus"]]
 
 
-@pytest.mark.parametrize("command", ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open"])
+@pytest.mark.parametrize(
+    "command", ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open", "fit", "export"]
+)
 def test_bad_arguments_of_each_command(capsys, tmp_path, command):
     sweep(capsys, command, CORPORA[command](tmp_path))
 
@@ -235,8 +264,18 @@ CORPORA = {
     "demo": corpus_demo,
     "models": corpus_models,
     "open": corpus_open,
+    "fit": corpus_fit,
+    "export": corpus_export,
 }
 """Each command's corpus of bad arguments (``render``'s, which needs a scene, is :func:`corpus_render`)."""
+
+
+def test_every_command_has_a_corpus():
+    """A new command must come with its bad inputs (render's corpus is corpus_render)."""
+    from app.cli import build_parser
+
+    _, handlers = build_parser()
+    assert set(handlers) - {"render"} == set(CORPORA)
 
 
 def write_scene_dir(folder: Path) -> Path:
