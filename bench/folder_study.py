@@ -9,8 +9,12 @@ with the ``--quick`` study settings (one view angle, 30 degrees: one task per fi
 tables for anisotropic measured files take ~80 s each and would make the run ~30 min per worker count; what
 is measured is the cluster's scaling, not a sampler. Each run starts from an empty table cache
 (``BRDF_STUDIO_CACHE`` set to a fresh folder, inherited by the workers), so no run reuses another's tables.
-Wall time includes starting the cluster. Target: 2 workers in <= 0.6 x the time of 1. Prints a table, writes
-``folder_study.csv`` and ``folder_study.png``.
+Wall time includes starting the cluster. Before the timed runs, one untimed run on the first ``--warmup`` files
+compiles whatever numba has not cached yet (the first run after an edit of the RGL kernels paid such compiles in
+its 1-worker run and made 2 workers look 3.6x faster); then ``--runs`` rounds time every worker count, the order
+reversed every other round, and the table gives each count's median (lower median for an even count) with every
+run. Target: 2 workers in <= 0.6 x the time of 1. Prints a table, writes ``folder_study.csv`` and
+``folder_study.png``.
 """
 
 from __future__ import annotations
@@ -31,11 +35,38 @@ SAMPLERS = ("uniform", "cosine", "analytic", "adaptive_warp", "factored")
 TARGET = 0.6
 
 
+def _timed_run(materials: Path, config: StudyConfig, files: list[Path], workers: int) -> dict:
+    with tempfile.TemporaryDirectory() as cache:
+        saved = os.environ.get("BRDF_STUDIO_CACHE")
+        os.environ["BRDF_STUDIO_CACHE"] = cache
+        try:
+            load = os.getloadavg()[0]
+            t0 = time.perf_counter()
+            study = run_folder_study(materials, config, workers=workers, files=files)
+            seconds = time.perf_counter() - t0
+        finally:
+            if saved is None:
+                os.environ.pop("BRDF_STUDIO_CACHE", None)
+            else:
+                os.environ["BRDF_STUDIO_CACHE"] = saved
+    return {
+        "workers": workers,
+        "tasks": study.tasks,
+        "failed": len(study.failures),
+        "seconds": round(seconds, 1),
+        "compute_seconds": round(study.compute_seconds, 1),
+        "load_before": round(load, 2),
+        "load_after": round(os.getloadavg()[0], 2),
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--materials", type=Path, required=True, help="folder (bench/make_materials.py)")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--samplers", nargs="+", default=list(SAMPLERS))
+    parser.add_argument("--runs", type=int, default=2, help="timed rounds (order reversed every other one)")
+    parser.add_argument("--warmup", type=int, default=3, help="files of the untimed warm-up run (0: none)")
     parser.add_argument("--out", type=Path, default=Path("results/bench"))
     args = parser.parse_args(argv)
     files = material_files(args.materials)
@@ -47,43 +78,36 @@ def main(argv: list[str] | None = None) -> int:
         samplers=tuple(args.samplers),
     )
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.warmup > 0:
+        run_folder_study(args.materials, config, workers=max(args.workers), files=files[: args.warmup])
+    timed: list[dict] = []
+    for round_ in range(args.runs):
+        order = args.workers if round_ % 2 == 0 else list(reversed(args.workers))
+        for workers in order:
+            r = _timed_run(args.materials, config, files, workers)
+            timed.append(r)
+            print(
+                f"round {round_ + 1}: {workers} worker(s) {r['seconds']:.1f} s, {r['compute_seconds']:.1f} s after "
+                f"the cluster's start (load {r['load_before']})",
+                flush=True,
+            )
     rows = []
     for workers in args.workers:
-        with tempfile.TemporaryDirectory() as cache:
-            saved = os.environ.get("BRDF_STUDIO_CACHE")
-            os.environ["BRDF_STUDIO_CACHE"] = cache
-            try:
-                load = os.getloadavg()[0]
-                t0 = time.perf_counter()
-                study = run_folder_study(args.materials, config, workers=workers, files=files)
-                seconds = time.perf_counter() - t0
-            finally:
-                if saved is None:
-                    os.environ.pop("BRDF_STUDIO_CACHE", None)
-                else:
-                    os.environ["BRDF_STUDIO_CACHE"] = saved
-        rows.append(
-            {
-                "workers": workers,
-                "tasks": study.tasks,
-                "failed": len(study.failures),
-                "seconds": round(seconds, 1),
-                "load_before": round(load, 2),
-                "load_after": round(os.getloadavg()[0], 2),
-            }
-        )
-        print(
-            f"{workers} worker(s): {seconds:.1f} s for {study.tasks} tasks ({len(study.failures)} failed)",
-            flush=True,
-        )
+        mine = sorted((r for r in timed if r["workers"] == workers), key=lambda r: r["seconds"])
+        rows.append({**mine[(len(mine) - 1) // 2], "runs": " / ".join(f"{r['seconds']:.1f}" for r in mine)})
+    compute_base = rows[0]["compute_seconds"]
     base = rows[0]["seconds"]
-    print("\n| workers | tasks | failed | wall s | × the first | load avg before / after |")
-    print("|---|---|---|---|---|---|")
+    print(
+        "\n| workers | tasks | failed | median wall s | runs (s) | × the first | after the cluster's start: s, × | "
+        "load avg before / after |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         r["ratio"] = round(r["seconds"] / base, 3)
+        r["compute_ratio"] = round(r["compute_seconds"] / compute_base, 3)
         print(
-            f"| {r['workers']} | {r['tasks']} | {r['failed']} | {r['seconds']:.1f} | {r['ratio']:.2f} | "
-            f"{r['load_before']} / {r['load_after']} |"
+            f"| {r['workers']} | {r['tasks']} | {r['failed']} | {r['seconds']:.1f} | {r['runs']} | {r['ratio']:.2f} | "
+            f"{r['compute_seconds']:.1f}, {r['compute_ratio']:.2f} | {r['load_before']} / {r['load_after']} |"
         )
     with open(args.out / "folder_study.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -98,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     ax.bar([str(r["workers"]) for r in rows], [r["seconds"] for r in rows])
     ax.axhline(TARGET * base, color="C3", ls="--", label=f"target {TARGET} x the first")
     ax.set_xlabel("Dask workers")
-    ax.set_ylabel("wall time (s)")
+    ax.set_ylabel("median wall time (s)")
     ax.set_title(f"Folder study, {len(files)} materials")
     ax.legend()
     fig.tight_layout()

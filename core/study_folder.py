@@ -58,7 +58,10 @@ class FolderStudy:
     failures: list[TaskFailure]
     tasks: int
     seconds: float
+    """Wall time, starting the cluster included."""
     workers: int
+    compute_seconds: float = 0.0
+    """Wall time from the cluster's being ready to the last result."""
 
 
 def material_files(folder: str | os.PathLike[str]) -> list[Path]:
@@ -131,6 +134,7 @@ def run_folder_study(
             client = Client(cluster)
         with client:
             n_workers = len(client.scheduler_info().get("workers", {})) or workers
+            t_ready = time.perf_counter()
             futures = {}
             for task in tasks:
                 # pure=False: a task is a measurement (it times itself), never deduplicated or cached.
@@ -148,9 +152,10 @@ def run_folder_study(
                     rows += [Row(**r) for r in fut.result()]
                 if progress is not None:
                     progress(done, len(tasks), task, error)
+            compute = time.perf_counter() - t_ready
     finally:
         if cluster is not None:
             cluster.close()
     order = {(t.label, t.theta): i for i, t in enumerate(tasks)}
     rows.sort(key=lambda r: order.get((r.material, r.theta_o), 0))
-    return FolderStudy(rows, failures, len(tasks), time.perf_counter() - t0, n_workers)
+    return FolderStudy(rows, failures, len(tasks), time.perf_counter() - t0, n_workers, compute)
