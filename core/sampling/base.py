@@ -153,6 +153,7 @@ class Sampler:
         (n, 3)), completed with the BRDF's value there (one compiled loop over the model's dispatch id)."""
         wo = np.broadcast_to(np.asarray(wo, dtype=np.float64), wi.shape)
         f = eval_batch(self.brdf.model.id, wi, wo, self.brdf.params)
+        f[~(pdf > 0.0)] = 0.0  # no draw was made there (a placeholder direction): it carries nothing
         return SampleBatch(wi, pdf, f)
 
 

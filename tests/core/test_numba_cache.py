@@ -85,3 +85,10 @@ def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monke
     assert {"ggx.py", "_fresnel.py", "dispatch.py", "tree.py", "draw.py"} <= names
     assert "phong.py" not in names and "integrator.py" not in names
     assert "phong.py" in {p.name for p in table.source_files(phong)}
+    # a model that is a package of its own: every file of the package (RGL's lookup reads its marginals)
+    from types import SimpleNamespace
+
+    from core.rgl.material import RGL
+
+    rgl = {p.name for p in table.source_files(SimpleNamespace(model=RGL))}  # type: ignore[arg-type]
+    assert {"lookup.py", "marginal.py", "tensor_file.py"} <= rgl and "ggx.py" not in rgl

@@ -56,19 +56,19 @@ def test_interface_contract(model, params, name):
 
 @pytest.mark.parametrize(("model", "params", "name"), _cases(F_BRDFS))
 def test_a_draw_returns_the_brdf_value_and_the_pdf_at_its_directions(model, params, name):
-    """``f`` is the BRDF's value at the drawn directions (0 below the horizon), exactly as ``brdf.eval`` gives
-    it, and ``pdf`` is ``sampler.pdf`` there; for one ``wo`` and for one ``wo`` per row. (The pdf to 1e-9: the
+    """``f`` is the BRDF's value at the drawn directions (0 below the horizon, and 0 where no draw was made:
+    ``pdf = 0``), exactly as ``brdf.eval`` gives it, and ``pdf`` is ``sampler.pdf`` there; for one ``wo`` and for one ``wo`` per row. (The pdf to 1e-9: the
     factored sampler's half-vector density is recomputed from ``wi + wo`` by ``pdf``, which rounds
     differently inside a sharp lobe.)"""
     brdf = make_brdf(model, params)
     sampler = make_sampler(name, brdf)
     wo = degrees_to_dir(50.0, 110.0)
     drawn = sampler.sample(wo, 3000, seed=8)
-    np.testing.assert_array_equal(drawn.f, brdf.eval(wo, drawn.wi))
+    np.testing.assert_array_equal(drawn.f, np.where(drawn.pdf[:, None] > 0, brdf.eval(wo, drawn.wi), 0.0))
     np.testing.assert_allclose(sampler.pdf(wo, drawn.wi), drawn.pdf, rtol=1e-9, atol=0)
     many = np.stack([degrees_to_dir(t, p) for t, p in [(0, 0), (30, 70), (70, 190), (89, 320)]] * 250)
     each = sampler.sample_each(many, seed=2)
-    np.testing.assert_array_equal(each.f, brdf.eval(many, each.wi))
+    np.testing.assert_array_equal(each.f, np.where(each.pdf[:, None] > 0, brdf.eval(many, each.wi), 0.0))
     np.testing.assert_allclose(sampler.pdf(many, each.wi), each.pdf, rtol=1e-9, atol=0)
     assert np.all(each.f[each.wi[:, 2] <= 0.0] == 0.0)
     assert np.any(each.f > 0.0)

@@ -594,7 +594,8 @@ _SOURCES_HASH: dict[str, str] = {}
 
 
 def source_files(brdf: BRDF) -> list[Path]:
-    """The sources that can change a material's table: the model's own file, the shared model helpers
+    """The sources that can change a material's table: the model's own file (and, for a model that is a
+    package of its own such as ``core/rgl``, the package's other files), the shared model helpers
     (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package. An
     edit anywhere else (the app, the renderer, another model) keeps the stored tables."""
     func = getattr(brdf.model.eval, "py_func", brdf.model.eval)
@@ -603,6 +604,9 @@ def source_files(brdf: BRDF) -> list[Path]:
     files = sorted(Path(__file__).resolve().parent.glob("*.py"))
     files += sorted((core / "models").glob("_*.py"))
     files += [core / "models" / "lobes.py", core / "geometry.py", core / "dispatch.py", core / "rng.py"]
+    if own.parent != core / "models" and own.parent != core:
+        # a model that is a package of its own (core/rgl): every file of it can change its values
+        files += [f for f in sorted(own.parent.glob("*.py")) if f != own]
     if own not in files:
         files.append(own)
     return files
