@@ -274,9 +274,11 @@ def run(args: argparse.Namespace) -> int:
                 info["errors"] = records[-1] if records else None
                 curves[strategy] = records
             path = stem if len(strategies) == 1 else stem.with_name(f"{stem.name}_{strategy}")
-            write_exr(with_extension(path, ".exr"), image, {"spp": job.film.spp, "sampler": strategy})
-            write_png(with_extension(path, ".png"), image, args.exposure)
-            write_json(with_extension(path, ".json"), info)
+            with _signals.cooperative():  # a Ctrl-C now is recorded: the three files are written together
+                write_exr(with_extension(path, ".exr"), image, {"spp": job.film.spp, "sampler": strategy})
+                write_png(with_extension(path, ".png"), image, args.exposure)
+                write_json(with_extension(path, ".json"), info)
+            interrupted = interrupted or _signals.STATE.seen
             images.append(image)
             summary.append((strategy, job, records[-1] if records else None, with_extension(path, ".exr")))
         finally:
