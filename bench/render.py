@@ -12,7 +12,9 @@
    Mitsuba itself, side by side in one run: RMSE against a high-spp Mitsuba reference (``llvm_ad_rgb``, cached)
    as a function of time, for us and for Mitsuba's ``llvm_ad_rgb`` (probed in a subprocess: it needs Debian's
    libllvm19) and ``scalar_rgb`` variants, the time each takes to reach a few RMSE levels (log-log interpolated
-   between measurements), and our time over Mitsuba's.
+   between measurements), and our time over Mitsuba's. The scene's own sample generator is Mitsuba's
+   ``independent``; since ours places pixel and light samples by Owen-scrambled Sobol points, Mitsuba llvm also
+   runs with its low-discrepancy ``ldsampler`` (``--mitsuba-samplers``), for a comparison of like with like.
 
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
 ``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` under ``--out`` (default ``results/bench``).
@@ -259,9 +261,10 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
     variants = (["llvm_ad_rgb"] if llvm else []) + ([] if args.skip_scalar else ["scalar_rgb"])
     if not llvm:
         print("Mitsuba llvm_ad_rgb: unavailable here (needs Debian's libllvm19)")
-    for variant in variants:
+    runs = [(v, None) for v in variants] + [("llvm_ad_rgb", smp) for smp in args.mitsuba_samplers if llvm]
+    for variant, smp in runs:
         recs = []
-        mscene = mi.load_dict(cornell_dict(size, bounces, variant))
+        mscene = mi.load_dict(cornell_dict(size, bounces, variant, smp))
         mi.render(mscene, spp=1, seed=0)  # warm-up (llvm: kernel compilation)
         spp = 1
         while True:
@@ -277,13 +280,13 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
             if el > args.time or spp >= 8192:
                 break
             spp *= 2
-        curves[f"mitsuba {variant}"] = recs
+        curves[f"mitsuba {variant}" + (f" {smp}" if smp else "")] = recs
     levels = (0.05, 0.03, 0.02, 0.015, 0.01)
     print(
         f"\nCornell box {size}x{size}, {bounces + 1} segments: seconds to reach an RMSE against the reference"
     )
     print(
-        f"{'renderer':<24}"
+        f"{'renderer':<32}"
         + "".join(f"{'RMSE ' + format(lv, 'g'):>12}" for lv in levels)
         + f"{'best RMSE':>12}"
     )
@@ -291,9 +294,9 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
         cells = "".join(
             f"{(format(t, '.2f') if (t := _time_to(recs, lv)) is not None else '-'):>12}" for lv in levels
         )
-        print(f"{name:<24}{cells}{min(r['rmse'] for r in recs):>12.4g}")
+        print(f"{name:<32}{cells}{min(r['rmse'] for r in recs):>12.4g}")
     rows = []
-    for variant in variants:
+    for variant in [n.removeprefix("mitsuba ") for n in curves if n.startswith("mitsuba ")]:
         other = curves[f"mitsuba {variant}"]
         ratios = []
         for lv in levels:
@@ -303,7 +306,7 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
             {"against": variant, **{f"ratio_{lv:g}": r for lv, r in zip(levels, ratios, strict=True)}}
         )
         print(
-            f"{'ours / ' + variant:<24}" + "".join(f"{(format(r, '.2f') if r else '-'):>12}" for r in ratios)
+            f"{'ours / ' + variant:<32}" + "".join(f"{(format(r, '.2f') if r else '-'):>12}" for r in ratios)
         )
     write_error_curves(out / "cornell_error", curves, title=f"Cornell box {size}x{size}")
     with open(out / "cornell_ratio.csv", "w") as fh:
@@ -358,6 +361,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cornell-bounces", type=int, default=7, help="bounces (default 7: paths of 8 segments)")
     ap.add_argument("--cornell-ref-spp", type=int, default=8192)
     ap.add_argument("--skip-scalar", action="store_true", help="Cornell box: leave out Mitsuba's scalar_rgb")
+    ap.add_argument(
+        "--mitsuba-samplers",
+        type=lambda v: [x for x in v.split(",") if x],
+        default=["ldsampler"],
+        help="Cornell box: also Mitsuba llvm with these sample generators (default ldsampler; '' for none)",
+    )
     ap.add_argument(
         "--throughput-samplers", default="cosine", help="comma-separated strategies for the throughput table"
     )

@@ -15,13 +15,18 @@ from typing import Any
 import numpy as np
 
 
-def cornell_dict(size: int, bounces: int, variant: str = "scalar_rgb") -> dict[str, Any]:
-    """Mitsuba's Cornell box at ``size x size`` with a box pixel filter and ``bounces`` bounces."""
+def cornell_dict(
+    size: int, bounces: int, variant: str = "scalar_rgb", sampler: str | None = None
+) -> dict[str, Any]:
+    """Mitsuba's Cornell box at ``size x size`` with a box pixel filter and ``bounces`` bounces; ``sampler``
+    replaces its sample generator (``independent`` by default; e.g. ``ldsampler``, ``multijitter``)."""
     import mitsuba as mi
 
     mi.set_variant(variant)
     d = mi.cornell_box()
     d["sensor"]["film"].update(width=size, height=size, rfilter={"type": "box"})
+    if sampler is not None:
+        d["sensor"]["sampler"]["type"] = sampler
     d["integrator"] = {"type": "path", "max_depth": bounces + 1}
     return d
 
