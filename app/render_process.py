@@ -123,6 +123,17 @@ class RenderServer(QObject):
         self._wake_pending = False
         self._wake.connect(self._drain, Qt.ConnectionType.QueuedConnection)
         self.restarts = 0
+        # the reader threads outlive this object: once Qt destroys it, they must not emit on it (a signal of a
+        # destroyed QObject crashed the process, not always raising RuntimeError); the flag lives outside the
+        # object and is set under the lock the readers emit under
+        alive = self._alive = {"yes": True}
+        lock = self._lock
+
+        def gone(*_: object) -> None:
+            with lock:
+                alive["yes"] = False
+
+        self.destroyed.connect(gone)
 
     # ---- process ----------------------------------------------------------------------------------------
     @property
@@ -156,13 +167,13 @@ class RenderServer(QObject):
     def _post(self, handle: _Handle, message: dict[str, Any]) -> None:  # runs in the reader thread
         with self._lock:
             self._inbox.append((handle, message))
-            wake = not self._wake_pending
+            wake = not self._wake_pending and self._alive["yes"]
             self._wake_pending = True
-        if wake:
-            try:
-                self._wake.emit()
-            except RuntimeError:  # the server object is gone (its window closed): nobody listens
-                pass
+            if wake:  # under the lock: the object cannot be destroyed between the check and the emit
+                try:
+                    self._wake.emit()
+                except RuntimeError:  # the server object is gone (its window closed): nobody listens
+                    pass
 
     def _drain(self) -> None:  # GUI thread
         with self._lock:

@@ -261,3 +261,28 @@ def test_render_process_never_outlives_a_killed_app(tmp_path):
         assert not _alive(pid)
     finally:
         app.kill()
+
+
+def test_a_destroyed_server_is_never_signalled_by_its_reader_threads(qtbot):
+    """The render process's reader threads outlive the server object (they end when the pipe closes). Once Qt
+    has destroyed the server, a late message must not emit its signal (that crashed a test worker: a signal
+    of a destroyed QObject); it is dropped, and posting it neither raises nor crashes."""
+    import threading
+
+    import shiboken6
+
+    from app.render_process import RenderServer
+
+    server = RenderServer()
+    assert server._alive["yes"]
+    shiboken6.delete(server)
+    assert not server._alive["yes"]
+    done = threading.Event()
+
+    def late() -> None:
+        server._post(None, {"kind": "progress"})  # type: ignore[arg-type]
+        done.set()
+
+    threading.Thread(target=late).start()
+    assert done.wait(5.0)
+    assert list(server._inbox)  # kept (nobody drains it), never signalled
