@@ -56,8 +56,10 @@ _PAIR_PIXEL = 0
 _PAIR_LIGHT = 1
 _PAIR_BSDF = 1 << 16
 SOBOL_DEPTH = 2
-"""Vertices below this bounce draw their light points and BRDF samples from Sobol pairs; deeper ones from
-independent uniforms (stratification pays where a pixel's variance comes from: the first bounces)."""
+"""Vertices below this bounce draw their light points from Sobol pairs; deeper ones from independent uniforms
+(stratification pays where a pixel's variance comes from: the first bounces). BRDF samples always use
+independent uniforms: the strategies with tables draw theirs from their own generators, and a renderer built to
+compare BRDF samplers must not place one strategy's samples better than another's."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -370,8 +372,8 @@ def bsdf_stage(
     """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
     ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
     and the strategy's pdf at the light sample (if a candidate), and one BRDF sample with ``f`` there, the
-    model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]``. The sample's first
-    two uniforms are an Owen-scrambled Sobol pair of the pixel's sample number."""
+    model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]``, from independent
+    uniforms (as every strategy's)."""
     for s in range(a, b):
         m = s_mat[s]
         kind = mat_strategy[m]
@@ -390,11 +392,8 @@ def bsdf_stage(
             else:
                 l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
         p = s_path[s]
-        u1, u2 = pair(
-            first_sample + p // n_pix,
-            key(key(seed_key, p % n_pix), _PAIR_BSDF + depth),
-            depth < SOBOL_DEPTH,
-        )
+        # independent uniforms, as strategies with tables draw theirs: BRDF samplers compared on equal terms
+        u1, u2 = pair(first_sample + p // n_pix, key(key(seed_key, p % n_pix), _PAIR_BSDF + depth), False)
         if kind == UNIFORM:
             x, y, z = uniform_hemisphere(u1, u2)
             q = INV_TWO_PI
