@@ -2,7 +2,7 @@
 
 Statistical checks use the pass-to-pass spread: each pass is an unbiased estimate, so the mean over passes has
 a standard error ``std / sqrt(passes)``; tests allow 4.5 standard errors (two-sided p ~ 7e-6 per check under a
-normal approximation) unless stated otherwise. Pixel, light and first-bounce BRDF samples come from a pixel's
+normal approximation) unless stated otherwise. Pixel and light samples of the first bounces come from a pixel's
 Owen-scrambled Sobol sequence, so successive passes are not strictly independent; that the pass-to-pass
 spread still predicts the difference between two seeds is itself tested
 (``test_two_seeds_agree_within_the_pass_to_pass_error``; over 288 block-channels of six seed pairs the
