@@ -14,7 +14,6 @@ in the process, and stored on disk (:mod:`core.cache`).
 from __future__ import annotations
 
 import math
-import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, fields, replace
@@ -45,6 +44,7 @@ from core.sampling.adaptive.table import (
     table_cache_key,
 )
 from core.sampling.base import SampleBatch, Sampler, SamplerOption, check_direction, register_sampler
+from core.threads import thread_budget
 
 _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
 """Tables in memory by key (model, parameters, options, sources): one per material per process."""
@@ -291,7 +291,7 @@ class AdaptiveSampler(Sampler):
         trials = np.empty(n, dtype=np.int64)
         mode = EXACT if self.mode == "exact" else WARP
         table, mid, p, seed = self.table, self.brdf.model.id, self.brdf.params, int(seed) % (1 << 63)
-        chunks = min(os.cpu_count() or 1, 8) if self.threads and n >= PARALLEL_MIN else 1
+        chunks = thread_budget() if self.threads and n >= PARALLEL_MIN else 1
         if chunks == 1:
             v = sample_rows(table, mid, p, mode, wo, seed, 0, wi, pdf, f, trials)
         else:
@@ -394,9 +394,7 @@ def clear_memory_cache() -> None:
 def _pool() -> ThreadPoolExecutor:
     global _POOL
     if _POOL is None:
-        _POOL = ThreadPoolExecutor(
-            max_workers=min(os.cpu_count() or 1, 8), thread_name_prefix="adaptive-draw"
-        )
+        _POOL = ThreadPoolExecutor(max_workers=thread_budget(), thread_name_prefix="adaptive-draw")
     return _POOL
 
 
@@ -438,7 +436,7 @@ def _table_bytes(brdf: BRDF, options: dict[str, Any]) -> float:
     trees = options.get("max_thetas", defaults.max_thetas)
     if not brdf.model.isotropic:
         trees *= options.get("phi_count", defaults.phi_count)
-    return (os.cpu_count() or 1) * capacity * 800.0 + trees * capacity * 64.0
+    return thread_budget() * capacity * 800.0 + trees * capacity * 64.0
 
 
 register_sampler("adaptive", _exact, _declared_options(MODES), _table_bytes)

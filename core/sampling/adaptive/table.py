@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import inspect
 import math
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
@@ -47,6 +46,7 @@ from core.sampling.adaptive.tree import (
     TreeArrays,
     build_tree,
 )
+from core.threads import thread_budget
 
 TABLE_FORMAT = 7
 """Bumped when the stored arrays change meaning."""
@@ -379,7 +379,7 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
         projection, follow = choose_projection(brdf, symmetry, options.parameterization)
     nodes: dict[tuple[float, float, float, int], _Node] = {}
     report = TableReport()
-    workers = threads or max(1, min(8, os.cpu_count() or 1))
+    workers = threads or thread_budget()
     min_spacing = math.radians(options.min_spacing_deg)
     target = (1.0 + ACCEPT_MARGIN) / options.n_max
     with ThreadPoolExecutor(max_workers=workers) as pool:
