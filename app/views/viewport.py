@@ -1,5 +1,6 @@
 """The scene viewport: every object's mesh shaded in its material's colour, the selection highlighted,
-lights drawn as outlines (quads with their emitting direction), click to select an object or a light.
+lights drawn as outlines (quads with their emitting direction), click to select an object or a light, drag a
+light's or the selected object's handle to move it (:mod:`app.views.handles`).
 
 Its camera is the scene's camera, the one renders use: edits of the document's camera move the view, and
 moving the view (a drag or the wheel) is recorded as a *Move camera* edit of the document."""
@@ -17,6 +18,7 @@ from pyvistaqt import QtInteractor
 
 from app.document import Document
 from app.meshes import part
+from app.views.handles import DragHandles
 from core.errors import BrdfStudioError
 from core.model import BRDF
 from core.scene import Camera, QuadLight, Transform
@@ -104,6 +106,8 @@ class SceneViewport(QWidget):
         ev.camera.connect(lambda _items: self._camera_changed())
         document.selection_changed.connect(self.highlight)
         self._camera_set = False
+        self.handles = DragHandles(self)
+        """Drag handles: one per light, one on the selected object."""
         self.sync()
 
     # ---- document -> actors ----------------------------------------------------------------------------
@@ -134,9 +138,8 @@ class SceneViewport(QWidget):
                 mesh, color="white", smooth_shading=o.smooth, render=False
             )
             self._keys[name] = key
-        self._draw_lights()
         self.recolour(render=False)
-        self.highlight(render=False)
+        self.highlight(render=False)  # draws the lights and places the handles
         if not self._camera_set and self.actors:
             self.apply_camera(doc.scene.camera)
         self.status.setText(
@@ -146,6 +149,7 @@ class SceneViewport(QWidget):
 
     def _lights_changed(self) -> None:
         self._draw_lights()
+        self.handles.sync()
         self.plotter.render()
 
     def _draw_lights(self) -> None:
@@ -206,6 +210,7 @@ class SceneViewport(QWidget):
             prop.SetEdgeVisibility(on)
             prop.SetEdgeColor(*pv.Color(SELECTED_EDGE).float_rgb)
             prop.SetLineWidth(1.5 if on else 1.0)
+        self.handles.sync()
         if render:
             self.plotter.render()
 
@@ -224,11 +229,17 @@ class SceneViewport(QWidget):
         cam.view_angle = float(camera.fov_deg)
         self._camera_set = True
 
-    def _on_press_any(self, iren, _event) -> None:
-        self._press_any = iren.GetEventPosition()
+    def _event_position(self) -> tuple[int, int]:
+        # not the observer's caller: pyvista observes release events on the interactor style (it has no
+        # event position), see pyvista issue 4976
+        x, y = self.plotter.iren.interactor.GetEventPosition()
+        return int(x), int(y)
 
-    def _on_drag_end(self, iren, _event) -> None:
-        pos = iren.GetEventPosition()
+    def _on_press_any(self, _caller, _event) -> None:
+        self._press_any = self._event_position()
+
+    def _on_drag_end(self, _caller, _event) -> None:
+        pos = self._event_position()
         if (
             self._press_any is not None
             and abs(pos[0] - self._press_any[0]) + abs(pos[1] - self._press_any[1]) > 3
@@ -284,11 +295,11 @@ class SceneViewport(QWidget):
         x, y, _ = r.GetDisplayPoint()
         return int(round(x)), int(round(y))
 
-    def _on_press(self, iren, _event) -> None:
-        self._press = iren.GetEventPosition()
+    def _on_press(self, _caller, _event) -> None:
+        self._press = self._event_position()
 
-    def _on_release(self, iren, _event) -> None:
-        pos = iren.GetEventPosition()
+    def _on_release(self, _caller, _event) -> None:
+        pos = self._event_position()
         if self._press is not None and abs(pos[0] - self._press[0]) + abs(pos[1] - self._press[1]) <= 3:
             light = self.light_at(*pos)  # a click, not a drag of the camera
             if light is not None:
@@ -300,4 +311,5 @@ class SceneViewport(QWidget):
         self._press = None
 
     def close_view(self) -> None:
+        self.handles.close()
         self.plotter.close()
