@@ -3,14 +3,28 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from core.errors import BrdfStudioError
 
+if TYPE_CHECKING:
+    from app.main_window import MainWindow
 
-def run_app(path: Path | None = None, empty: bool = False, quit_after: float | None = None) -> int:
+
+def run_app(
+    path: Path | None = None,
+    empty: bool = False,
+    quit_after: float | None = None,
+    restore: str | None = None,
+    shown: Callable[[MainWindow], None] | None = None,
+) -> int:
     """Open the main window on ``path`` (or the demo scene, or an empty project) and run until closed
-    (or ``quit_after`` seconds, for smoke tests)."""
+    (or ``quit_after`` seconds, for smoke tests). ``restore``: what to do with the unsaved edits of a session
+    that crashed, ``"ask"`` (the default), ``"yes"`` or ``"no"`` (the default with ``quit_after``).
+    ``shown(window)`` is called once the window is shown, before the project is opened (tests drive the app
+    through it)."""
     import os
 
     from PySide6.QtCore import QTimer
@@ -34,7 +48,11 @@ def run_app(path: Path | None = None, empty: bool = False, quit_after: float | N
     app.setOrganizationName("brdf-studio")
     window = MainWindow()
     window.show()
-    window.start(path, empty=empty, restore="no" if quit_after is not None else "ask")
+    if shown is not None:
+        shown(window)
+    if restore is None:
+        restore = "no" if quit_after is not None else "ask"
+    window.start(path, empty=empty, restore=restore)
     if quit_after is not None:
         window.ask_unsaved = lambda: "discard"
         QTimer.singleShot(int(quit_after * 1000), window.close)

@@ -1,6 +1,11 @@
 """Projects and files for the main window: new, open, save, import meshes, load MERL files, drops, the
 crash-recovery autosave. Dialogs and questions go through the window (``ask_unsaved``, ``ask_restore``,
-``show_error``) so that tests answer them without modal dialogs."""
+``show_error``) so that tests answer them without modal dialogs.
+
+Autosave: unsaved edits are written (atomically, to the config folder, never over the project file)
+:data:`AUTOSAVE_AFTER_EDIT_MS` after the last edit, and by the window's periodic timer while edits go on
+without a pause (a long slider drag); the next launch after a crash offers them (:meth:`restore_autosave`).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from PySide6.QtCore import QTimer
 
 from app import settings
 from app.document import default_scene
@@ -23,6 +29,8 @@ if TYPE_CHECKING:
 MESH_FILTER = "Meshes (" + " ".join(f"*{s}" for s in MESH_FORMATS) + ")"
 PROJECT_FILTER = "Projects (*.json)"
 _IMPORTS = itertools.count()
+AUTOSAVE_AFTER_EDIT_MS = 2000
+"""Quiet time after an edit before it is autosaved (an edit burst is written once)."""
 
 
 class FileManager:
@@ -30,6 +38,15 @@ class FileManager:
         self.window = window
         self.document = window.document
         self.autosaved_revision = self.document.revision
+        self.autosave_soon = QTimer(window)
+        self.autosave_soon.setSingleShot(True)
+        self.autosave_soon.setInterval(AUTOSAVE_AFTER_EDIT_MS)
+        self.autosave_soon.timeout.connect(self.autosave)
+        self.document.history_changed.connect(self._history_changed)
+
+    def _history_changed(self) -> None:
+        if self.document.revision != self.autosaved_revision:
+            self.autosave_soon.start()  # (re)started: written once the edits pause
 
     def _status(self, text: str, ms: int = 4000) -> None:
         self.window.statusBar().showMessage(text, ms)
@@ -237,27 +254,32 @@ class FileManager:
     # ---- crash recovery ------------------------------------------------------------------------------
     def autosave(self) -> None:
         """Write unsaved edits for crash recovery (only when something changed since the last write)."""
+        self.autosave_soon.stop()
         doc = self.document
         if doc.revision == self.autosaved_revision:
             return
-        self.autosaved_revision = doc.revision
         if not doc.dirty:
             settings.clear_autosave()
+            self.autosaved_revision = doc.revision
             return
         try:
             settings.write_autosave(doc.to_dict(), doc.path)
-        except BrdfStudioError as exc:
+        except (BrdfStudioError, OSError) as exc:  # retried at the next edit or tick
             self._status(f"Autosave failed: {exc}", 8000)
+            return
+        self.autosaved_revision = doc.revision
 
     def restore_autosave(self, ask: bool = True) -> bool:
-        """Offer the newest autosave of a session that died; True when edits were restored."""
+        """Offer the newest autosave of a session that died; True when edits were restored. The restored
+        edits are autosaved by this session before the old file is removed (a crash in between loses
+        nothing); an autosave that cannot be read is set aside in the config folder, not deleted."""
         for path in settings.orphaned_autosaves():
             try:
                 payload = settings.read_autosave(path)
                 scene = scene_from_autosave(payload["document"], self.document.parts)
             except (ValueError, KeyError, TypeError, BrdfStudioError) as exc:
-                self.window.show_error("Cannot restore", str(exc))
-                path.unlink(missing_ok=True)
+                kept = settings.set_aside(path)
+                self.window.show_error("Cannot restore", f"{exc} (kept as {kept})")
                 continue
             when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(payload.get("time", 0)))
             if ask and not self.window.ask_restore(when):
@@ -266,8 +288,9 @@ class FileManager:
             project = Path(payload["project"]) if payload.get("project") else None
             self.document.replace(scene, project)
             self.document.mark_unsaved()
-            path.unlink(missing_ok=True)
             self.autosave()
+            if self.autosaved_revision == self.document.revision:  # our own copy is on disk
+                path.unlink(missing_ok=True)
             self._status(f"Restored unsaved edits from {when}", 8000)
             return True
         return False

@@ -49,14 +49,35 @@ def add_recent(path: Path) -> list[Path]:
 
 
 # ---- crash recovery ------------------------------------------------------------------------------------
+# Each running app writes ``autosave-<pid>.json`` (atomically) while it holds unsaved edits and deletes it when
+# the edits are saved, discarded or the app quits normally. A file whose session is no longer running is an
+# *orphan*: the app crashed, was killed or the machine went down, and the next launch offers it.
 def autosave_path(pid: int | None = None) -> Path:
     return config_dir() / f"autosave-{os.getpid() if pid is None else pid}.json"
 
 
+def process_start(pid: int) -> str | None:
+    """When process ``pid`` started, as ``"<boot id>:<start ticks>"`` (Linux), or None where that cannot be
+    read. Stored in an autosave beside the pid, it tells the session that wrote the file from a later process
+    that got the same pid (pids repeat, after a reboot often)."""
+    try:
+        boot = Path("/proc/sys/kernel/random/boot_id").read_text(encoding="ascii").strip()
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+        return f"{boot}:{stat[stat.rindex(')') + 2 :].split()[19]}"  # field 22, starttime
+    except (OSError, ValueError, IndexError):
+        return None
+
+
 def write_autosave(document: dict[str, Any], project: Path | None) -> Path:
-    """Write the unsaved document for this process (atomically)."""
+    """Write the unsaved document for this process (atomically: a crash while writing leaves the previous
+    autosave whole)."""
     path = autosave_path()
-    payload = {"time": time.time(), "project": str(project) if project else None, "document": document}
+    payload = {
+        "time": time.time(),
+        "session": process_start(os.getpid()),
+        "project": str(project) if project else None,
+        "document": document,
+    }
     atomic_write_text(path, json.dumps(payload))
     return path
 
@@ -66,7 +87,7 @@ def clear_autosave() -> None:
         autosave_path().unlink()
 
 
-def _alive(pid: int) -> bool:
+def _running(pid: int) -> bool:
     if pid == os.getpid():
         return True
     try:
@@ -78,16 +99,26 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _session_of(path: Path) -> str | None:
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        return json.loads(path.read_text(encoding="utf-8")).get("session")
+    return None
+
+
 def orphaned_autosaves() -> list[Path]:
-    """Autosaves left by sessions that are no longer running (they crashed or were killed), newest first."""
+    """Autosaves left by sessions that are no longer running (they crashed or were killed), newest first.
+    A file whose pid now belongs to another process (one that started at another time) is an orphan too."""
     out = []
     for p in config_dir().glob("autosave-*.json"):
         try:
             pid = int(p.stem.split("-", 1)[1])
         except ValueError:
             continue
-        if not _alive(pid):
-            out.append(p)
+        if _running(pid):
+            written_by, now = _session_of(p), process_start(pid)
+            if written_by is None or now is None or written_by == now:
+                continue
+        out.append(p)
     return sorted(out, key=lambda p: p.stat().st_mtime, reverse=True)
 
 
@@ -100,3 +131,13 @@ def read_autosave(path: Path) -> dict[str, Any]:
     if not isinstance(payload, dict) or "document" not in payload:
         raise ValueError(f"autosave '{path.name}' holds no document")
     return payload
+
+
+def set_aside(path: Path) -> Path:
+    """Move an autosave that cannot be restored to ``unrestored/`` in the config folder (kept for the user to
+    read, never offered again); returns where it went."""
+    folder = config_dir() / "unrestored"
+    folder.mkdir(exist_ok=True)
+    target = folder / f"{path.stem}-{int(time.time())}{path.suffix}"
+    os.replace(path, target)
+    return target
