@@ -10,15 +10,21 @@ class Film:
 
     def __init__(self, width: int, height: int):
         self.width, self.height = width, height
-        self._sum = np.zeros((height * width, 3))
+        self._sum: np.ndarray | None = (
+            None  # allocated by the first pass: a job rendered in bands never needs it
+        )
         self.spp = 0
 
     def add_pass(self, radiance: np.ndarray, spp: int = 1) -> None:
         """Add one pass: ``radiance (height * width, 3)``, the mean of ``spp`` samples per pixel."""
+        if self._sum is None:
+            self._sum = np.zeros((self.height * self.width, 3))
         self._sum += radiance * spp
         self.spp += spp
 
     def image(self) -> np.ndarray:
         """The mean radiance per pixel as float32 ``(height, width, 3)`` (zeros before the first pass)."""
+        if self._sum is None:
+            return np.zeros((self.height, self.width, 3), dtype=np.float32)
         mean = self._sum / max(1, self.spp)
         return mean.reshape(self.height, self.width, 3).astype(np.float32)

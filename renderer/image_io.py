@@ -1,7 +1,8 @@
 """Image files: linear HDR EXR (OpenEXR), tone-mapped sRGB PNG, JSON sidecars, labelled composites,
 error metrics against a reference, and error-vs-time curves (CSV + PNG).
 
-Every write is atomic (a temporary file beside the target, then ``os.replace``).
+Every write is atomic (a temporary file beside the target, then ``os.replace``). :class:`ExrRows` and
+:class:`PngRows` write an image band by band, top to bottom, for renders too large to hold as one film.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import csv
 import io
 import json
 import os
+import struct
 import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -83,6 +85,166 @@ def write_exr(
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise OutputError(f"cannot write '{target}': {exc}") from None
+
+
+class _RowsFile:
+    """A temporary file beside ``path`` that rows of an image are streamed into, top to bottom; it becomes
+    ``path`` (``os.replace``) on :meth:`commit` once every row is written, and is deleted on :meth:`discard`
+    or when the ``with`` block ends by an exception: an interrupted write leaves the previous ``path``."""
+
+    suffix = ".tmp"
+
+    def __init__(self, path: str | os.PathLike[str], width: int, height: int):
+        self.target = Path(path)
+        self.width, self.height = int(width), int(height)
+        self.rows_written = 0
+        folder = self.target.parent if str(self.target.parent) else Path(".")
+        if not folder.is_dir():
+            raise OutputError(f"cannot write '{self.target}': folder '{folder}' does not exist")
+        try:
+            fd, self.tmp = tempfile.mkstemp(prefix=f".{self.target.name}.", suffix=self.suffix, dir=folder)
+            os.close(fd)
+        except OSError as exc:
+            raise OutputError(f"cannot write '{self.target}': {exc.strerror or exc}") from None
+        self._done = False
+
+    def write(self, rows: np.ndarray) -> None:
+        """Append ``rows (k, width, 3)``: the next ``k`` rows of the image."""
+        if rows.ndim != 3 or rows.shape[1:] != (self.width, 3):
+            raise ValueError(f"rows of shape {rows.shape}; expected (k, {self.width}, 3)")
+        if self.rows_written + len(rows) > self.height:
+            raise ValueError(f"{self.rows_written + len(rows)} rows written to an image of {self.height}")
+        try:
+            self._write(rows)
+        except Exception as exc:
+            self.discard()
+            raise OutputError(f"cannot write '{self.target}': {exc}") from None
+        self.rows_written += len(rows)
+
+    def commit(self) -> None:
+        """Close the file and put it in place of ``path`` (every row must have been written)."""
+        if self.rows_written != self.height:
+            raise ValueError(f"{self.rows_written} of {self.height} rows written")
+        try:
+            self._close()
+            os.chmod(self.tmp, 0o666 & ~_umask())  # mkstemp makes private files; an image is an ordinary one
+            os.replace(self.tmp, self.target)
+        except Exception as exc:
+            self.discard()
+            raise OutputError(f"cannot write '{self.target}': {exc}") from None
+        self._done = True
+
+    def discard(self) -> None:
+        """Close and delete the temporary file; ``path`` is left as it was."""
+        if self._done:
+            return
+        self._done = True
+        with contextlib.suppress(Exception):
+            self._close()
+        with contextlib.suppress(OSError):
+            os.unlink(self.tmp)
+
+    def __enter__(self) -> _RowsFile:
+        return self
+
+    def __exit__(self, kind: object, *_: object) -> None:
+        if kind is not None:
+            self.discard()
+
+    def _write(self, rows: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _close(self) -> None:
+        raise NotImplementedError
+
+
+class ExrRows(_RowsFile):
+    """A 32-bit float RGB EXR (ZIP, scanlines in increasing y, as :func:`write_exr`) written band by band:
+    OpenEXR's scanline writer (``OpenEXR.OutputFile.writePixels``) compresses each block of 16 rows as it
+    arrives, so memory holds one band, never the image. ``metadata`` goes into the ``brdf_studio`` attribute."""
+
+    suffix = ".exr"
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        width: int,
+        height: int,
+        metadata: Mapping[str, Any] | None = None,
+    ):
+        super().__init__(path, width, height)
+        import Imath
+        import OpenEXR
+
+        header = OpenEXR.Header(self.width, self.height)
+        channel = Imath.Channel(Imath.PixelType(Imath.PixelType.FLOAT))
+        header["channels"] = {"R": channel, "G": channel, "B": channel}
+        header["compression"] = Imath.Compression(Imath.Compression.ZIP_COMPRESSION)
+        if metadata:
+            header["brdf_studio"] = json.dumps(metadata, default=str).encode()
+        try:
+            self._file = OpenEXR.OutputFile(self.tmp, header)
+        except Exception as exc:
+            self.discard()
+            raise OutputError(f"cannot write '{self.target}': {exc}") from None
+
+    def _write(self, rows: np.ndarray) -> None:
+        planes = {
+            c: np.ascontiguousarray(rows[..., k], dtype=np.float32).tobytes() for k, c in enumerate("RGB")
+        }
+        self._file.writePixels(planes, len(rows))
+
+    def _close(self) -> None:
+        self._file.close()
+
+
+class PngRows(_RowsFile):
+    """An 8-bit sRGB PNG (tone-mapped as :func:`write_png`) written band by band: each row is zlib-compressed
+    as it arrives (filter type 0) and the compressed bytes go out as ``IDAT`` chunks, so memory holds one band,
+    never the image."""
+
+    suffix = ".png"
+
+    def __init__(self, path: str | os.PathLike[str], width: int, height: int, exposure: float = 0.0):
+        super().__init__(path, width, height)
+        import zlib
+
+        self.exposure = exposure
+        self._zip = zlib.compressobj(6)
+        self._fh = open(self.tmp, "wb")  # noqa: SIM115 - closed by commit or discard
+        ihdr = struct.pack(">IIBBBBB", self.width, self.height, 8, 2, 0, 0, 0)  # 8-bit RGB, no interlace
+        self._fh.write(b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", ihdr))
+
+    def _write(self, rows: np.ndarray) -> None:
+        rgb8 = rows if rows.dtype == np.uint8 else tonemap(rows, self.exposure)
+        lines = np.zeros((len(rgb8), 1 + 3 * self.width), dtype=np.uint8)  # a filter byte (0) per row
+        lines[:, 1:] = rgb8.reshape(len(rgb8), -1)
+        data = self._zip.compress(lines.tobytes())
+        if data:
+            self._fh.write(_png_chunk(b"IDAT", data))
+
+    def _close(self) -> None:
+        if self._fh.closed:
+            return
+        if self.rows_written == self.height:
+            self._fh.write(_png_chunk(b"IDAT", self._zip.flush()) + _png_chunk(b"IEND", b""))
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+        self._fh.close()
+
+
+def _png_chunk(kind: bytes, data: bytes) -> bytes:
+    import zlib
+
+    return (
+        struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+    )
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 # ------------------------------------------------------------------------------------------------- PNG

@@ -293,36 +293,71 @@ class PathTracer:
         return {m: np.concatenate(v) for m, v in found.items()}
 
     # ------------------------------------------------------------------------------------------ a pass
-    def render_pass(self, pass_index: int, spp: int = 1, first_sample: int | None = None) -> np.ndarray:
-        """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``.
+    def render_pass(
+        self,
+        pass_index: int,
+        spp: int = 1,
+        first_sample: int | None = None,
+        pixels: tuple[int, int] | None = None,
+    ) -> np.ndarray:
+        """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``,
+        or for ``pixels = (p0, p1)`` the pixels ``p0 .. p1 - 1`` only (row-major: a band of whole rows is
+        one range), ``(p1 - p0, 3)``.
 
         Passes with different ``pass_index`` are independent (their random numbers are keyed by it); path
         ``j`` of a pass is sample ``first_sample + j // pixels`` of pixel ``j % pixels`` in the pixel's
         low-discrepancy sequence (default ``pass_index * spp``: passes of equal size; a progressive render
-        passes the number of samples it already has, so that no sample number is used twice).
+        passes the number of samples it already has, so that no sample number is used twice). A range of
+        pixels traces the very paths ``j`` the whole pass traces for them (only their radiance rows are kept):
+        for strategies drawn in compiled code its pixels equal the whole pass's bit for bit.
         """
         first = pass_index * int(spp) if first_sample is None else int(first_sample)
         n_pix = self.width * self.height
-        n_all = n_pix * int(spp)
-        radiance = np.zeros((n_all, 3))
+        p0, p1 = (0, n_pix) if pixels is None else (int(pixels[0]), int(pixels[1]))
+        if not 0 <= p0 < p1 <= n_pix:
+            raise ValueError(f"pixels {p0}..{p1} outside the image's 0..{n_pix}")
+        band = p1 - p0
+        radiance = np.zeros((band * int(spp), 3))
         pass_key = _key(self._seed_key, pass_index)
         bad = 0
-        for j0 in range(0, n_all, WAVEFRONT):
-            bad += self._wavefront(j0, min(n_all, j0 + WAVEFRONT) - j0, radiance, pass_index, pass_key, first)
+        if pixels is None:
+            n_all = n_pix * int(spp)
+            for j0 in range(0, n_all, WAVEFRONT):
+                n = min(n_all, j0 + WAVEFRONT) - j0
+                bad += self._wavefront(j0, n, radiance, pass_index, pass_key, first, 0, j0 // WAVEFRONT)
+        else:
+            for s in range(int(spp)):
+                # path j = s * n_pix + p (pixel p) keeps its radiance in row s * band + p - p0 = j - offset
+                offset = s * (n_pix - band) + p0
+                end = s * n_pix + p1
+                for j0 in range(s * n_pix + p0, end, WAVEFRONT):
+                    # the samplers' draws are keyed by the wavefront's first path: unique within the pass
+                    bad += self._wavefront(j0, min(end, j0 + WAVEFRONT) - j0, radiance, pass_index, pass_key,
+                                           first, offset, j0)  # fmt: skip
         self.stats.nonfinite += bad
-        return radiance.reshape(int(spp), n_pix, 3).sum(axis=0) / spp
+        return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
 
     def _wavefront(
-        self, j0: int, n: int, radiance: np.ndarray, pass_index: int, pass_key: np.uint64, first: int
+        self,
+        j0: int,
+        n: int,
+        radiance: np.ndarray,
+        pass_index: int,
+        pass_key: np.uint64,
+        first: int,
+        row_offset: int,
+        wave: int,
     ) -> int:
-        """Paths ``j0 .. j0 + n - 1`` of a pass, bounce by bounce, their light added to ``radiance`` (rows by
-        path); returns the number of non-finite contributions dropped."""
+        """Paths ``j0 .. j0 + n - 1`` of a pass, bounce by bounce, the light of path ``j`` added to
+        ``radiance`` row ``j - row_offset``; ``wave`` keys the draws of the samplers with tables. Returns the
+        number of non-finite contributions dropped."""
         w = self.world
         n_pix = self.width * self.height
         if self._buffers is None or len(self._buffers.path) < n:
             self._buffers = _Buffers(n)
         B = self._buffers
         cam = self.camera
+        rows = np.int64(row_offset)
         self._run(camera_stage, n, j0, n_pix, first, self._seed_key, self.width, self.height,
                   cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
@@ -338,7 +373,7 @@ class PathTracer:
             w.accel.trace(B.o32[:n], B.d32[:n], B.prim, B.t, B.bu, B.bv)
             self.stats.rays += n
             bad += self._run(
-                hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, B.mat,
+                hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, rows, B.mat,
                 depth == self.max_depth, power, self.p_env, self.p_area, self.ris > 0,
                 w.tri_normal, w.tri_material, w.tri_emission, w.tri_emissive, w.tri_two_sided,
                 w.emit_pmf_per_area, env_kind, env_rad, env_pmf, env_img, env_rot,
@@ -364,9 +399,9 @@ class PathTracer:
                 self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
                 B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
-            self._draw_by_samplers(offsets, pass_index, depth, j0 // WAVEFRONT)
+            self._draw_by_samplers(offsets, pass_index, depth, wave)
             if self.ris:
-                bad += self._ris_environment(radiance, pass_index, depth, n_s, offsets, j0 // WAVEFRONT)
+                bad += self._ris_environment(radiance, rows, pass_index, depth, n_s, offsets, wave)
             rr_key = _key(_key(pass_key, depth), 0x7272)
             self._run(
                 continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta,
@@ -377,7 +412,9 @@ class PathTracer:
             if k:
                 blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k])
                 self.stats.rays += k
-                bad += self._run(shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance)
+                bad += self._run(
+                    shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance, rows
+                )
         return bad
 
     def _draw_by_samplers(self, offsets: np.ndarray, pass_index: int, depth: int, wave: int) -> None:
@@ -414,7 +451,14 @@ class PathTracer:
             list(self._pool.map(run, jobs))
 
     def _ris_environment(
-        self, radiance: np.ndarray, pass_index: int, depth: int, n_s: int, offsets: np.ndarray, wave: int
+        self,
+        radiance: np.ndarray,
+        row_offset: np.int64,
+        pass_index: int,
+        depth: int,
+        n_s: int,
+        offsets: np.ndarray,
+        wave: int,
     ) -> int:
         """Direct light from the sky by resampled importance sampling at the ``n_s`` surface vertices:
         ``M`` candidates from the material's sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos
@@ -459,6 +503,4 @@ class PathTracer:
         blocked = w.accel.occluded(origin[i], wi[chosen[i]])
         self.stats.rays += len(i)
         keep = ~blocked
-        return int(
-            add_rows(radiance, np.ascontiguousarray(B.s_path[i[keep]]), np.ascontiguousarray(contrib[keep]))
-        )
+        return int(add_rows(radiance, B.s_path[i[keep]] - row_offset, np.ascontiguousarray(contrib[keep])))

@@ -149,19 +149,19 @@ def camera_stage(
 
 @njit(nogil=True, cache=True)
 def hit_stage(
-    a, b, d, prim, t, beta, path, prev_pdf, radiance, mat_out, at_last_bounce, power, p_env, p_area, ris,
-    tri_normal, tri_material, tri_emission, tri_emissive, tri_two_sided, emit_pmf_per_area,
+    a, b, d, prim, t, beta, path, prev_pdf, radiance, row_offset, mat_out, at_last_bounce, power, p_env, p_area,
+    ris, tri_normal, tri_material, tri_emission, tri_emissive, tri_two_sided, emit_pmf_per_area,
     env_kind, env_radiance, env_pmf, env_image, env_rotation,
 ):  # fmt: skip
     """Rays ``[a, b)`` after the closest-hit query: sky and emitted light (MIS-weighted against the BRDF
-    sample that made the ray, whose density is ``prev_pdf``; 0 for camera rays), then ``mat_out`` = the
-    material index of each ray that goes on (``NO_MATERIAL`` for rays that end). Returns the number of
-    non-finite contributions dropped."""
+    sample that made the ray, whose density is ``prev_pdf``; 0 for camera rays), added to ``radiance`` row
+    ``path - row_offset``, then ``mat_out`` = the material index of each ray that goes on (``NO_MATERIAL``
+    for rays that end). Returns the number of non-finite contributions dropped."""
     bad = 0
     for i in range(a, b):
         mat_out[i] = NO_MATERIAL
         k = prim[i]
-        p = path[i]
+        row = path[i] - row_offset
         if k < 0:
             if env_kind == 0:
                 continue
@@ -171,7 +171,7 @@ def hit_stage(
             if prev_pdf[i] > 0.0:
                 w = 0.0 if ris else _mis(prev_pdf[i], p_env * pdf_env, power)
             if w > 0.0:
-                bad += _add(radiance, p, beta[i, 0] * r * w, beta[i, 1] * g * w, beta[i, 2] * bl * w)
+                bad += _add(radiance, row, beta[i, 0] * r * w, beta[i, 1] * g * w, beta[i, 2] * bl * w)
             continue
         if tri_emissive[k]:
             cos_l = -(d[i, 0] * tri_normal[k, 0] + d[i, 1] * tri_normal[k, 1] + d[i, 2] * tri_normal[k, 2])
@@ -180,7 +180,7 @@ def hit_stage(
                 if prev_pdf[i] > 0.0:
                     p_light = p_area * emit_pmf_per_area[k] * t[i] * t[i] / max(abs(cos_l), 1e-12)
                     w = _mis(prev_pdf[i], p_light, power)
-                bad += _add(radiance, p, beta[i, 0] * tri_emission[k, 0] * w,
+                bad += _add(radiance, row, beta[i, 0] * tri_emission[k, 0] * w,
                             beta[i, 1] * tri_emission[k, 1] * w, beta[i, 2] * tri_emission[k, 2] * w)  # fmt: skip
         if not at_last_bounce:
             mat_out[i] = tri_material[k]
@@ -517,15 +517,15 @@ def compact_stage(
 
 
 @njit(nogil=True, cache=True)
-def shadow_stage(a, b, blocked, shadow_slot, s_path, l_contrib, radiance):
-    """Add the contributions of the shadow rays ``[a, b)`` that nothing blocked; returns the number of
-    non-finite ones dropped."""
+def shadow_stage(a, b, blocked, shadow_slot, s_path, l_contrib, radiance, row_offset):
+    """Add the contributions of the shadow rays ``[a, b)`` that nothing blocked to ``radiance`` row ``path -
+    row_offset``; returns the number of non-finite ones dropped."""
     bad = 0
     for j in range(a, b):
         if blocked[j]:
             continue
         s = shadow_slot[j]
-        bad += _add(radiance, s_path[s], l_contrib[s, 0], l_contrib[s, 1], l_contrib[s, 2])
+        bad += _add(radiance, s_path[s] - row_offset, l_contrib[s, 0], l_contrib[s, 1], l_contrib[s, 2])
     return bad
 
 

@@ -8,6 +8,10 @@
 
 ``job.passes`` yields a :class:`Frame` after every pass. Stopping is cooperative: break the loop, or set the
 ``cancel`` event from another thread. The same scene, strategy and seed give the same image.
+
+A render whose film does not fit the memory budget (:func:`band_plan`; a 16384x16384 image on most machines)
+is prepared with ``bands=True`` and rendered by ``job.bands(spp)`` instead: bands of whole rows, top to bottom,
+each with all its samples, to be streamed to the outputs (:class:`renderer.image_io.ExrRows`, ``PngRows``).
 """
 
 from __future__ import annotations
@@ -40,6 +44,18 @@ class Frame:
     spp: int
     elapsed: float
     rays: int = 0
+
+
+@dataclass
+class Band:
+    """Rows ``row0 .. row1 - 1`` of the image, finished: their mean ``image (row1 - row0, w, 3)`` float32 over
+    ``spp`` samples per pixel; ``elapsed`` seconds of rendering so far (all bands)."""
+
+    row0: int
+    row1: int
+    image: np.ndarray
+    spp: int
+    elapsed: float
 
 
 @dataclass
@@ -95,6 +111,42 @@ class RenderJob:
                 callback(frame)
             yield frame
 
+    def bands(
+        self, spp: int, rows: int | None = None, cancel: threading.Event | None = None
+    ) -> Iterator[Band]:
+        """The image in bands of ``rows`` whole rows (default: :func:`band_rows`), top to bottom, each rendered
+        with all its ``spp`` samples per pixel before the next starts, so memory holds one band's film, never
+        the image's. A band's passes are the whole film's (``passes(spp)``: the same pass indices, batch and
+        sample numbers, :meth:`PathTracer.render_pass` on the band's pixels), so it is the same estimator; for
+        the strategies drawn in compiled code (``uniform``, ``cosine``, ``analytic``) without RIS it is the
+        same image bit for bit. ``cancel`` stops after the pass in flight (the unfinished band is not
+        yielded). There is no time budget and no resume: a band is finished or it is not."""
+        if spp < 1:
+            raise ParameterError(f"samples per pixel must be at least 1, got {spp}")
+        width, height = self.tracer.width, self.tracer.height
+        rows = band_rows(width, height, self.settings["ris_candidates"]) if rows is None else int(rows)
+        rows = max(1, min(rows, height))
+        self.band_layout = {"rows": rows, "count": -(-height // rows), "spp": 0}
+        for row0 in range(0, height, rows):
+            row1 = min(height, row0 + rows)
+            film = Film(width, row1 - row0)
+            k = 0
+            while film.spp < spp:
+                if cancel is not None and cancel.is_set():
+                    return
+                batch = min(self.batch, spp - film.spp)
+                t0 = time.perf_counter()
+                self.world.refresh_samplers()
+                radiance = self.tracer.render_pass(
+                    k, batch, first_sample=film.spp, pixels=(row0 * width, row1 * width)
+                )
+                film.add_pass(radiance, batch)
+                k += 1
+                self.elapsed += time.perf_counter() - t0
+            if row1 == height:
+                self.band_layout["spp"] = spp
+            yield Band(row0, row1, film.image(), film.spp, self.elapsed)
+
     def run(self, spp: int | None = None, time_s: float | None = None, **kw: Any) -> Frame:
         """Render to the budget and return the last frame."""
         last = None
@@ -104,13 +156,21 @@ class RenderJob:
             return Frame(self.film.image(), self.film.spp, self.elapsed, self.tracer.stats.rays)
         return last
 
+    @property
+    def spp(self) -> int:
+        """Samples per pixel of the image: the film's, or those of every band of a finished render in bands."""
+        layout = getattr(self, "band_layout", None)
+        return self.film.spp if layout is None else int(layout["spp"])
+
     def info(self) -> dict[str, Any]:
         """Everything a JSON sidecar records: settings, time, spp, rays, sampler tables, versions."""
         stats = self.tracer.stats
+        layout = getattr(self, "band_layout", None)
         return {
             "scene": self.scene.source,
             "settings": self.settings,
-            "spp": self.film.spp,
+            "spp": self.spp,
+            **({} if layout is None else {"bands": {"rows": layout["rows"], "count": layout["count"]}}),
             "render_seconds": round(self.elapsed, 4),
             "rays": stats.rays,
             "rays_per_second": round(stats.rays / self.elapsed) if self.elapsed > 0 else None,
@@ -146,6 +206,7 @@ def prepare(
     ris_candidates: int = 0,
     material_samplers: dict[str, str] | None = None,
     warm_up_sweep: bool = False,
+    bands: bool = False,
 ) -> RenderJob:
     """Load meshes, build the BVH and light tables, bind materials to the sampler ``sampler`` (default: the
     scene's), compile the kernels of the models used and build sampler tables (reported via ``on_step``).
@@ -154,9 +215,16 @@ def prepare(
     ``ris_candidates > 0`` lights from the sky by resampled importance sampling with that many candidates.
     ``material_samplers`` maps material names to a strategy used for them instead of ``sampler``.
     ``warm_up_sweep`` also asks for a dense sweep of outgoing directions (every incident-angle bin), so that no
-    table is built during rendering (for equal-time comparisons)."""
+    table is built during rendering (for equal-time comparisons).
+    ``bands``: accept a render whose film exceeds the memory budget if a band of its rows fits (render it with
+    :meth:`RenderJob.bands`); otherwise such a render is refused (:func:`check_budget`)."""
     r = scene.render
-    check_budget(r.width if width is None else width, r.height if height is None else height, ris_candidates)
+    check_budget(
+        r.width if width is None else width,
+        r.height if height is None else height,
+        ris_candidates,
+        bands=bands,
+    )
     check_environment(scene)
     t0 = time.perf_counter()
     with np.errstate(over="ignore"):  # coordinates out of range are reported below, not as numpy warnings
@@ -228,6 +296,15 @@ BYTES_PER_PASS_PATH = 24
 """The radiance row every path of a pass keeps until the pass is summed per pixel."""
 
 
+BYTES_PER_BAND_PIXEL = 160
+"""A band's film (float64 sum and float32 mean), the EXR's three float32 planes and their bytes, and the PNG's
+tone-mapping temporaries, filtered rows and compressed bytes, per pixel of the band."""
+BAND_BYTES = 512 << 20
+"""What a band may need at most, the wavefront's buffers included (~170 rows a band at 16384 pixels wide):
+large enough that a band's passes are long (their Python overhead is per wavefront and bounce), small
+enough that a render in bands stays within ~1 GiB with the interpreter and the libraries."""
+
+
 def pass_spp(pixels: int) -> int:
     """Samples per pixel a pass traces: at least ``PASS_PATHS`` paths for small images, at most 64."""
     return int(np.clip(PASS_PATHS // max(1, int(pixels)), 1, 64))
@@ -246,13 +323,70 @@ def render_memory(width: int, height: int, ris_candidates: int = 0) -> float:
     return wave * per_path + paths * BYTES_PER_PASS_PATH + pixels * BYTES_PER_PIXEL
 
 
-def check_budget(width: int, height: int, ris_candidates: int = 0) -> None:
+def band_memory(width: int, height: int, rows: int, ris_candidates: int = 0) -> float:
+    """Bytes a render in bands of ``rows`` rows (of a ``width x height`` image) needs at its peak: one
+    wavefront's buffers (a band's pass runs sample by sample, in wavefronts of at most the band's pixels), the
+    per-path radiance of one pass over the band and the band's film and output buffers."""
+    from renderer.integrator import WAVEFRONT
+
+    band = float(width) * float(rows)
+    wave = min(band, float(WAVEFRONT))
+    per_path = BYTES_PER_PATH + BYTES_PER_RIS_CANDIDATE * max(0, ris_candidates)
+    batch = pass_spp(int(min(float(width) * float(height), 2**62)))
+    return wave * per_path + band * batch * BYTES_PER_PASS_PATH + band * BYTES_PER_BAND_PIXEL
+
+
+def band_rows(width: int, height: int, ris_candidates: int = 0) -> int:
+    """Rows per band: the most (up to ``height``) whose :func:`band_memory` stays within :data:`BAND_BYTES`
+    and the memory budget; at least 1."""
+    from core.budget import MEMORY_FRACTION, available_memory
+
+    cap = min(float(BAND_BYTES), MEMORY_FRACTION * available_memory())
+    lo, hi = 1, max(1, int(height))
+    while lo < hi:  # the largest rows with band_memory <= cap (band_memory grows with rows)
+        mid = (lo + hi + 1) // 2
+        if band_memory(width, height, mid, ris_candidates) <= cap:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+def band_plan(width: int, height: int, ris_candidates: int = 0) -> int | None:
+    """``None`` when the whole film of a ``width x height`` render fits the memory budget (a progressive
+    render, :meth:`RenderJob.passes`); otherwise the rows per band of a render in bands (:meth:`RenderJob.bands`).
+    Raises :class:`~core.budget.BudgetError` when not even a band of one row fits."""
+    from core.budget import MEMORY_FRACTION, available_memory
+
+    if render_memory(width, height, ris_candidates) <= MEMORY_FRACTION * available_memory():
+        return None
+    check_budget(width, height, ris_candidates, bands=True)
+    return band_rows(width, height, ris_candidates)
+
+
+def check_budget(width: int, height: int, ris_candidates: int = 0, bands: bool = False) -> None:
     """Refuse (:class:`~core.budget.BudgetError`, one line) a render whose memory exceeds the machine's, naming
-    the need, the memory available and the largest image (or candidate count) that fits."""
-    from core.budget import available_memory, check_memory
+    the need, the memory available and the largest image (or candidate count) that fits. With ``bands``, a
+    render whose film does not fit is accepted if a band of one row does (:func:`band_memory`)."""
+    from core.budget import MEMORY_FRACTION, available_memory, check_memory
 
     need = render_memory(width, height, ris_candidates)
-    room = 0.8 * available_memory()
+    room = MEMORY_FRACTION * available_memory()
+    what = f"a {width}x{height} render" + (f" with {ris_candidates} RIS candidates" if ris_candidates else "")
+    if bands and need > room:
+        need = band_memory(width, height, 1, ris_candidates)
+        if need <= room:
+            return
+        from renderer.integrator import WAVEFRONT
+
+        plain = band_memory(width, height, 1)
+        if ris_candidates > 0 and plain < room:
+            fit = int((room - plain) // (min(float(width), float(WAVEFRONT)) * BYTES_PER_RIS_CANDIDATE))
+            hint = f"use --ris {max(1, fit)} or fewer candidates"
+        else:
+            hint = f"use --width {max(1, int(width * room / need))} or smaller"
+        check_memory(need, what + " in bands of one row", hint)
+        return
     if ris_candidates > 0 and render_memory(width, height) < room:
         from renderer.integrator import WAVEFRONT
 
@@ -262,11 +396,7 @@ def check_budget(width: int, height: int, ris_candidates: int = 0) -> None:
     else:
         scale = (room / need) ** 0.5
         hint = f"use --width {max(1, int(width * scale))} --height {max(1, int(height * scale))} or smaller"
-    check_memory(
-        need,
-        f"a {width}x{height} render" + (f" with {ris_candidates} RIS candidates" if ris_candidates else ""),
-        hint,
-    )
+    check_memory(need, what, hint)
 
 
 def check_environment(scene: Scene) -> None:

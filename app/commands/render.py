@@ -14,7 +14,10 @@ recorded after every pass, and written as error-vs-time curves ``OUT_error.csv``
 
 Output names keep every dot of ``OUT`` but a final ``.exr`` (``-o shot.final.exr`` writes ``shot.final.png``
 beside it, never ``shot.png``). Every argument is range-checked before the scene is read, the memory the
-render needs before it is prepared (``renderer.render.check_budget``). Ctrl-C (or SIGTERM) while passes run
+render needs before it is prepared (``renderer.render.band_plan``): a render whose whole film does not fit the
+memory budget (16384x16384 on most machines) is rendered in bands of rows, each with all its samples, streamed
+to the EXR and PNG (``--spp`` only: no ``--time``, ``--until-cancelled``, ``--compare`` or ``--reference``,
+which need the whole image; interrupted, it saves nothing and leaves the previous outputs). Ctrl-C (or SIGTERM) while passes run
 finishes the pass in flight and saves the image of the passes done, then exits with 130 (143); a second
 Ctrl-C stops at once, still saving what the completed passes hold.
 """
@@ -198,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     from core.scene import load_scene
     from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
     from renderer.image_io import write_sidecar as write_json
-    from renderer.render import check_budget, prepare
+    from renderer.render import band_plan, prepare
 
     if args.scene is None and args.compare and args.compare[-1].lower().endswith(".json"):
         args.scene = args.compare.pop()  # "--compare a,b scene.json": the list took the scene
@@ -223,7 +226,10 @@ def run(args: argparse.Namespace) -> int:
 
     width = args.width or scene.render.width
     height = args.height or scene.render.height
-    check_budget(width, height, args.ris)  # also in prepare(); here before any progress bar is drawn
+    # the budget (also in prepare()), here before any progress bar is drawn: None renders the whole film
+    rows = band_plan(width, height, args.ris)
+    if rows is not None:
+        _check_band_request(args, time_s, strategies, width, height)
 
     from tqdm import tqdm
 
@@ -250,6 +256,7 @@ def run(args: argparse.Namespace) -> int:
                 max_depth=args.max_depth,
                 on_step=on_step,
                 ris_candidates=args.ris,
+                bands=rows is not None,
             )
         bar.close()
         try:
@@ -261,6 +268,12 @@ def run(args: argparse.Namespace) -> int:
                         f"the reference is {w}x{h} but the render is {job.tracer.width}x{job.tracer.height}; "
                         "use --width/--height"
                     )
+            if rows is not None:
+                assert spp is not None  # _check_band_request
+                if _render_in_bands(job, strategy, spp, rows, stem, args.exposure, args.quiet):
+                    summary.append((strategy, job, None, with_extension(stem, ".exr")))
+                interrupted = _signals.STATE.seen
+                break
             records = _render_passes(job, strategy, spp, time_s, reference, args.quiet, image_errors)
             interrupted = _signals.STATE.seen
             image = job.film.image()
@@ -301,10 +314,78 @@ def run(args: argparse.Namespace) -> int:
         )
         print(f"error vs time: {csv_path}, {png_path}")
     if interrupted or _signals.STATE.seen:
-        saved = ", ".join(str(out) for _, _, _, out in summary) or "nothing (no pass had finished)"
+        nothing = (
+            "nothing (a render in bands is saved when its last band is done; earlier outputs are intact)"
+            if rows is not None
+            else "nothing (no pass had finished)"
+        )
+        saved = ", ".join(str(out) for _, _, _, out in summary) or nothing
         print(f"brdf-studio render: interrupted; saved {saved}", file=sys.stderr)
         return _signals.STATE.exit_code
     return 0
+
+
+def _check_band_request(
+    args: argparse.Namespace, time_s: float | None, strategies: list[str], width: int, height: int
+) -> None:
+    """A render in bands takes a sample count and one strategy: one line naming what it cannot do."""
+    from core.budget import MEMORY_FRACTION, available_memory, format_bytes
+    from renderer.render import render_memory
+
+    why = (
+        f"a {width}x{height} render needs {format_bytes(render_memory(width, height, args.ris))} as one film "
+        f"(this machine has {format_bytes(MEMORY_FRACTION * available_memory())} for it), so it is rendered in "
+        "bands of rows, each with all its samples"
+    )
+    if time_s is not None:
+        given = (
+            "--until-cancelled" if args.until_cancelled else "--time" if args.time else "the scene's time_s"
+        )
+        raise ParameterError(f"{why}: give --spp N instead of {given}, or a smaller --width/--height")
+    if len(strategies) > 1:
+        raise ParameterError(f"{why}: render one strategy at a time (--sampler S), not --compare")
+    if args.reference:
+        raise ParameterError(f"{why}: --reference needs the whole image after every pass; compare afterwards")
+
+
+def _render_in_bands(
+    job, strategy: str, spp: int, rows: int, stem: Path, exposure: float, quiet: bool
+) -> bool:  # type: ignore[no-untyped-def]
+    """Render ``job`` in bands of ``rows`` rows, each streamed to the EXR and PNG as it is finished (temporary
+    files that replace ``stem.exr/.png`` when the last band is written, with the sidecar). Returns whether the
+    outputs were written: a Ctrl-C (or SIGTERM) stops after the pass in flight and deletes the temporary files,
+    so the previous outputs stay as they were."""
+    from tqdm import tqdm
+
+    from renderer.image_io import ExrRows, PngRows, write_sidecar
+
+    width, height = job.tracer.width, job.tracer.height
+    bar = tqdm(total=height, desc=f"{strategy}: render in bands", unit="row", disable=quiet, file=sys.stderr)
+    exr = ExrRows(with_extension(stem, ".exr"), width, height, {"spp": spp, "sampler": strategy})
+    png = PngRows(with_extension(stem, ".png"), width, height, exposure)
+    try:
+        done = 0
+        with _signals.cooperative() as stop:
+            for band in job.bands(spp, rows, cancel=stop):
+                _signals.reinstall()
+                _check_finite(band.image, strategy)
+                exr.write(band.image)
+                png.write(band.image)
+                done = band.row1
+                bar.update(band.row1 - band.row0)
+        if done < height:
+            return False
+        with _signals.cooperative():  # a Ctrl-C now is recorded: the three files are put in place together
+            exr.commit()
+            png.commit()
+            write_sidecar(with_extension(stem, ".json"), job.info())
+        return True
+    except KeyboardInterrupt:  # a second Ctrl-C: stop now
+        return False
+    finally:
+        exr.discard()
+        png.discard()
+        bar.close()
 
 
 def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -> list[dict]:  # type: ignore[no-untyped-def]
@@ -348,7 +429,7 @@ def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
         rep = job.prepare_report
         prep = rep["compile_seconds"] + rep["geometry_seconds"] + rep.get("warm_up_seconds", 0.0)
         print(
-            f"{strategy:<14}{job.film.spp:>6}{job.elapsed:>9.2f}{rps:>9.2f}{prep:>10.2f}{rmse:>12}{rel:>12}  {out}"
+            f"{strategy:<14}{job.spp:>6}{job.elapsed:>9.2f}{rps:>9.2f}{prep:>10.2f}{rmse:>12}{rel:>12}  {out}"
         )
         for mname, minfo in job.prepare_report["materials"].items():
             if minfo.get("note"):

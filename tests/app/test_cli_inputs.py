@@ -241,9 +241,13 @@ def corpus_render(tmp_path: Path, scene_dir: Path) -> list[list[str]]:
     )
     for scene in ("missing.json", str(tmp_path), str(scene_dir / "ball.obj")):
         cases.append(["render", scene, "--quiet", "-o", str(tmp_path / "o.exr")])
-    # memory budgets: refused before any work, naming what is needed and what the machine has
+    # memory budgets: refused before any work, naming what is needed and what the machine has; a film too
+    # large for the machine is rendered in bands, which take --spp and one strategy only
+    big = [*base, "--width", "16384", "--height", "16384"]
     cases += [
-        [*base, "--width", "16384", "--height", "16384"],
+        [*big, "--time", "1"],
+        [*big, "--until-cancelled"],
+        [*big, "--spp", "1", "--compare", "uniform,cosine"],
         [*base, "--width", "16384", "--height", "1024", "--ris", "1024"],
     ]
     return cases
@@ -286,26 +290,24 @@ def write_scene_dir(folder: Path) -> Path:
     return folder
 
 
-def test_budget_messages_name_the_need_the_machine_and_the_option(capsys, scene_dir, tmp_path):
+def test_budget_messages_name_the_need_the_machine_and_the_option(capsys, scene_dir, tmp_path, monkeypatch):
     code, _, err = run_cli(capsys, [*CHECK[:-1], "1e12"])
     assert code == 2 and re.search(
         r"needs [\d.]+ TiB; this machine has [\d.]+ [GMT]iB available; use --samples", err
     )
-    code, _, err = run_cli(
-        capsys,
-        [
-            "render",
-            str(scene_dir / "scene.json"),
-            "--quiet",
-            "--width",
-            "16384",
-            "--height",
-            "16384",
-            "--spp",
-            "1",
-        ],
+    big = ["render", str(scene_dir / "scene.json"), "--quiet", "--width", "16384", "--height", "16384"]
+    # too large for one film on this 4 GiB machine: rendered in bands, which need a sample count
+    code, _, err = run_cli(capsys, [*big, "--time", "5"])
+    assert code == 2 and re.search(
+        r"16384x16384 render needs [\d.]+ GiB as one film .* in bands of rows.*: give --spp N instead of --time",
+        err,
     )
-    assert code == 2 and re.search(r"16384x16384 render needs .*available; use --width \d+ --height \d+", err)
+    # not even a band of one row fits a 4 MiB machine
+    monkeypatch.setenv("BRDF_STUDIO_MEMORY", str(4 << 20))
+    code, _, err = run_cli(capsys, [*big, "--spp", "1"])
+    assert code == 2 and re.search(
+        r"16384x16384 render in bands of one row needs .*available; use --width \d+ or smaller", err
+    )
 
 
 def test_output_names_keep_every_dot_but_the_extension(capsys, scene_dir, tmp_path):
