@@ -1,6 +1,7 @@
 """Rows for the scene's fields, used by the generated forms (:mod:`app.editors.schema_form`): three spin
 boxes per vector, a colour swatch with three spin boxes and a strength slider per emitted RGB value, a check
-box per flag (numbers use :class:`app.editors.params.FloatRow`). Each emits ``edited(field, value)``;
+box per flag, a *uniform* switch with one or three spin boxes for a field that is one number or three (a
+mesh's ``scale``; numbers use :class:`app.editors.params.FloatRow`). Each emits ``edited(field, value)``;
 ``set_value`` shows a value without emitting."""
 
 from __future__ import annotations
@@ -153,6 +154,67 @@ class EmissionRow(_TripleSpins, QWidget):
         else:
             self._emit((0.0, 0.0, 0.0))
         self.released.emit()
+
+
+class NumberOrVec3Row(_TripleSpins, QWidget):
+    """A field that is one number or three (``scale: tuple[float, ...] | float``): a *uniform* check box and
+    three spin boxes (x, y, z), of which only the first is editable while uniform. Emits ``edited(field,
+    value)`` with a float while uniform, a 3-tuple otherwise. Switching *uniform* off changes nothing until a
+    spin box is edited (three equal numbers mean the same as one); switching it on makes every axis the
+    first one's value."""
+
+    edited = Signal(str, object)
+
+    def __init__(self, field: str, lo: float, hi: float, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.field = field
+        layout = QHBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        self.uniform = QCheckBox("uniform")
+        self.uniform.setToolTip("One number for every axis; untick for a different number per axis")
+        self.uniform.toggled.connect(self._uniform_toggled)
+        layout.addWidget(self.uniform)
+        self.spins: list[QDoubleSpinBox] = []
+        decimals = 4
+        if lo > 0.0:  # a spin box rounds its minimum to its decimals: 1e-6 would become 0, outside the schema
+            lo = max(lo, 10.0**-decimals)
+        for axis in "xyz":
+            s = QDoubleSpinBox()
+            s.setRange(lo, hi)
+            s.setDecimals(decimals)
+            s.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
+            s.setKeyboardTracking(False)
+            s.setPrefix(f"{axis} ")
+            s.setMinimumWidth(70)
+            s.valueChanged.connect(self._spin_changed)
+            layout.addWidget(s, 1)
+            self.spins.append(s)
+
+    def value(self) -> float | tuple[float, float, float]:  # type: ignore[override]
+        v = super().value()
+        return v[0] if self.uniform.isChecked() else v
+
+    def set_value(self, value: Any) -> None:
+        uniform = isinstance(value, int | float)
+        super().set_value((value,) * 3 if uniform else value)
+        self.uniform.blockSignals(True)
+        self.uniform.setChecked(uniform)
+        self.uniform.blockSignals(False)
+        self._enable()
+
+    def _enable(self) -> None:
+        for s in self.spins[1:]:
+            s.setEnabled(not self.uniform.isChecked())
+
+    def _spin_changed(self, _v: float) -> None:
+        if self.uniform.isChecked():
+            super().set_value((self.spins[0].value(),) * 3)  # the others show the same number
+        self.edited.emit(self.field, self.value())
+
+    def _uniform_toggled(self, on: bool) -> None:
+        self._enable()
+        if on:
+            self._spin_changed(self.spins[0].value())
 
 
 class CheckRow(QCheckBox):

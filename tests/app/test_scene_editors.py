@@ -7,9 +7,18 @@ from __future__ import annotations
 import pytest
 
 from app.editors.params import FloatRow
-from app.editors.rows import CheckRow, EmissionRow, Vec3Row
+from app.editors.rows import CheckRow, EmissionRow, NumberOrVec3Row, Vec3Row
 from app.editors.schema_form import SchemaForm
-from core.scene import Camera, ConstantEnvironment, MapEnvironment, PointLight, QuadLight
+from core.scene import (
+    MAX_SCALE,
+    MIN_SCALE,
+    Camera,
+    ConstantEnvironment,
+    MapEnvironment,
+    PointLight,
+    QuadLight,
+    Transform,
+)
 from tests.app.meshes import write_obj
 
 pytestmark = pytest.mark.gui
@@ -125,7 +134,7 @@ def test_object_placement_moves_the_mesh_everywhere_and_undoes(scene):
     w, doc = scene, scene.document
     doc.select_object("cube")
     editor = w.object_editor
-    assert editor.isVisibleTo(w) and set(editor.form.rows) == {"translate", "rotate_deg"}
+    assert editor.isVisibleTo(w) and set(editor.form.rows) == {"translate", "rotate_deg", "scale"}
     editor.form.rows["translate"].spins[1].setValue(2.0)  # up by 2
     assert doc.scene.meshes[0].transform.translate == (0.0, 2.0, 0.0)
     assert w.viewport.meshes["cube"].bounds[2] == pytest.approx(2.0)  # the viewport's mesh moved
@@ -138,3 +147,45 @@ def test_object_placement_moves_the_mesh_everywhere_and_undoes(scene):
     assert editor.form.rows["translate"].value() == (0.0, 0.0, 0.0)
     doc.select_object(None)
     assert not editor.isVisibleTo(w)
+
+
+def test_transform_scale_union_gets_a_uniform_or_per_axis_row(qtbot):
+    form = SchemaForm(Transform, "Transform")
+    qtbot.addWidget(form)
+    assert set(form.rows) == set(Transform.model_fields)  # the union is no longer left out
+    row = form.rows["scale"]
+    assert isinstance(row, NumberOrVec3Row)
+    # within the schema's bounds (a positive minimum the spin box can show: 1e-6 would round to 0)
+    assert MIN_SCALE <= row.spins[0].minimum() <= 1e-4 and row.spins[0].maximum() == MAX_SCALE
+    seen = []
+    form.edited.connect(lambda field, value: seen.append((field, value)))
+    row.set_value(2.0)
+    assert row.uniform.isChecked() and not row.spins[2].isEnabled() and row.value() == 2.0 and not seen
+    row.spins[0].setValue(3.0)
+    assert seen[-1] == ("scale", 3.0) and row.spins[2].value() == 3.0  # one number for every axis
+    row.uniform.setChecked(False)
+    assert len(seen) == 1 and row.spins[2].isEnabled()  # three equal numbers: nothing to edit yet
+    row.spins[1].setValue(0.5)
+    assert seen[-1] == ("scale", (3.0, 0.5, 3.0))
+    row.set_value((1.0, 2.0, 4.0))
+    assert not row.uniform.isChecked() and row.value() == (1.0, 2.0, 4.0)
+    row.uniform.setChecked(True)  # back to one factor: the first axis's
+    assert seen[-1] == ("scale", 1.0)
+
+
+def test_object_non_uniform_scale_through_its_row_and_undo(scene):
+    w, doc = scene, scene.document
+    doc.select_object("cube")
+    row = w.object_editor.form.rows["scale"]
+    assert row.uniform.isChecked() and row.value() == 1.0
+    row.uniform.setChecked(False)
+    row.spins[1].setValue(2.0)  # twice as tall
+    assert doc.scene.meshes[0].transform.scale == (1.0, 2.0, 1.0)
+    bounds = w.viewport.meshes["cube"].bounds
+    assert (bounds[1] - bounds[0], bounds[3] - bounds[2]) == pytest.approx((1.0, 2.0))
+    assert w.render_scene().meshes[0].transform.scale == (1.0, 2.0, 1.0)
+    doc.undo()
+    assert doc.scene.meshes[0].transform.scale == 1.0 and row.uniform.isChecked() and row.value() == 1.0
+    assert w.viewport.meshes["cube"].bounds[3] == pytest.approx(1.0)
+    doc.redo()
+    assert row.value() == (1.0, 2.0, 1.0) and not row.uniform.isChecked()
