@@ -6,7 +6,10 @@ by ``tests/app/test_autosave_crash.py``, which kills it.
         writes REPORT (the pid and the edit) and keeps running, autosaving, until it is killed;
     python -m tests.app.autosave_app restore PROJECT REPORT
         launches on PROJECT as a user would (``restore="ask"``; the question is answered yes), writes REPORT
-        (whether it was asked, the document it shows, its own autosave) and saves the project, then quits.
+        (whether it was asked, the document it shows, its own autosave) and saves the project, then quits;
+    python -m tests.app.autosave_app saves PROJECT REPORT
+        opens PROJECT and saves it over and over, each time with another value of the edited parameter
+        (:func:`saved_value`), until it is killed; REPORT (the pid) is written after the first save.
 """
 
 from __future__ import annotations
@@ -17,6 +20,11 @@ import sys
 from pathlib import Path
 
 EDIT = {"material": "ggx", "param": "alpha", "value": 0.4321, "added": "unsaved-work"}
+
+
+def saved_value(i: int) -> float:
+    """The parameter's value in the ``i``-th save of the ``saves`` phase."""
+    return round(0.1 + 0.001 * (i % 800), 6)
 
 
 def _write(path: Path, data: dict) -> None:
@@ -55,9 +63,22 @@ def main(phase: str, project: Path, report: Path) -> int:
         window.save_project()  # the user saves the restored work
         window.close()
 
+    saves = [0]
+
+    def save_again(window) -> None:
+        window.document.set_param(EDIT["param"], saved_value(saves[0]), material=EDIT["material"])
+        assert window.save_project()
+        saves[0] += 1
+        if saves[0] == 1:
+            _write(report, {"pid": os.getpid()})
+
     def shown(window) -> None:
         window.ask_unsaved = lambda: "discard"
-        if phase == "edit":
+        if phase == "saves":
+            timer = QTimer(window)
+            timer.timeout.connect(lambda: save_again(window))
+            timer.start(0)
+        elif phase == "edit":
             QTimer.singleShot(0, lambda: edit(window))
         else:
             window.ask_restore = lambda when: asked.append(when) or True

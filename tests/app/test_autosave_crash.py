@@ -173,3 +173,40 @@ def test_an_autosave_that_cannot_be_restored_is_kept_aside_and_the_app_starts(wi
     kept = Path(window.errors[-1].rsplit("kept as ", 1)[1].rstrip(")"))
     assert "no-such-model" in kept.read_text()
     kept.unlink()
+
+
+def test_a_project_saved_while_the_app_is_killed_is_whole(tmp_path):
+    """Saves go to a temporary file that replaces the project in one step: killed at any moment of a run of
+    back-to-back saves, the project is one of the saved versions, complete."""
+    from core.scene import load_scene
+    from tests.app.autosave_app import saved_value
+
+    user = tmp_path / "project"
+    user.mkdir()
+    project = user / "scene.json"
+    save_scene(default_scene(), project)
+    config = tmp_path / "config"
+    config.mkdir()
+    report = tmp_path / "report.json"
+    app = _launch("saves", project, report, config)
+    try:
+        _wait_for(report.exists, LAUNCH_TIMEOUT_S, app, "the first save")
+        versions = set()
+        end = time.monotonic() + 30
+        while len(versions) < 20 and time.monotonic() < end:  # let it save a few times, then kill it
+            with open(project, "rb") as fh:  # the reader's view while saves go on: always a whole file
+                data = json.loads(fh.read())
+            versions.add(
+                next(m for m in data["materials"] if m["name"] == EDIT["material"])["params"][EDIT["param"]]
+            )
+            time.sleep(0.01)
+        os.kill(app.pid, signal.SIGKILL)
+        app.communicate(timeout=30)
+    finally:
+        app.kill()
+    assert len(versions) >= 2  # it was saving while we read
+    scene = load_scene(project)
+    alpha = next(m for m in scene.materials if m.name == EDIT["material"]).params[EDIT["param"]]
+    assert alpha in {saved_value(i) for i in range(800)}
+    leftovers = [p.name for p in user.iterdir() if p != project]
+    assert all(name.startswith(".scene.json.") and name.endswith(".tmp") for name in leftovers), leftovers
