@@ -1,10 +1,24 @@
 """The scene tree: objects (each with a material chooser), materials, lights (and the environment) and the
-camera; selection is the document's, both ways. Lights are added and deleted from the context menu."""
+camera; selection is the document's, both ways. Lights are added and deleted from the context menu.
+
+Widths: only objects use the second column (their material choosers), so every other row spans both columns
+and the first column is as wide as the objects' names; the choosers take the rest of the width and, when it
+is short of the longest material name, show the current name elided at its end (whole in the tooltip and in
+the chooser's list, which is as wide as the longest name). A material's model is in its row's tooltip."""
 
 from __future__ import annotations
 
-from PySide6.QtCore import Qt, Signal
-from PySide6.QtWidgets import QAbstractItemView, QComboBox, QMenu, QTreeWidget, QTreeWidgetItem
+from PySide6.QtCore import QRect, Qt, Signal
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QComboBox,
+    QMenu,
+    QStyle,
+    QStyleOptionComboBox,
+    QStylePainter,
+    QTreeWidget,
+    QTreeWidgetItem,
+)
 
 from app.document import Document
 from core.errors import BrdfStudioError
@@ -12,6 +26,55 @@ from core.scene import PointLight, QuadLight
 
 ROLE_KIND = Qt.ItemDataRole.UserRole
 ROLE_NAME = Qt.ItemDataRole.UserRole + 1
+
+
+class MaterialChooser(QComboBox):
+    """A material chooser that fits the width it is given: it asks for room for
+    :attr:`MIN_CHARS` characters only, shows the current name elided at its end when the name does not fit,
+    and opens a list as wide as the longest name."""
+
+    MIN_CHARS = 12
+
+    def __init__(self, names: list[str], current: str):
+        super().__init__()
+        self.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
+        self.setMinimumContentsLength(self.MIN_CHARS)
+        self.addItems(names)
+        self.setCurrentText(current)
+        self.setToolTip(current)
+        self.currentTextChanged.connect(self.setToolTip)
+        longest = max((self.fontMetrics().horizontalAdvance(n) for n in names), default=0)
+        self.view().setMinimumWidth(
+            longest + 2 * self.style().pixelMetric(QStyle.PixelMetric.PM_ScrollBarExtent)
+        )
+
+    def text_rect(self) -> QRect:
+        """Where the current name is drawn (the style's edit field)."""
+        opt = QStyleOptionComboBox()
+        self.initStyleOption(opt)
+        return self.style().subControlRect(
+            QStyle.ComplexControl.CC_ComboBox, opt, QStyle.SubControl.SC_ComboBoxEditField, self
+        )
+
+    def shown_text(self) -> str:
+        """The current name as drawn: whole, or elided at its end to the text's width."""
+        return self.fontMetrics().elidedText(
+            self.currentText(), Qt.TextElideMode.ElideRight, self.text_rect().width()
+        )
+
+    def width_for_all(self) -> int:
+        """The width that shows the longest name whole."""
+        fm = self.fontMetrics()
+        chrome = self.sizeHint().width() - fm.horizontalAdvance("x") * self.MIN_CHARS
+        return chrome + max((fm.horizontalAdvance(self.itemText(i)) for i in range(self.count())), default=0)
+
+    def paintEvent(self, _event) -> None:  # noqa: N802 (Qt name)
+        painter = QStylePainter(self)
+        opt = QStyleOptionComboBox()
+        self.initStyleOption(opt)
+        painter.drawComplexControl(QStyle.ComplexControl.CC_ComboBox, opt)
+        opt.currentText = self.shown_text()
+        painter.drawControl(QStyle.ControlElement.CE_ComboBoxLabel, opt)
 
 
 class SceneTree(QTreeWidget):
@@ -23,7 +86,7 @@ class SceneTree(QTreeWidget):
         super().__init__(parent)
         self.document = document
         self.setColumnCount(2)
-        self.setHeaderLabels(["Scene", "Material / model"])
+        self.setHeaderLabels(["Scene", "Material"])
         self.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
         self.setContextMenuPolicy(Qt.ContextMenuPolicy.CustomContextMenu)
         self.customContextMenuRequested.connect(self._context_menu)
@@ -38,8 +101,9 @@ class SceneTree(QTreeWidget):
             item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsSelectable)
             item.setData(0, ROLE_KIND, f"root:{key}")
             self.addTopLevelItem(item)
+            item.setFirstColumnSpanned(True)
             self.roots[key] = item
-        self.combos: dict[str, QComboBox] = {}
+        self.combos: dict[str, MaterialChooser] = {}
         self.itemSelectionChanged.connect(self._selection_from_tree)
         ev = document.events
         ev.meshes.connect(lambda _items: self.rebuild())
@@ -60,9 +124,7 @@ class SceneTree(QTreeWidget):
             item.setData(0, ROLE_KIND, "object")
             item.setData(0, ROLE_NAME, o.name)
             self.roots["objects"].addChild(item)
-            combo = QComboBox()
-            combo.addItems(doc.material_names())
-            combo.setCurrentText(o.material)
+            combo = MaterialChooser(doc.material_names(), o.material)
             combo.activated.connect(lambda i, n=o.name, c=combo: self._assign(n, c.itemText(i)))
             self.setItemWidget(item, 1, combo)
             self.combos[o.name] = combo
@@ -71,13 +133,20 @@ class SceneTree(QTreeWidget):
             item.setData(0, ROLE_KIND, "material")
             item.setData(0, ROLE_NAME, m.name)
             self.roots["materials"].addChild(item)
+            item.setFirstColumnSpanned(True)
         self._add_scene_items()
         for root in self.roots.values():
             root.setExpanded(True)
         self._relabel_materials()
         self.blockSignals(False)
         self._selection_from_document()
-        self.resizeColumnToContents(0)  # every name whole; the choosers' column takes the rest
+        self.setColumnWidth(0, self.names_width())  # the objects' names whole; the choosers take the rest
+
+    def names_width(self) -> int:
+        """The first column's width: the objects' names whole (the other rows span both columns)."""
+        fm = self.fontMetrics()
+        names = [fm.horizontalAdvance(o.name) for o in self.document.objects()]
+        return max([self.header().sectionSizeHint(0), *(n + 2 * self.indentation() + 12 for n in names)])
 
     def _rebuild_scene_items(self) -> None:
         """Only the lights, environment and camera (their edits leave objects and materials alone)."""
@@ -95,26 +164,30 @@ class SceneTree(QTreeWidget):
             item.setData(0, ROLE_KIND, "light")
             item.setData(0, ROLE_NAME, i)
             self.roots["lights"].addChild(item)
+            item.setFirstColumnSpanned(True)
         env = doc.scene.environment
         item = QTreeWidgetItem([f"environment ({env.type if env else 'none'})", ""])
         item.setData(0, ROLE_KIND, "environment")
         item.setData(0, ROLE_NAME, 0)
         self.roots["lights"].addChild(item)
+        item.setFirstColumnSpanned(True)
         cam_item = QTreeWidgetItem([f"pinhole, fov {doc.scene.camera.fov_deg:.3g} deg", ""])
         cam_item.setData(0, ROLE_KIND, "camera")
         cam_item.setData(0, ROLE_NAME, 0)
         self.roots["camera"].addChild(cam_item)
+        cam_item.setFirstColumnSpanned(True)
 
     def _relabel_materials(self) -> None:
         doc = self.document
         root = self.roots["materials"]
         for i in range(root.childCount()):
             item = root.child(i)
+            name = item.data(0, ROLE_NAME)
             try:
-                label = doc.brdf(item.data(0, ROLE_NAME)).model.label
+                label = doc.brdf(name).model.label
             except (BrdfStudioError, KeyError):
                 label = "?"
-            item.setText(1, label)
+            item.setToolTip(0, f"{name}: {label}")
 
     def item_for(self, kind: str, name: str | int = 0) -> QTreeWidgetItem | None:
         """The item of an ``object`` or ``material`` (by name), a ``light`` (by index), the ``camera`` or
@@ -201,13 +274,14 @@ class SceneTree(QTreeWidget):
 
     def content_width(self) -> int:
         """The width that shows every name and chooser whole (the dock's width on first open)."""
-        widths = [
-            self.sizeHintForColumn(0),
-            max((c.sizeHint().width() for c in self.combos.values()), default=0),
-        ]
-        widths[0] = max(widths[0], self.header().sectionSizeHint(0))
-        widths[1] = max(widths[1], self.sizeHintForColumn(1), self.header().sectionSizeHint(1))
-        return sum(widths) + self.indentation() + 2 * self.frameWidth() + 24
+        fm = self.fontMetrics()
+        spanned = max(
+            (fm.horizontalAdvance(root.child(i).text(0)) + 2 * self.indentation() + 12
+             for root in self.roots.values() for i in range(root.childCount())),
+            default=0,
+        )  # fmt: skip
+        choosers = max((c.width_for_all() for c in self.combos.values()), default=0)
+        return max(spanned, self.names_width() + choosers) + 2 * self.frameWidth() + 8
 
 
 def light_label(light: PointLight | QuadLight, index: int) -> str:

@@ -37,7 +37,9 @@ def test_scene_tree_dock_shows_every_name_whole(window, qapp):
         for i in range(root.childCount()):
             item = root.child(i)
             needed = metrics.horizontalAdvance(item.text(0)) + 2 * tree.indentation()
-            assert tree.columnWidth(0) >= needed, item.text(0)  # no "polishe..."
+            # objects' names in the first column; the other rows span both
+            room = tree.viewport().width() if item.isFirstColumnSpanned() else tree.columnWidth(0)
+            assert room >= needed, item.text(0)  # no "polishe..."
     assert tree.columnWidth(0) <= tree.viewport().width()  # the names' column whole in view
     assert window.tree_dock.width() <= 0.3 * window.width() + 10  # and the dock takes no more than it needs
 
@@ -110,3 +112,45 @@ def test_lit_sphere_is_centred_and_whole(qtbot, size):
     assert xs.max() - xs.min() == pytest.approx(side, abs=6) and ys.max() - ys.min() == pytest.approx(
         side, abs=6
     )
+
+
+@pytest.mark.parametrize("width", [1400, 1200])
+def test_material_choosers_are_readable_in_a_narrow_window(window, qapp, width):
+    """At the default width (1400) and at 1200 px: every chooser lies whole inside the tree (no horizontal
+    scrolling), is at least :attr:`MaterialChooser.MIN_CHARS` characters wide, draws its name whole or elided
+    at its end into its text field, and opens a list as wide as the longest name."""
+    from app.main_window import demo_scene_path
+
+    window.open_project(demo_scene_path(), confirm=False, remember=False)
+    old = window.size()
+    window.resize(width, 900)
+    qapp.processEvents()
+    window.size_docks_to_content()
+    qapp.processEvents()
+    tree = window.scene_tree
+    fm = tree.fontMetrics()
+    try:
+        assert window.width() == width and tree.horizontalScrollBar().maximum() == 0
+        port = tree.viewport().rect()
+        whole = 0
+        for obj, combo in tree.combos.items():
+            geometry = combo.geometry()  # in the viewport's coordinates
+            assert port.contains(geometry), (obj, geometry, port)  # not cut by the tree's edge
+            assert geometry.left() >= tree.columnWidth(0) - 1  # beside the object's name
+            text, field = combo.shown_text(), combo.text_rect()
+            assert fm.horizontalAdvance(text) <= field.width()  # drawn inside the text field
+            name = combo.currentText()
+            if text == name:
+                whole += 1
+            else:  # elided at its end: the name's start is there to read
+                assert text.endswith("\u2026") and name.startswith(text[:-1])
+                assert len(text) - 1 >= min(len(name), 10), text
+            assert combo.view().minimumWidth() >= fm.horizontalAdvance(name)
+            assert combo.toolTip() == name
+        assert (
+            whole >= len(tree.combos) - 1
+        )  # only the longest name ("red plastic (measured, ...)") may be elided
+    finally:
+        window.resize(old)
+        qapp.processEvents()
+        window.size_docks_to_content()
