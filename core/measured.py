@@ -9,10 +9,37 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
+
+import numpy as np
 
 from core.errors import FileFormatError
-from core.model import BRDF
+from core.model import BRDF, Model
+
+
+class FileBRDF(BRDF):
+    """A BRDF backed by a table read from a measured file (the base of every format's BRDF): the table, and
+    ``path``, where it came from (``None`` for an in-memory table)."""
+
+    def __init__(self, model: Model, params: np.ndarray, table: Any, path: str | None = None):
+        super().__init__(model, {}, params=params)
+        self.table = table
+        self.path = path
+
+    def key(self) -> str:
+        """The model and the file with its size and modification time (so that a cache keyed by it misses
+        after the file changes); an in-memory table is keyed by its identity."""
+        if self.path is None:
+            return f"{self.model.name}(<memory:{id(self.table):x}>)"
+        try:
+            st = os.stat(self.path)
+            stamp = f"{st.st_size}:{st.st_mtime_ns}"
+        except OSError:
+            stamp = "?"
+        return f"{self.model.name}({os.path.abspath(self.path)}@{stamp})"
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.path!r})"
 
 
 class MeasuredFormat(NamedTuple):

@@ -46,6 +46,7 @@ from numba import njit
 from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
 from core.errors import FileFormatError
 from core.io import atomic_write
+from core.measured import FileBRDF
 from core.model import BRDF, Model, Traits
 
 N_THETA_H = 90
@@ -217,26 +218,11 @@ MERL_NEAREST = Model(
 )
 
 
-class MeasuredBRDF(BRDF):
+class MeasuredBRDF(FileBRDF):
     """A BRDF backed by a MERL table; ``path`` says where it came from (``None`` for an in-memory table)."""
 
     def __init__(self, table: MerlTable, path: str | None = None, interpolate: bool = True):
-        super().__init__(MERL if interpolate else MERL_NEAREST, {}, params=table.kernel_vector())
-        self.table = table
-        self.path = path
-
-    def key(self) -> str:
-        if self.path is None:
-            return f"{self.model.name}(<memory:{id(self.table):x}>)"
-        try:
-            st = os.stat(self.path)
-            stamp = f"{st.st_size}:{st.st_mtime_ns}"
-        except OSError:
-            stamp = "?"
-        return f"{self.model.name}({os.path.abspath(self.path)}@{stamp})"
-
-    def __repr__(self) -> str:
-        return f"MeasuredBRDF({self.path!r})"
+        super().__init__(MERL if interpolate else MERL_NEAREST, table.kernel_vector(), table, path)
 
 
 # --------------------------------------------------------------------------------------------- table

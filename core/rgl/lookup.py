@@ -58,6 +58,8 @@ H_OFF_LUM_MARG = 22
 H_OFF_LUM_COND = 23
 H_OFF_RGB = 24
 HEADER = 32
+# A warp's data, marginal and conditional offsets are consecutive slots, and so are a table's width and height
+# (read so by _warp).
 
 PI = math.pi
 JACOBIAN_FLOOR = 1e-6
@@ -88,6 +90,21 @@ def _fold(p, wx, wy):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _slices(p, phi_o, theta_o):
+    """The blend of the slices around the conditioning direction ``(phi_o, theta_o)``."""
+    return slice_weights(
+        p, int(p[H_OFF_PHI]), int(p[H_N_PHI]), int(p[H_OFF_THETA]), int(p[H_N_THETA]), phi_o, theta_o
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _warp(p, slot, size_slot):
+    """The layout of a warp: ``(off_data, off_marg, off_cond, w, h)`` from its offsets at header slots
+    ``slot .. slot + 2`` and its width and height at ``size_slot``, ``size_slot + 1``."""
+    return int(p[slot]), int(p[slot + 1]), int(p[slot + 2]), int(p[size_slot]), int(p[size_slot + 1])
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _frame(p, wo, wi):
     """Common part of ``eval`` and ``pdf``: ``(ok, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m)``."""
     sx, sy = _fold(p, wo[0], wo[1])
@@ -111,27 +128,10 @@ def _frame(p, wo, wi):
     ux_m = math.sqrt(theta_m * (2.0 / PI))
     ux_o = math.sqrt(theta_o * (2.0 / PI))
     uy_o = (phi_o + PI) / (2.0 * PI)
-    sl = slice_weights(
-        p, int(p[H_OFF_PHI]), int(p[H_N_PHI]), int(p[H_OFF_THETA]), int(p[H_N_THETA]), phi_o, theta_o
-    )
+    sl = _slices(p, phi_o, theta_o)
     sin_m = math.sqrt(mx * mx + my * my)
     o_dot_m = ox * mx + oy * my + oz * mz
     return True, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _vndf_invert(p, sl, ux, uy):
-    return warp_invert(
-        p,
-        int(p[H_OFF_VNDF]),
-        int(p[H_OFF_VNDF_MARG]),
-        int(p[H_OFF_VNDF_COND]),
-        int(p[H_VNDF_W]),
-        int(p[H_VNDF_H]),
-        sl,
-        ux,
-        uy,
-    )
 
 
 @njit(nogil=True, cache=True)
@@ -143,7 +143,8 @@ def eval_rgl(wi, wo, p):
     ok, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m = _frame(p, wo, wi)
     if not ok:
         return 0.0, 0.0, 0.0
-    sx, sy, _ = _vndf_invert(p, sl, ux_m, uy_m)
+    off, marg, cond, vw, vh = _warp(p, H_OFF_VNDF, H_VNDF_W)
+    sx, sy, _ = warp_invert(p, off, marg, cond, vw, vh, sl, ux_m, uy_m)
     w = int(p[H_SAMPLE_W])
     h = int(p[H_SAMPLE_H])
     off = int(p[H_OFF_RGB])
@@ -171,31 +172,11 @@ def sample_rgl(wo, p, u1, u2, u3):
     ox, oy, oz = wo[0] * fx, wo[1] * fy, wo[2]
     theta_o = _elevation(ox, oy, oz)
     phi_o = math.atan2(oy, ox)
-    sl = slice_weights(
-        p, int(p[H_OFF_PHI]), int(p[H_N_PHI]), int(p[H_OFF_THETA]), int(p[H_N_THETA]), phi_o, theta_o
-    )
-    sx, sy, lum_pdf = warp_sample(
-        p,
-        int(p[H_OFF_LUM]),
-        int(p[H_OFF_LUM_MARG]),
-        int(p[H_OFF_LUM_COND]),
-        int(p[H_SAMPLE_W]),
-        int(p[H_SAMPLE_H]),
-        sl,
-        u1,
-        u2,
-    )
-    ux, uy, vndf_pdf = warp_sample(
-        p,
-        int(p[H_OFF_VNDF]),
-        int(p[H_OFF_VNDF_MARG]),
-        int(p[H_OFF_VNDF_COND]),
-        int(p[H_VNDF_W]),
-        int(p[H_VNDF_H]),
-        sl,
-        sx,
-        sy,
-    )
+    sl = _slices(p, phi_o, theta_o)
+    off, marg, cond, lw, lh = _warp(p, H_OFF_LUM, H_SAMPLE_W)
+    sx, sy, lum_pdf = warp_sample(p, off, marg, cond, lw, lh, sl, u1, u2)
+    off, marg, cond, vw, vh = _warp(p, H_OFF_VNDF, H_VNDF_W)
+    ux, uy, vndf_pdf = warp_sample(p, off, marg, cond, vw, vh, sl, sx, sy)
     theta_m = ux * ux * (0.5 * PI)
     phi_m = (2.0 * uy - 1.0) * PI
     if p[H_ISOTROPIC] != 0.0:
@@ -225,15 +206,8 @@ def pdf_rgl(wo, wi, p):
     ok, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m = _frame(p, wo, wi)
     if not ok or o_dot_m == 0.0:
         return 0.0
-    sx, sy, vndf_pdf = _vndf_invert(p, sl, ux_m, uy_m)
-    lum = bilinear(
-        p,
-        int(p[H_OFF_LUM]),
-        int(p[H_SAMPLE_W]),
-        int(p[H_SAMPLE_H]),
-        sl,
-        sx,
-        sy,
-    )
+    off, marg, cond, vw, vh = _warp(p, H_OFF_VNDF, H_VNDF_W)
+    sx, sy, vndf_pdf = warp_invert(p, off, marg, cond, vw, vh, sl, ux_m, uy_m)
+    lum = bilinear(p, int(p[H_OFF_LUM]), int(p[H_SAMPLE_W]), int(p[H_SAMPLE_H]), sl, sx, sy)
     jac = max(2.0 * PI * PI * ux_m * sin_m, JACOBIAN_FLOOR) * 4.0 * abs(o_dot_m)
     return max(vndf_pdf * lum / jac, 0.0)

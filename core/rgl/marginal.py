@@ -77,22 +77,34 @@ def blend(p, off, size, sl, k):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def bilinear(p, off, w, h, sl, x, y):
-    """The bilinear interpolant of a ``h x w`` table (blended over ``sl``) at ``(x, y)`` in ``[0, 1]^2``."""
+def locate(w, h, x, y):
+    """The patch of a ``h x w`` table holding ``(x, y)`` (clamped to ``[0, 1]^2``): its column ``c``, row ``r``
+    and the fractions ``(tx, ty)`` inside it."""
     x = min(max(x, 0.0), 1.0) * (w - 1)
     y = min(max(y, 0.0), 1.0) * (h - 1)
     c = min(int(x), w - 2)
     r = min(int(y), h - 2)
-    tx = x - c
-    ty = y - r
+    return c, r, x - c, y - r
+
+
+@njit(inline="always", nogil=True, cache=True)
+def patch_columns(p, off, w, h, sl, r, c, ty):
+    """The table's values on the patch ``(r, c)``'s left and right edges at fraction ``ty`` of its height
+    (blended over ``sl``): the interpolant is linear between them in ``x``."""
     size = w * h
     k = r * w + c
     v00 = blend(p, off, size, sl, k)
     v10 = blend(p, off, size, sl, k + 1)
     v01 = blend(p, off, size, sl, k + w)
     v11 = blend(p, off, size, sl, k + w + 1)
-    c0 = v00 + ty * (v01 - v00)
-    c1 = v10 + ty * (v11 - v10)
+    return v00 + ty * (v01 - v00), v10 + ty * (v11 - v10)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def bilinear(p, off, w, h, sl, x, y):
+    """The bilinear interpolant of a ``h x w`` table (blended over ``sl``) at ``(x, y)`` in ``[0, 1]^2``."""
+    c, r, tx, ty = locate(w, h, x, y)
+    c0, c1 = patch_columns(p, off, w, h, sl, r, c, ty)
     return c0 + tx * (c1 - c0)
 
 
@@ -124,6 +136,15 @@ def _cond_at(p, off_cond, w, h, sl, r, c, ty):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _row_masses(p, off_cond, w, h, sl, r):
+    """The masses of rows ``r`` and ``r + 1`` (their conditional CDFs' last entries)."""
+    size = h * (w - 1)
+    return blend(p, off_cond, size, sl, r * (w - 1) + w - 2), blend(
+        p, off_cond, size, sl, (r + 1) * (w - 1) + w - 2
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
 def warp_sample(p, off_data, off_marg, off_cond, w, h, sl, u1, u2):
     """Warp uniforms ``(u1, u2)`` to ``(x, y, pdf)``: a point of ``[0, 1]^2`` with density ``pdf`` (the
     normalized interpolant there)."""
@@ -142,9 +163,7 @@ def warp_sample(p, off_data, off_marg, off_cond, w, h, sl, u1, u2):
     r = lo
     if r > 0:
         u2 -= blend(p, off_marg, n_marg, sl, r - 1)
-    size_cond = h * (w - 1)
-    r0 = blend(p, off_cond, size_cond, sl, r * (w - 1) + w - 2)
-    r1 = blend(p, off_cond, size_cond, sl, (r + 1) * (w - 1) + w - 2)
+    r0, r1 = _row_masses(p, off_cond, w, h, sl, r)
     ty = sample_segment(u2, h - 1.0, r0, r1)
     u1 *= r0 + ty * (r1 - r0)
     lo = 0
@@ -158,14 +177,7 @@ def warp_sample(p, off_data, off_marg, off_cond, w, h, sl, u1, u2):
     c = lo
     if c > 0:
         u1 -= _cond_at(p, off_cond, w, h, sl, r, c - 1, ty)
-    size = w * h
-    k = r * w + c
-    v00 = blend(p, off_data, size, sl, k)
-    v10 = blend(p, off_data, size, sl, k + 1)
-    v01 = blend(p, off_data, size, sl, k + w)
-    v11 = blend(p, off_data, size, sl, k + w + 1)
-    c0 = v00 + ty * (v01 - v00)
-    c1 = v10 + ty * (v11 - v10)
+    c0, c1 = patch_columns(p, off_data, w, h, sl, r, c, ty)
     tx = sample_segment(u1, w - 1.0, c0, c1)
     return (c + tx) / (w - 1.0), (r + ty) / (h - 1.0), c0 + tx * (c1 - c0)
 
@@ -174,27 +186,13 @@ def warp_sample(p, off_data, off_marg, off_cond, w, h, sl, u1, u2):
 def warp_invert(p, off_data, off_marg, off_cond, w, h, sl, x, y):
     """The inverse of :func:`warp_sample`: the uniforms ``(u1, u2)`` that map to ``(x, y)``, and the density
     there."""
-    x = min(max(x, 0.0), 1.0) * (w - 1)
-    y = min(max(y, 0.0), 1.0) * (h - 1)
-    c = min(int(x), w - 2)
-    r = min(int(y), h - 2)
-    tx = x - c
-    ty = y - r
-    size = w * h
-    k = r * w + c
-    v00 = blend(p, off_data, size, sl, k)
-    v10 = blend(p, off_data, size, sl, k + 1)
-    v01 = blend(p, off_data, size, sl, k + w)
-    v11 = blend(p, off_data, size, sl, k + w + 1)
-    c0 = v00 + ty * (v01 - v00)
-    c1 = v10 + ty * (v11 - v10)
+    c, r, tx, ty = locate(w, h, x, y)
+    c0, c1 = patch_columns(p, off_data, w, h, sl, r, c, ty)
     pdf = c0 + tx * (c1 - c0)
     u1 = invert_segment(tx, 1.0 / (w - 1.0), c0, c1)
     if c > 0:
         u1 += _cond_at(p, off_cond, w, h, sl, r, c - 1, ty)
-    size_cond = h * (w - 1)
-    r0 = blend(p, off_cond, size_cond, sl, r * (w - 1) + w - 2)
-    r1 = blend(p, off_cond, size_cond, sl, (r + 1) * (w - 1) + w - 2)
+    r0, r1 = _row_masses(p, off_cond, w, h, sl, r)
     row_mass = r0 + ty * (r1 - r0)
     u1 = u1 / row_mass if row_mass > 0.0 else 0.0
     u2 = invert_segment(ty, 1.0 / (h - 1.0), r0, r1)

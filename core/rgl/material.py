@@ -17,8 +17,10 @@ luminance      float32   (P, T, n, n)          the luminance warp's density over
 rgb            float32   (P, T, 3, n, n)       stored values over the sample square
 ============== ========= ===================== =====================================================
 
-Spectral files (``wavelengths`` and ``spectra`` instead of ``rgb``) are refused with a message: the renderer is
-RGB. Every other problem — a missing field, a wrong type or shape, shapes that disagree, non-finite or
+A spectral file — the RGL database's own measurements — holds ``wavelengths`` (float32, ``(W,)``, nm) and
+``spectra`` (float32, ``(P, T, W, n, n)``) in place of ``rgb``: the renderer is RGB, so the spectra become
+linear sRGB on load (:mod:`core.rgl.spectral`: CIE 1931 under D65), and the table keeps the wavelengths it
+came from; everything else (the warps, hence sampling) is the same. Every problem — a missing field, a wrong type or shape, shapes that disagree, non-finite or
 negative values, a warp slice with no mass — is one :class:`~core.errors.FileFormatError` naming the file and
 the field.
 
@@ -40,8 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import FileFormatError
+from core.measured import FileBRDF
 from core.model import BRDF, Model, Traits
-from core.rgl import lookup
+from core.rgl import lookup, spectral
 from core.rgl.tensor_file import read_tensor_file, write_tensor_file
 
 SUFFIX = ".bsdf"
@@ -50,7 +53,8 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 @dataclass(frozen=True)
 class RGLTable:
-    """The fields of an RGB ``.bsdf`` file (see the module docstring), as stored (float32)."""
+    """The fields of an RGB ``.bsdf`` file (see the module docstring), as stored (float32); a spectral file's
+    ``rgb`` is its spectra converted, and ``wavelengths`` (nm) says so (``None`` for an RGB file)."""
 
     description: str
     jacobian: bool
@@ -61,6 +65,7 @@ class RGLTable:
     vndf: np.ndarray
     luminance: np.ndarray
     rgb: np.ndarray
+    wavelengths: np.ndarray | None = None
 
     @property
     def isotropic(self) -> bool:
@@ -75,7 +80,8 @@ class RGLTable:
         return max(1, round(2.0 * math.pi / span))
 
     def fields(self) -> dict[str, np.ndarray | str]:
-        """The tensor-file fields, in the order the RGL database writes them."""
+        """The tensor-file fields of an RGB file, in the order the RGL database writes them (a table read
+        from a spectral file is written with its converted ``rgb``)."""
         return {
             "description": self.description,
             "jacobian": np.array([1 if self.jacobian else 0], dtype=np.uint8),
@@ -90,18 +96,53 @@ class RGLTable:
 
     def resolution(self) -> str:
         p, t, _, h, w = self.rgb.shape
+        if self.wavelengths is not None:
+            return f"{p} x {t} x {h} x {w} x 3 (from {self.wavelengths.shape[0]} wavelengths)"
         return f"{p} x {t} x {h} x {w} x 3"
 
 
 # --------------------------------------------------------------------------------------------- reading
 
 
-def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
-    if "rgb" not in table and "spectra" in table:
+def _spectral(table: dict[str, np.ndarray], where: str) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """A spectral file's fields with ``rgb`` made from its spectra, and its wavelengths; an RGB file's as
+    they are (and ``None``)."""
+    if "rgb" in table or ("spectra" not in table and "wavelengths" not in table):
+        return table, None
+    for name in ("wavelengths", "spectra"):
+        if name not in table:
+            raise FileFormatError(
+                f"{where} is a spectral .bsdf file without field '{name}' (a spectral file holds 'wavelengths' "
+                "and 'spectra')"
+            )
+    wl, spectra = table["wavelengths"], table["spectra"]
+    for name, arr, ndim in (("wavelengths", wl, 1), ("spectra", spectra, 5)):
+        if arr.dtype != np.float32 or arr.ndim != ndim:
+            raise FileFormatError(
+                f"{where}: field '{name}' is {arr.dtype} of rank {arr.ndim}, expected float32 of rank {ndim}"
+            )
+    if wl.shape[0] < 2 or not np.all(np.isfinite(wl)) or wl[0] <= 0.0 or np.any(np.diff(wl) <= 0.0):
         raise FileFormatError(
-            f"{where} is a spectral .bsdf file (fields 'wavelengths' and 'spectra'); BRDF Studio renders in RGB: "
-            "use the material's RGB file"
+            f"{where}: field 'wavelengths' must hold at least 2 increasing positive wavelengths (nm)"
         )
+    if not spectral.covers_visible(wl):
+        raise FileFormatError(
+            f"{where}: field 'wavelengths' spans {wl[0]:g} to {wl[-1]:g} nm, outside the visible range "
+            f"({spectral.CIE_MIN_NM:g} to {spectral.CIE_MAX_NM:g} nm): no colour can be made of it"
+        )
+    if spectra.shape[2] != wl.shape[0]:
+        raise FileFormatError(
+            f"{where}: field 'spectra' has shape {spectra.shape}; its third size must be len(wavelengths) = "
+            f"{wl.shape[0]}"
+        )
+    if not np.all(np.isfinite(spectra)):
+        raise FileFormatError(f"{where}: field 'spectra' holds NaN or Inf values")
+    return {**table, "rgb": spectral.spectra_to_rgb(spectra, wl)}, wl
+
+
+def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
+    table, wavelengths = _spectral(table, where)
+    values = "rgb" if wavelengths is None else "spectra"
     required = {
         "description": (np.uint8, 1),
         "jacobian": (np.uint8, 1),
@@ -116,7 +157,8 @@ def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
     for name, (dtype, ndim) in required.items():
         if name not in table:
             raise FileFormatError(
-                f"{where} has no field '{name}' (an RGB .bsdf file holds {', '.join(required)})"
+                f"{where} has no field '{name}' (an RGB .bsdf file holds {', '.join(required)}; a spectral "
+                "one 'wavelengths' and 'spectra' in place of 'rgb')"
             )
         arr = table[name]
         if arr.dtype != np.dtype(dtype) or arr.ndim != ndim:
@@ -139,7 +181,7 @@ def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
         raise FileFormatError(
             f"{where}: field 'jacobian' must hold one value, got shape {table['jacobian'].shape}"
         )
-    for name, arr in (("vndf", vndf), ("luminance", lum), ("rgb", rgb)):
+    for name, arr in (("vndf", vndf), ("luminance", lum), (values, rgb)):
         if arr.shape[:2] != (n_phi, n_theta):
             raise FileFormatError(
                 f"{where}: field '{name}' has shape {arr.shape}; its first two sizes must be "
@@ -149,12 +191,13 @@ def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
         raise FileFormatError(f"{where}: field 'rgb' has {rgb.shape[2]} channels, expected 3")
     if lum.shape[2:] != rgb.shape[3:]:
         raise FileFormatError(
-            f"{where}: 'luminance' ({lum.shape[2]} x {lum.shape[3]}) and 'rgb' ({rgb.shape[3]} x {rgb.shape[4]}) "
-            "must share the sample grid"
+            f"{where}: 'luminance' ({lum.shape[2]} x {lum.shape[3]}) and '{values}' ({rgb.shape[3]} x "
+            f"{rgb.shape[4]}) must share the sample grid"
         )
     for name in ("ndf", "sigma", "vndf", "luminance", "rgb"):
         arr = table[name]
         if min(arr.shape[-2:]) < 2:
+            name = values if name == "rgb" else name
             raise FileFormatError(f"{where}: field '{name}' needs at least 2 x 2 nodes, got {arr.shape[-2:]}")
         if not np.all(np.isfinite(arr)):
             raise FileFormatError(f"{where}: field '{name}' holds NaN or Inf values")
@@ -181,6 +224,7 @@ def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
         vndf=vndf,
         luminance=lum,
         rgb=rgb,
+        wavelengths=wavelengths,
     )
     if not out.isotropic and out.reduction not in (1, 2, 4):
         raise FileFormatError(
@@ -191,7 +235,8 @@ def _check(table: dict[str, np.ndarray], where: str) -> RGLTable:
 
 
 def read_bsdf(path: str | os.PathLike[str]) -> RGLTable:
-    """Read an RGB ``.bsdf`` file; raises :class:`FileFormatError` naming what is wrong."""
+    """Read a ``.bsdf`` file, RGB or spectral (converted to RGB); raises :class:`FileFormatError` naming what
+    is wrong."""
     where = f"RGL .bsdf file '{Path(path)}'"
     return _check(read_tensor_file(path, "RGL .bsdf file"), where)
 
@@ -281,49 +326,36 @@ _NOTES = (
     "Its analytic sampler is the file's luminance warp over the visible-normal parameterization."
 )
 
-RGL = Model(
-    name="rgl",
-    label="Measured (RGL .bsdf)",
-    citation=_CITATION,
-    params=(),
-    traits=Traits.ISOTROPIC,
-    eval=lookup.eval_rgl,
-    sample=lookup.sample_rgl,
-    pdf=lookup.pdf_rgl,
-    doc=__doc__ or "",
-    notes=_NOTES,
-    measured=True,
-)
+
+def _declare(name: str, label: str, traits: Traits, notes: str = "") -> Model:
+    """One of the three declarations below: they differ only in name, label, traits and notes."""
+    return Model(
+        name=name,
+        label=label,
+        citation=_CITATION,
+        params=(),
+        traits=traits,
+        eval=lookup.eval_rgl,
+        sample=lookup.sample_rgl,
+        pdf=lookup.pdf_rgl,
+        doc=__doc__ or "",
+        notes=_NOTES + notes,
+        measured=True,
+    )
+
+
+RGL = _declare("rgl", "Measured (RGL .bsdf)", Traits.ISOTROPIC)
 """Isotropic ``.bsdf`` files (``phi_o`` is not a parameter: tables over ``phi_m - phi_o``)."""
 
-RGL_ANISOTROPIC = Model(
-    name="rgl_anisotropic",
-    label="Measured (RGL .bsdf, anisotropic)",
-    citation=_CITATION,
-    params=(),
-    traits=Traits.MIRROR_SYMMETRIC,
-    eval=lookup.eval_rgl,
-    sample=lookup.sample_rgl,
-    pdf=lookup.pdf_rgl,
-    doc=__doc__ or "",
-    notes=_NOTES + " The file covers a quadrant of phi_o; the reader mirrors the rest into it.",
-    measured=True,
+RGL_ANISOTROPIC = _declare(
+    "rgl_anisotropic",
+    "Measured (RGL .bsdf, anisotropic)",
+    Traits.MIRROR_SYMMETRIC,
+    " The file covers a quadrant of phi_o; the reader mirrors the rest into it.",
 )
 """Anisotropic files over a quadrant of ``phi_o`` (reduction 4): mirror-symmetric by construction."""
 
-RGL_GENERAL = Model(
-    name="rgl_general",
-    label="Measured (RGL .bsdf, anisotropic, no symmetry)",
-    citation=_CITATION,
-    params=(),
-    traits=Traits.NONE,
-    eval=lookup.eval_rgl,
-    sample=lookup.sample_rgl,
-    pdf=lookup.pdf_rgl,
-    doc=__doc__ or "",
-    notes=_NOTES,
-    measured=True,
-)
+RGL_GENERAL = _declare("rgl_general", "Measured (RGL .bsdf, anisotropic, no symmetry)", Traits.NONE)
 """Anisotropic files over the whole circle of ``phi_o`` or half of it."""
 
 
@@ -333,28 +365,13 @@ def model_of(table: RGLTable) -> Model:
     return RGL_ANISOTROPIC if table.reduction == 4 else RGL_GENERAL
 
 
-class RGLBRDF(BRDF):
+class RGLBRDF(FileBRDF):
     """A BRDF backed by an RGL table; ``path`` says where it came from (``None`` for an in-memory table)."""
 
     def __init__(self, table: RGLTable, path: str | None = None):
-        super().__init__(model_of(table), {}, params=kernel_vector(table))
-        self.table = table
-        self.path = path
-
-    def key(self) -> str:
-        if self.path is None:
-            return f"{self.model.name}(<memory:{id(self.table):x}>)"
-        try:
-            st = os.stat(self.path)
-            stamp = f"{st.st_size}:{st.st_mtime_ns}"
-        except OSError:
-            stamp = "?"
-        return f"{self.model.name}({os.path.abspath(self.path)}@{stamp})"
-
-    def __repr__(self) -> str:
-        return f"RGLBRDF({self.path!r})"
+        super().__init__(model_of(table), kernel_vector(table), table, path)
 
 
 def rgl_brdf(path: str | os.PathLike[str]) -> RGLBRDF:
-    """A :class:`BRDF` from an RGB ``.bsdf`` file (errors as :func:`read_bsdf`)."""
+    """A :class:`BRDF` from a ``.bsdf`` file, RGB or spectral (errors as :func:`read_bsdf`)."""
     return RGLBRDF(read_bsdf(path), str(path))
