@@ -1,6 +1,8 @@
 """The "Fit…" dialog: fit an analytic model to a measured material (MERL ``.binary`` or RGL ``.bsdf``) and
-look at the result — the fitted lobe beside the measured one in the plane of incidence, and the relative error
-over ``(theta_h, theta_d)`` — then keep the fitted parameters as a new material of the document.
+look at the result — the fitted lobe beside the measured one in 3-D (two :class:`app.views.lobe.LobeView`, the
+main window's lobe view, sharing one camera and the *Absolute scale* box), the two in the plane of incidence,
+and the relative error over ``(theta_h, theta_d)`` — then keep the fitted parameters as a new material of the
+document.
 
 The fit (:func:`core.fit.fit`, seconds to tens of seconds) runs in a :class:`app.workers.GeneratorWorker`; the
 dialog keeps no copy of the document's state: "Add as material" calls ``document.add_material``. Opened by
@@ -15,6 +17,9 @@ from typing import Any
 import numpy as np
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from matplotlib.figure import Figure
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QCloseEvent
+from PySide6.QtOpenGLWidgets import QOpenGLWidget
 from PySide6.QtWidgets import (
     QComboBox,
     QDialog,
@@ -24,21 +29,24 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QPushButton,
     QSpinBox,
+    QSplitter,
     QVBoxLayout,
     QWidget,
 )
 
+from app.views.lobe import LobeView
 from core.errors import BrdfStudioError
 from core.fit import METRICS, FitResult, error_map, fit, incidence_plane
 from core.measured import load_measured
 from core.model import all_models
 
 THETA_O_DEG = 30.0
-"""Outgoing polar angle of the incidence-plane slice."""
+"""Outgoing polar angle of the lobes and of the incidence-plane slice."""
 
 
 class FitDialog(QDialog):
-    """Measured file, model, metric and starts; Fit; the two comparison plots; Add as material."""
+    """Measured file, model, metric and starts; Fit; the measured and fitted lobes, the two comparison plots;
+    Add as material."""
 
     def __init__(self, document: Any, path: str | None = None, parent: QWidget | None = None):
         super().__init__(parent)
@@ -68,6 +76,22 @@ class FitDialog(QDialog):
         self.status.setWordWrap(True)
         self.figure = Figure(figsize=(9.0, 3.6), dpi=90)
         self.canvas = FigureCanvasQTAgg(self.figure)
+        self.measured_lobe = LobeView()
+        self.fitted_lobe = LobeView()
+        link_lobe_views(self.measured_lobe, self.fitted_lobe)
+        lobes = QWidget()
+        lobes_row = QHBoxLayout(lobes)
+        lobes_row.setContentsMargins(0, 0, 0, 0)
+        for title, view in (("Measured", self.measured_lobe), ("Fitted", self.fitted_lobe)):
+            column = QVBoxLayout()
+            column.addWidget(QLabel(f"<b>{title}</b> lobe: f cos, theta_o = {THETA_O_DEG:g} deg"))
+            column.addWidget(view, 1)
+            lobes_row.addLayout(column, 1)
+        self.lobes = lobes
+        lobes.setVisible(False)  # until there is a fit to show (an empty view draws a placeholder dome)
+        self.views = QSplitter(Qt.Orientation.Vertical)
+        self.views.addWidget(lobes)
+        self.views.addWidget(self.canvas)
 
         row = QHBoxLayout()
         row.addWidget(QLabel("Measured"))
@@ -87,8 +111,9 @@ class FitDialog(QDialog):
         layout = QVBoxLayout(self)
         layout.addLayout(row)
         layout.addLayout(opts)
-        layout.addWidget(self.canvas, 1)
+        layout.addWidget(self.views, 1)
         layout.addWidget(self.status)
+        self.resize(1000, 860)
 
     # ------------------------------------------------------------------------------------------- actions
     def _browse(self) -> None:
@@ -138,6 +163,12 @@ class FitDialog(QDialog):
     def show_result(self, result: FitResult) -> None:
         self.result = result
         fitted = result.brdf()
+        wo = lobe_direction()
+        self.measured_lobe.show_lobe(self._source, wo)
+        self.fitted_lobe.show_lobe(fitted, wo)
+        if not self.lobes.isVisible():
+            self.lobes.setVisible(True)
+            self.views.setSizes([440, 330])
         self.figure.clear()
         ax1 = self.figure.add_subplot(1, 2, 1)
         t, measured = incidence_plane(self._source, THETA_O_DEG)
@@ -181,6 +212,28 @@ class FitDialog(QDialog):
         name = self.document.add_material(self.result.model, f"{stem} {self.result.model} fit", params)
         self.status.setText(f"Added material '{name}'.")
         return name
+
+    def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802 (Qt's name)
+        for view in (self.measured_lobe, self.fitted_lobe):
+            view.close_view()
+        super().closeEvent(event)
+
+
+def lobe_direction() -> np.ndarray:
+    """``wo`` of the lobes: ``theta_o`` = :data:`THETA_O_DEG` in the plane of the incidence-plane slice
+    (:func:`core.fit.incidence_plane` puts ``wo`` at ``phi = 180`` degrees)."""
+    t = np.radians(THETA_O_DEG)
+    return np.array([-np.sin(t), 0.0, np.cos(t)])
+
+
+def link_lobe_views(first: LobeView, second: LobeView) -> None:
+    """One camera for both views (turning or zooming either turns both) and one *Absolute scale* box."""
+    second.plotter.renderer.camera = first.plotter.renderer.camera
+    for source, other in ((first, second), (second, first)):
+        source.plotter.iren.add_observer(
+            "InteractionEvent", lambda *_, view=other: QOpenGLWidget.update(view.plotter)
+        )
+        source.absolute.toggled.connect(other.absolute.setChecked)
 
 
 def _text(v: Any) -> str:
