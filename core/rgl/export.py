@@ -24,7 +24,7 @@ quadrant of ``phi_o`` (the reader mirrors the rest), others over the whole circl
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -285,14 +285,9 @@ def tabulate(brdf: BRDF, options: ExportOptions | None = None, description: str 
         rgb[s] = out.reshape(nh, nw, 3)
     lum = luminance(rgb)
     lum = lum + o.luminance_floor * lum.reshape(slices, -1).mean(axis=1)[:, None, None] + 1e-12
-    return RGLTable(
+    return replace(
+        ones,
         description=description or f"BRDF Studio export of {brdf.key()}",
-        jacobian=True,
-        theta_i=theta_i,
-        phi_i=phi_i,
-        ndf=ndf,
-        sigma=sigma,
-        vndf=vndf,
         luminance=lum.reshape(n_phi, n_theta, nh, nw).astype(np.float32),
         rgb=np.moveaxis(rgb, -1, 1).reshape(n_phi, n_theta, 3, nh, nw).astype(np.float32),
     )
