@@ -27,6 +27,9 @@
    its delay beyond the interval; target: p99 <= 50 ms in every phase. First, *Make reference* renders a
    ``--reference-spp`` reference (not timed), so that the panel plots RMSE and relMSE live as it does in use.
    ``--render-seconds 0`` skips it (as does leaving it out of ``--parts``).
+   ``--stacks MS``: a watchdog thread samples the GUI thread's Python stack every 5 ms while no tick has come
+   for ``MS`` ms, and prints, for each of the longest stalls, where the GUI thread was (the innermost frames
+   seen most often): what to make faster or move off the GUI thread.
 
 Prints tables; writes ``results/bench/app_latency.csv`` and ``results/bench/app_stall.csv``. Runs under Xvfb
 when there is no display. The machine's load average is printed: other processes inflate the numbers.
@@ -274,6 +277,98 @@ def first_part(events, window, timeout: float = 600.0) -> list[dict]:
     return rows
 
 
+class StallStacks:
+    """A watchdog thread: while the GUI thread has not ticked for ``threshold_ms``, it samples every 5 ms the
+    GUI thread's Python stack (``sys._current_frames``), its scheduler state and CPU time
+    (``/proc/self/task/TID/stat``: R running or waiting for a core, S sleeping, e.g. on the interpreter lock)
+    and what the other Python threads are doing; :meth:`report` prints the longest stalls with what was seen
+    most often during each. CPU time that grows with the stall means work on the GUI thread; a sleeping thread
+    waits for a lock (the GIL held by another thread); a running one that gets no CPU time waits for a core."""
+
+    def __init__(self, threshold_ms: float) -> None:
+        import threading
+
+        self.threshold = threshold_ms / 1e3
+        self.gui = threading.get_ident()
+        self.gui_native = threading.get_native_id()
+        self.last = time.monotonic()
+        self.phase = "baseline"
+        self.stalls: list[dict] = []
+        self._current: dict | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True, name="stall-stacks")
+        self._thread.start()
+
+    def _stat(self) -> tuple[str, float]:
+        """The GUI thread's scheduler state (with the kernel function it sleeps in: ``futex`` is a lock,
+        the interpreter's or a GL fence; ``poll`` a socket, e.g. the X server's) and its CPU seconds."""
+        task = Path(f"/proc/self/task/{self.gui_native}")
+        try:
+            text = (task / "stat").read_text()
+            wchan = (task / "wchan").read_text().strip()
+        except OSError:
+            return "?", 0.0
+        fields = text[text.rindex(")") + 2 :].split()
+        state = fields[0] if fields[0] != "S" or wchan in ("", "0") else f"S:{wchan}"
+        return state, (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+    def tick(self, phase: str) -> None:
+        now = time.monotonic()
+        current, self._current = self._current, None
+        if current is not None:
+            current["ms"] = (now - current["since"]) * 1e3
+            current["cpu_ms"] = (self._stat()[1] - current["cpu0"]) * 1e3
+            self.stalls.append(current)
+        self.last, self.phase = now, phase
+
+    @staticmethod
+    def _where(frame, depth: int) -> str:
+        import traceback
+
+        stack = traceback.extract_stack(frame)[-depth:]
+        return " <- ".join(f"{Path(f.filename).name}:{f.lineno} {f.name}" for f in reversed(stack))
+
+    def _run(self) -> None:
+        from collections import Counter
+
+        idle = ("wait", "select", "_recv", "poll", "_poll", "accept", "get", "_wait_for_tstate_lock")
+        while not self._stop.wait(0.005):
+            since = self.last
+            if time.monotonic() - since < self.threshold:
+                continue
+            frames = sys._current_frames()
+            frame = frames.get(self.gui)
+            if frame is None:
+                continue
+            current = self._current
+            if current is None or current["since"] != since:
+                cpu0 = self._stat()[1]
+                current = self._current = {"since": since, "phase": self.phase, "stacks": Counter(),
+                                           "states": Counter(), "others": Counter(), "cpu0": cpu0}  # fmt: skip
+            current["stacks"][self._where(frame, 6)] += 1
+            current["states"][self._stat()[0]] += 1
+            for ident, other in frames.items():
+                if ident not in (self.gui, self._thread.ident) and other.f_code.co_name not in idle:
+                    current["others"][self._where(other, 3)] += 1
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def report(self, top: int = 12) -> None:
+        longest = sorted(self.stalls, key=lambda s: -s["ms"])[:top]
+        print(f"\nthe {len(longest)} longest GUI-thread stalls (of {len(self.stalls)} over the threshold):")
+        for s in longest:
+            states = ", ".join(f"{k} {v}" for k, v in s["states"].most_common())
+            print(
+                f"  {s['ms']:7.1f} ms in {s['phase']}: GUI thread CPU {s['cpu_ms']:.0f} ms; states {states}"
+            )
+            for key, n in s["stacks"].most_common(2):
+                print(f"      {n:3d} x {key}")
+            for key, n in s["others"].most_common(2):
+                print(f"      other thread {n:3d} x {key}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--edits", type=int, default=15)
@@ -293,6 +388,12 @@ def main() -> int:
         "--parts", default=",".join(PARTS), help="latency, stall and/or first (comma-separated)"
     )
     parser.add_argument("--fresh", action="store_true", help="a new parameter value (a new tree) every edit")
+    parser.add_argument(
+        "--stacks",
+        type=float,
+        default=0.0,
+        help="stall part: sample the GUI thread's stack during stalls longer than this many ms (0: off)",
+    )
     args = parser.parse_args()
     parts = {p.strip() for p in args.parts.split(",") if p.strip()}
     if not parts <= {*PARTS, "first"}:
@@ -360,11 +461,15 @@ def main() -> int:
     state = {"last": None, "phase": "baseline"}
     interval_ms = 10
 
+    watchdog = StallStacks(args.stacks) if args.stacks > 0 else None
+
     def tick() -> None:
         now = clock.nsecsElapsed() / 1e6
         if state["last"] is not None:
             stall[state["phase"]].append(now - state["last"] - interval_ms)
         state["last"] = now
+        if watchdog is not None:
+            watchdog.tick(state["phase"])
 
     def run_for(seconds: float, until=None) -> None:
         end = time.monotonic() + seconds
@@ -420,6 +525,9 @@ def main() -> int:
     panel.cancel()
     run_for(2.0)
     timer.stop()
+    if watchdog is not None:
+        watchdog.stop()
+        watchdog.report()
     print(f"\nrender of the demo scene ({panel.width_box.value()}x{panel.height_box.value()}, uniform vs "
           f"{args.strategy_b}, equal time {args.render_seconds:g} s each): first frames of both after "
           f"{first_s:.1f} s, done after {render_wall:.1f} s wall, spp {frames}")  # fmt: skip

@@ -36,6 +36,9 @@ class ErrorPlot(FigureView):
         self._lines: dict[tuple[str, str], object] | None = None
         self._limits_set: dict[str, bool] = {}
         self.verdict = ""
+        self.horizon: float | None = None
+        """The render's expected length in seconds (equal time), or ``None``: the time axis reaches past it at
+        once, so the render needs no full draw for the time axis after its first frame."""
         self.placeholder = "Error vs time: Render > Make reference (or load a reference EXR) to measure RMSE"
         self.show_curves({})
 
@@ -127,7 +130,7 @@ class ErrorPlot(FigureView):
             e = [p[1] for p in pts]
             (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
             if not self._limits_set.get(metric) or min(t) < x0 or max(t) > x1:
-                ax.set_xlim(min(t) / 1.5, max(t) * 8.0)
+                ax.set_xlim(min(t) / 1.5, max(max(t) * 8.0, 1.3 * (self.horizon or 0.0)))
                 changed = True
             if not self._limits_set.get(metric) or min(e) < y0 or max(e) > y1:
                 ax.set_ylim(min(e) / 10.0, max(e) * 3.0)

@@ -7,6 +7,7 @@ verdict, the reference made in the background (:mod:`app.reference_runner`), can
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -37,7 +38,11 @@ from core.sampling import sampler_names
 from core.scene import Scene
 
 PLOT_INTERVAL_MS = 500
-FRAME_INTERVAL_MS = 100
+FRAME_INTERVAL_MS = 250
+"""Images, counters and the error plot are drawn together, at most every ``FRAME_INTERVAL_MS`` (the plot at
+most every ``PLOT_INTERVAL_MS``): the window is composed through OpenGL (its 3D views), so every repaint of any
+widget flushes the whole window, tens of ms in software GL on a loaded machine (measured with
+``bench/app_latency.py --stacks``: the GUI thread asleep on the GL's futex). One flush per turn, 4 a second."""
 
 
 class RenderPanel(QWidget):
@@ -69,10 +74,9 @@ class RenderPanel(QWidget):
         self._frame_timer.setSingleShot(True)
         self._frame_timer.setInterval(FRAME_INTERVAL_MS)
         self._frame_timer.timeout.connect(self._show_due_frames)
-        self._plot_timer = QTimer(self)
-        self._plot_timer.setSingleShot(True)
-        self._plot_timer.setInterval(PLOT_INTERVAL_MS)
-        self._plot_timer.timeout.connect(self._plot_errors)
+        self._plot_due = False
+        """New errors not plotted yet (plotted with the next images, see ``FRAME_INTERVAL_MS``)."""
+        self._plotted_at = 0.0
         self._plot_lines: dict | None = None  # strategy -> its RMSE line; None while the placeholder shows
         self.frames: dict[str, dict] = {}
         self.curves: dict[str, list[dict]] = {}
@@ -215,6 +219,9 @@ class RenderPanel(QWidget):
         self.frames.clear()
         self._frames_due.clear()
         self.curves = {name: [] for name in job["strategies"]}
+        # the time axis sized for the whole render from the start when it is known (equal time): no full
+        # figure draw half-way because a frame passed the axis' end
+        self.error_plot.horizon = float(job["budget"]) if job["mode"] == "time" else None
         self._plot_errors()
         self.start_button.setText("Restart")
         self.cancel_button.setEnabled(True)
@@ -301,14 +308,15 @@ class RenderPanel(QWidget):
         for event in due.values():
             if event["strategy"] in self.curves:  # of the render in progress (not one started since)
                 self._show_frame(event)
+        if self._plot_due and time.monotonic() - self._plotted_at >= PLOT_INTERVAL_MS / 1e3:
+            self._plot_errors()
 
     def _plot_soon(self, immediately: bool = False) -> None:
-        """Redraw the error plot at most every ``PLOT_INTERVAL_MS`` while rendering (a plot costs tens of ms)."""
+        """Redraw the error plot with the next images, at most every ``PLOT_INTERVAL_MS`` while rendering (in
+        the same event-loop turn as the images: one window flush for both)."""
+        self._plot_due = True
         if immediately:
-            self._plot_timer.stop()
             self._plot_errors()
-        elif not self._plot_timer.isActive():
-            self._plot_timer.start()
 
     def _show_frame(self, event: dict) -> None:
         from renderer.image_io import tonemap
@@ -327,6 +335,8 @@ class RenderPanel(QWidget):
         return "; ".join(f"{n}: {f['spp']} spp in {f['seconds']:.2f} s" for n, f in self.frames.items())
 
     def _plot_errors(self) -> None:
+        self._plot_due = False
+        self._plotted_at = time.monotonic()
         self.error_plot.show_curves(self.curves)
 
     # ---- reference and exports --------------------------------------------------------------------------
