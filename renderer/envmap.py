@@ -57,7 +57,7 @@ class EnvironmentMap:
             raise ValueError("an environment map is an (h, w, 3) image")
         self.image = np.maximum(img, 0.0)
         self.h, self.w = self.image.shape[:2]
-        self.rotation = math.radians(rotate_deg)
+        self.rotation = math.radians(rotate_deg) % (2.0 * math.pi)  # in [0, 2 pi): env_eval_one relies on it
         theta_c = (np.arange(self.h) + 0.5) / self.h * np.pi
         weight = (self.image @ LUMINANCE) * np.sin(theta_c)[:, None]
         total = float(weight.sum())
@@ -112,6 +112,7 @@ class EnvironmentMap:
 
 
 INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
+TWO_PI = 2.0 * math.pi
 ENV_NONE, ENV_CONSTANT, ENV_MAP = 0, 1, 2
 """Kinds of sky for the compiled wavefront (:func:`env_args`, :func:`env_eval_one`, :func:`env_sample_one`)."""
 
@@ -129,44 +130,73 @@ def env_args(env):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always", nogil=True, cache=True)
+def upper_bound(a, lo, n, v):
+    """``lo`` plus the number of elements ``<= v`` in the sorted ``a[lo:lo + n]`` (``np.searchsorted(...,
+    side="right")`` on that segment), by a binary search without data-dependent branches (the next probe is a
+    conditional move, never a mispredicted jump: the sky's CDFs are searched at random points)."""
+    base = lo
+    while n > 1:
+        half = n >> 1
+        base = base + half if a[base + half] <= v else base
+        n -= half
+    if n == 1 and a[base] <= v:
+        base += 1
+    return base
+
+
+# The two functions below run once per ray in the wavefront's loops: each has a single return (an inlined
+# function with several returns makes numba keep a reference count on every array argument per call, atomic
+# increments that the two threads contend for) and no Python-semantics float modulo (a library call).
+
+
+@njit(inline="always", nogil=True, cache=True)
 def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation):
-    """Radiance ``(r, g, b)`` from world direction ``d`` and the sky's light-sampling pdf per solid angle."""
+    """Radiance ``(r, g, b)`` from world direction ``d`` and the sky's light-sampling pdf per solid angle.
+    ``rotation`` in ``[0, 2 pi)`` (:func:`env_args`)."""
+    r, g, b, pdf = 0.0, 0.0, 0.0, 0.0
     if kind == ENV_CONSTANT:
-        return radiance[0], radiance[1], radiance[2], INV_FOUR_PI
-    if kind != ENV_MAP:
-        return 0.0, 0.0, 0.0, 0.0
-    h, w = pmf.shape
-    cos_t = min(1.0, max(-1.0, dy))
-    theta = math.acos(cos_t)
-    phi = (math.atan2(dz, dx) - rotation) % (2.0 * math.pi)
-    row = min(int(theta / math.pi * h), h - 1)
-    col = min(int(phi / (2.0 * math.pi) * w), w - 1)
-    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    pdf = pmf[row, col] * (w * h) * INV_2PI2 / sin_t if sin_t > 1e-12 else 0.0
-    return image[row, col, 0], image[row, col, 1], image[row, col, 2], pdf
+        r, g, b, pdf = radiance[0], radiance[1], radiance[2], INV_FOUR_PI
+    elif kind == ENV_MAP:
+        h, w = pmf.shape
+        cos_t = min(1.0, max(-1.0, dy))
+        theta = math.acos(cos_t)
+        phi = math.atan2(dz, dx) - rotation  # in [-3 pi, pi]
+        if phi < 0.0:
+            phi += TWO_PI
+        if phi < 0.0:
+            phi += TWO_PI
+        row = min(int(theta / math.pi * h), h - 1)
+        col = min(int(phi / TWO_PI * w), w - 1)
+        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+        if sin_t > 1e-12:
+            pdf = pmf[row, col] * (w * h) * INV_2PI2 / sin_t
+        r, g, b = image[row, col, 0], image[row, col, 1], image[row, col, 2]
+    return r, g, b, pdf
 
 
 @njit(inline="always", nogil=True, cache=True)
 def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, pmf, image, rotation):
     """A direction from the sky's light sampling: ``(dx, dy, dz, r, g, b, pdf)`` (pdf per solid angle)."""
+    dx, dy, dz, r, g, b, pdf = 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
     if kind == ENV_CONSTANT:
         z = 1.0 - 2.0 * u0
-        r = math.sqrt(max(0.0, 1.0 - z * z))
-        phi = 2.0 * math.pi * u1
-        return (r * math.cos(phi), r * math.sin(phi), z, radiance[0], radiance[1], radiance[2],
-                INV_FOUR_PI)  # fmt: skip
-    if kind != ENV_MAP:
-        return 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
-    h, w = pmf.shape
-    row = min(np.searchsorted(row_cdf, u0, side="right"), h - 1)
-    flat = np.searchsorted(col_cdf_flat, row + u1, side="right")
-    col = min(max(flat - row * w, 0), w - 1)
-    theta = (row + u2) / h * math.pi
-    phi = (col + u3) / w * 2.0 * math.pi + rotation
-    s = math.sin(theta)
-    pdf = pmf[row, col] * (w * h) * INV_2PI2 / s if s > 1e-12 else 0.0
-    return (s * math.cos(phi), math.cos(theta), s * math.sin(phi), image[row, col, 0], image[row, col, 1],
-            image[row, col, 2], pdf)  # fmt: skip
+        s = math.sqrt(max(0.0, 1.0 - z * z))
+        phi = TWO_PI * u1
+        dx, dy, dz = s * math.cos(phi), s * math.sin(phi), z
+        r, g, b, pdf = radiance[0], radiance[1], radiance[2], INV_FOUR_PI
+    elif kind == ENV_MAP:
+        h, w = pmf.shape
+        row = min(upper_bound(row_cdf, 0, h, u0), h - 1)
+        # row r's column CDF is stored shifted by r: search that row's segment only
+        col = min(upper_bound(col_cdf_flat, row * w, w, row + u1) - row * w, w - 1)
+        theta = (row + u2) / h * math.pi
+        phi = (col + u3) / w * TWO_PI + rotation
+        s = math.sin(theta)
+        if s > 1e-12:
+            pdf = pmf[row, col] * (w * h) * INV_2PI2 / s
+        dx, dy, dz = s * math.cos(phi), math.cos(theta), s * math.sin(phi)
+        r, g, b = image[row, col, 0], image[row, col, 1], image[row, col, 2]
+    return dx, dy, dz, r, g, b, pdf
 
 
 @njit(nogil=True, cache=True)

@@ -3,8 +3,18 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from numba import njit
 
-from renderer.envmap import EnvironmentMap
+from renderer.envmap import EnvironmentMap, upper_bound
+
+
+@njit(cache=False)
+def _upper_bounds(a, lo, n, v):  # type: ignore[no-untyped-def]
+    out = np.empty(v.shape[0], np.int64)
+    for i in range(v.shape[0]):
+        out[i] = upper_bound(a, lo, n, v[i])
+    return out
 
 
 def _map(rng: np.random.Generator) -> EnvironmentMap:
@@ -33,6 +43,37 @@ def test_sample_pdf_equals_pdf_and_radiance_lookup(rng: np.random.Generator) -> 
     assert np.allclose(pdf, env.pdf(d), rtol=1e-9)
     assert np.allclose(le, env.eval(d))
     assert np.all(pdf > 0)  # never samples the black region
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 7, 64, 1000])
+def test_upper_bound_is_searchsorted_right(rng: np.random.Generator, n: int) -> None:
+    """The branchless search of a CDF segment returns what np.searchsorted(side="right") does: ties (a value
+    equal to an element, repeated elements) and values below or above every element included."""
+    a = np.sort(np.round(rng.random(n + 10), 2))  # rounded: repeated values
+    lo = 4
+    v = np.concatenate([rng.random(500) * 1.2 - 0.1, a, [-1.0, 2.0]])
+    expected = lo + np.searchsorted(a[lo : lo + n], v, side="right")
+    assert np.array_equal(_upper_bounds(a, lo, n, v), expected)
+
+
+@pytest.mark.parametrize("rotate_deg", [-400.0, -90.0, 0.0, 179.0, 725.0])
+def test_any_rotation_samples_its_own_pdf(rng: np.random.Generator, rotate_deg: float) -> None:
+    """Rotations outside [0, 360) are reduced once; samples still carry pdf(d) and the radiance lookup, and
+    the lookup is the unrotated map's at the rotated direction."""
+    img = rng.random((16, 32, 3)) + 0.1
+    env = EnvironmentMap(img, rotate_deg=rotate_deg)
+    d, le, pdf = env.sample(rng.random((5000, 4)))
+    assert np.allclose(pdf, env.pdf(d), rtol=1e-9)
+    assert np.allclose(le, env.eval(d))
+    a = np.radians(rotate_deg)  # phi = atan2(z, x) - rotation: undo the rotation about +y
+    c, s_ = np.cos(a), np.sin(a)
+    back = np.stack([d[:, 0] * c + d[:, 2] * s_, d[:, 1], d[:, 2] * c - d[:, 0] * s_], axis=1)
+    plain = EnvironmentMap(img)
+    inside = (
+        np.abs(((np.arctan2(back[:, 2], back[:, 0]) % (2 * np.pi)) * 32 / (2 * np.pi)) % 1.0 - 0.5) < 0.45
+    )
+    assert inside.sum() > 4000  # away from column edges, where rounding may pick the neighbour
+    assert np.allclose(plain.eval(back)[inside], le[inside])
 
 
 def test_estimator_is_unbiased(rng: np.random.Generator) -> None:
