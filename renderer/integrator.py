@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.dispatch import MERL, MERL_NEAREST
 from core.model import LUMINANCE
 from core.scene import Scene
 from renderer.envmap import env_args
@@ -196,13 +197,23 @@ class PathTracer:
         n = len(rts)
         self.mat_strategy = np.full(n, BY_SAMPLER, dtype=np.int64)
         self.mat_model = np.zeros(n, dtype=np.int64)
-        width = max([len(rt.brdf.params) for rt in rts if rt is not None] + [1])
+        # MERL tables (4.4 M values) go to mat_tables as float32 (renderer.kernels._eval), every other model's
+        # parameters to mat_params: neither matrix pads a small row to a table's width
+        table = [rt is not None and rt.brdf.model.id in (MERL, MERL_NEAREST) for rt in rts]
+        width = max(
+            [len(rt.brdf.params) for rt, t in zip(rts, table, strict=True) if rt is not None and not t] + [1]
+        )
+        t_width = max([len(rt.brdf.params) for rt, t in zip(rts, table, strict=True) if t] + [1])
         self.mat_params = np.zeros((n, width))
+        self.mat_tables = np.zeros((n, t_width), dtype=np.float32)
         for m, rt in enumerate(rts):
             if rt is None:
                 continue
             self.mat_model[m] = rt.brdf.model.id
-            self.mat_params[m, : len(rt.brdf.params)] = rt.brdf.params
+            if table[m]:
+                self.mat_tables[m, : len(rt.brdf.params)] = rt.brdf.params
+            else:
+                self.mat_params[m, : len(rt.brdf.params)] = rt.brdf.params
             if type(rt.sampler) in compiled:
                 self.mat_strategy[m] = COMPILED_STRATEGIES[rt.sampler.name]
 
@@ -396,8 +407,8 @@ class PathTracer:
             # the others by their sampler objects, material by material, on contiguous slices
             self._run(
                 bsdf_stage, n_s, n_pix, first, self._seed_key, pass_key, depth, self.has_nee_lights,
-                self.mat_strategy, self.mat_model, self.mat_params, B.s_mat, B.s_path, B.wo, B.l_wi_local,
-                B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
+                self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
+                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
             self._draw_by_samplers(offsets, pass_index, depth, wave)
             if self.ris:

@@ -354,3 +354,51 @@ def test_a_pass_in_several_wavefronts_is_the_same_pass(
     split = job.tracer.render_pass(2, 4)
     assert np.array_equal(whole, split)
     assert len(job.tracer._buffers.path) == 1000
+
+
+def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:
+    """A MERL material's table reaches the compiled BRDF stage as float32 (``mat_tables``; half the cache
+    footprint): its evaluations equal the model's own (float64 table) to float32 rounding, at random
+    direction pairs, and no float64 row of ``mat_params`` is padded to the table's width."""
+    from numba import njit
+
+    from core.dispatch import MERL, eval_model
+    from renderer.kernels import _eval
+
+    @njit(cache=False)
+    def both(mid, wi, wo, prm, table):  # type: ignore[no-untyped-def]
+        out = np.empty((wi.shape[0], 2, 3))
+        for i in range(wi.shape[0]):
+            a = (wi[i, 0], wi[i, 1], wi[i, 2])
+            b = (wo[i, 0], wo[i, 1], wo[i, 2])
+            out[i, 0, 0], out[i, 0, 1], out[i, 0, 2] = _eval(mid, a, b, np.zeros(1), table)
+            out[i, 1, 0], out[i, 1, 1], out[i, 1, 2] = eval_model(mid, a, b, prm)
+        return out
+
+    quad(tmp_path / "quad.obj")
+    binary = Path(__file__).resolve().parents[2] / "resources" / "materials" / "red_plastic_ct.binary"
+    scene = make_scene(
+        tmp_path,
+        {
+            "camera": {"position": [0, 2, 2], "target": [0, 0, 0], "fov_deg": 40},
+            "materials": [{"name": "m", "measured": str(binary)}],
+            "meshes": [{"path": "quad.obj", "material": "m"}],
+            "environment": {"type": "constant", "radiance": 1.0},
+            "render": {"width": 8, "height": 8, "sampler": "cosine"},
+        },
+    )
+    job = prepare(scene, warm_up=False)
+    tr = job.tracer
+    (m,) = [k for k, rt in enumerate(job.world.materials_by_index) if rt is not None]
+    assert tr.mat_model[m] == MERL and tr.mat_tables.dtype == np.float32
+    assert tr.mat_params.shape[1] < 100 and tr.mat_tables.shape[1] == len(
+        job.world.materials_by_index[m].brdf.params
+    )
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(2, 4000, 3))
+    v[..., 2] = np.abs(v[..., 2])
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    prm = np.ascontiguousarray(job.world.materials_by_index[m].brdf.params, dtype=np.float64)
+    out = both(MERL, v[0], v[1], prm, tr.mat_tables[m])
+    assert np.count_nonzero(out[:, 1]) > 1000
+    assert np.allclose(out[:, 0], out[:, 1], rtol=1e-6, atol=1e-12)
