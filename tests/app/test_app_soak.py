@@ -37,6 +37,8 @@ def test_render_start_and_cancel_repeated_leave_nothing_behind(window, qtbot, tm
     window.document.add_material("lambert", name="grey", params={"kd": 0.5})
     window.import_mesh(write_obj(tmp_path / "cubes.obj", {"a": (0, 0, 0), "b": (1.5, 0, 0)}))
     panel = window.render_view
+    boxes = (panel.width_box, panel.height_box, panel.spp, panel.mode, panel.strategy_a, panel.strategy_b)
+    settings = [b.value() if hasattr(b, "value") else b.currentIndex() for b in boxes]
     panel.width_box.setValue(32)
     panel.height_box.setValue(24)
     panel.strategy_a.setCurrentText("uniform")
@@ -80,6 +82,8 @@ def test_render_start_and_cancel_repeated_leave_nothing_behind(window, qtbot, tm
     finally:
         panel.server.events_received.disconnect(listen)
         panel.cancel()
+        for box, value in zip(boxes, settings, strict=True):  # the shared window as the next test expects it
+            box.setValue(value) if hasattr(box, "value") else box.setCurrentIndex(value)
     assert crashed == [] and window.errors == []
     assert after["render process"] == before["render process"]  # every cancel stopped in time: no restart
     assert after["child processes"] == before["child processes"]
