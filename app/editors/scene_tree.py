@@ -75,6 +75,7 @@ class MaterialChooser(QComboBox):
         painter.drawComplexControl(QStyle.ComplexControl.CC_ComboBox, opt)
         opt.currentText = self.shown_text()
         painter.drawControl(QStyle.ControlElement.CE_ComboBoxLabel, opt)
+        painter.end()  # now, not when Python collects the painter
 
 
 class SceneTree(QTreeWidget):

@@ -94,15 +94,18 @@ class ErrorPlot(FigureView):
                 ax.tick_params(labelsize=8)
                 ax.grid(alpha=0.3)
         added = False
-        for (name, metric), pts in points.items():
-            t, e = zip(*pts, strict=True)
-            line = self._lines.get((name, metric))
-            if line is None:
-                (line,) = self.axes_by_metric[metric].plot(t, e, marker="o", ms=3, label=name)
-                self._lines[(name, metric)] = line
-                added = True
-            else:
-                line.set_data(t, e)  # type: ignore[attr-defined]
+        # every strategy's line at once, empty until its first frame: the second strategy's first frame then
+        # moves a line instead of costing another full draw (new line, legend)
+        for name in curves:
+            for metric, _ in METRICS:
+                t, e = zip(*points[(name, metric)], strict=True) if (name, metric) in points else ((), ())
+                line = self._lines.get((name, metric))
+                if line is None:
+                    (line,) = self.axes_by_metric[metric].plot(t, e, marker="o", ms=3, label=name)
+                    self._lines[(name, metric)] = line
+                    added = True
+                else:
+                    line.set_data(t, e)  # type: ignore[attr-defined]
         exceeded = self._limits_exceeded(points)
         stale = added or exceeded
         if added:

@@ -58,3 +58,25 @@ def test_a_restart_of_the_same_strategies_costs_no_full_draw(qtbot):
     plot.show_curves({"uniform": recs[:1], "adaptive": []})  # the first frame of one strategy
     plot.canvas.repaint()
     assert plot.full_draws == draws and len(plot._lines[("uniform", "rmse")].get_xdata()) == 1
+
+
+def test_the_second_strategys_first_frame_costs_no_full_draw(qtbot):
+    """Both strategies' lines are made with the first frame of either (a new line and its legend would cost a
+    full draw of the figure, 100-600 ms on the GUI thread of a loaded machine, measured by
+    ``bench/app_latency.py --stacks``)."""
+    plot = ErrorPlot()
+    qtbot.addWidget(plot)
+    plot.resize(760, 220)
+    plot.show()
+    qtbot.waitExposed(plot)
+    plot.horizon = 8.0
+    recs = [{"seconds": x, "rmse": 0.1 / np.sqrt(x), "relmse": 0.01 / x, "spp": 1} for x in (0.4, 0.8, 1.6)]
+    plot.show_curves({"uniform": recs[:1], "adaptive": []})  # the first frame of the render: new axes
+    plot.canvas.repaint()
+    draws = plot.full_draws
+    assert len(plot._lines) == 4 and len(plot._lines[("adaptive", "rmse")].get_xdata()) == 0
+    plot.show_curves({"uniform": recs[:2], "adaptive": recs[:1]})
+    plot.canvas.repaint()
+    plot.show_curves({"uniform": recs, "adaptive": recs[:2]})
+    plot.canvas.repaint()
+    assert plot.full_draws == draws and len(plot._lines[("adaptive", "rmse")].get_xdata()) == 2
