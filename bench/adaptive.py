@@ -45,6 +45,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -176,6 +177,9 @@ class BuildResult:
     """A key of ``MODES``."""
     seconds: float
     """Best of the runs, one core."""
+    cpu_seconds: float
+    """Best CPU time of the runs (the process's: the one build thread's, with the GIL-holding Python of the
+    layout): less affected by a shared machine's load than ``seconds``."""
     runs_s: list[float]
     sampler_seconds: float
     """The sampler's own build (all cores)."""
@@ -187,22 +191,25 @@ class BuildResult:
     """The sampler's table has the leaves of the one-core build (threads must not change the table)."""
 
 
-def measure_builds(brdf: BRDF, runs: int, options: dict[str, Any]) -> dict[str, tuple[list[float], AdaptiveTable,
-                                                                                  TableReport]]:  # fmt: skip
-    """Per mode: seconds of each one-core build of its table from empty caches, and the last table with its
-    report (the modes alternate within a run)."""
+def measure_builds(brdf: BRDF, runs: int, options: dict[str, Any]) -> dict[str, tuple[list[float], list[float],
+                                                                                  AdaptiveTable, TableReport]]:  # fmt: skip
+    """Per mode: seconds and CPU seconds of each one-core build of its table from empty caches, and the last
+    table with its report (the modes alternate within a run)."""
     times: dict[str, list[float]] = {mode: [] for mode in MODES}
+    cpus: dict[str, list[float]] = {mode: [] for mode in MODES}
     last: dict[str, tuple[AdaptiveTable, TableReport]] = {}
     for _ in range(runs):
         for mode in MODES:
             clear_memory_cache()
             t0 = time.perf_counter()
+            c0 = time.process_time()
             last[mode] = build_table(brdf, mode_options(options)[mode], threads=1)
+            cpus[mode].append(time.process_time() - c0)
             times[mode].append(time.perf_counter() - t0)
-    return {mode: (times[mode], *last[mode]) for mode in MODES}
+    return {mode: (times[mode], cpus[mode], *last[mode]) for mode in MODES}
 
 
-def sampler_build(sampler: Sampler, mode: str, times: list[float], table: AdaptiveTable,
+def sampler_build(sampler: Sampler, mode: str, times: list[float], cpus: list[float], table: AdaptiveTable,
                   report: TableReport) -> BuildResult:  # fmt: skip
     """Section 1 for one mode: the one-core builds beside ``sampler``'s own (all cores, from empty caches)."""
     assert isinstance(sampler, AdaptiveSampler) and sampler.mode == mode
@@ -210,7 +217,7 @@ def sampler_build(sampler: Sampler, mode: str, times: list[float], table: Adapti
     sampler.preload()
     mine = sampler.table
     return BuildResult(
-        mode=mode, seconds=min(times), runs_s=times, sampler_seconds=sampler.report.seconds,
+        mode=mode, seconds=min(times), cpu_seconds=min(cpus), runs_s=times, sampler_seconds=sampler.report.seconds,
         memory_kb=memory_bytes(table) / 1024.0, trees=report.trees, leaves=report.leaves, report=report,
         same_table=len(mine.bound) == len(table.bound) and len(mine.root) == len(table.root),
     )  # fmt: skip
@@ -383,11 +390,13 @@ def run(
         t0 = time.perf_counter()
         r = run_case(case, runs, views, samples, albedo_samples, options or {})
         results.append(r)
-        print(f"  {case.label:<36} build exact {r.builds['exact'].seconds:6.3f} s  "
-              f"warp {r.builds['warp'].seconds:6.3f} s  "
+        print(f"  {case.label:<36} build exact {r.builds['exact'].seconds:6.3f} s "
+              f"({r.builds['exact'].cpu_seconds:.3f} s cpu)  warp {r.builds['warp'].seconds:6.3f} s "
+              f"({r.builds['warp'].cpu_seconds:.3f} s cpu)  "
               f"adaptive {r.seconds['cosine'] / r.seconds['adaptive']:4.2f} x cosine  "
               f"warp {r.seconds['cosine'] / r.seconds['adaptive_warp']:4.2f} x cosine  "
-              f"violations {r.exact_info['bound_violations']}  ({time.perf_counter() - t0:.1f} s)",
+              f"violations {r.exact_info['bound_violations']}  ({time.perf_counter() - t0:.1f} s, "
+              f"load {os.getloadavg()[0]:.1f})",
               flush=True)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     paths = write_csvs(results, out)
@@ -419,7 +428,7 @@ def build_records(results: list[CaseResult]) -> list[dict[str, Any]]:
             exact = mode == "exact"
             out.append({
                 "case": c.label, "kind": c.kind, "model": c.brdf.model.name, "mode": mode,
-                "build_s": b.seconds, "build_s_runs": " ".join(f"{t:.4f}" for t in b.runs_s),
+                "build_s": b.seconds, "build_cpu_s": b.cpu_seconds, "build_s_runs": " ".join(f"{t:.4f}" for t in b.runs_s),
                 "build_s_all_cores": b.sampler_seconds, "memory_kb": b.memory_kb, "trees": b.trees,
                 "leaves": b.leaves, "leaves_per_tree": b.leaves / max(b.trees, 1),
                 "rounds": b.report.rounds, "evaluations": b.report.evaluations,
@@ -522,13 +531,14 @@ def print_tables(results: list[CaseResult], runs: int, views: int, samples: int)
     rows = []
     for rec in build_records(results):
         rows.append([
-            rec["case"], rec["mode"], f"{rec['build_s']:.3f}", _g(_blank(rec["target_s"])), rec["build_met"],
+            rec["case"], rec["mode"], f"{rec['build_s']:.3f}", f"{rec['build_cpu_s']:.3f}",
+            _g(_blank(rec["target_s"])), rec["build_met"],
             f"{rec['build_s_all_cores']:.3f}", f"{rec['memory_kb']:.0f}", _g(_blank(rec["target_kb"]), 4),
             rec["memory_met"], str(rec["trees"]), f"{rec['leaves_per_tree']:.0f}",
             _g(_blank(rec["acceptance_min"])), _g(rec["chi2_max_edge"]), _g(_blank(rec["normalizer_error"])),
             "" if rec["same_table_all_cores"] else "DIFFERS",
         ])  # fmt: skip
-    header = ["case", "mode", "s", "target", "met", "s all cores", "KB", "target", "met", "trees",
+    header = ["case", "mode", "s", "cpu s", "target", "met", "s all cores", "KB", "target", "met", "trees",
               "leaves/tree", "acc min", "chi2 edge", "norm err", "table"]  # fmt: skip
     print(format_table(header, rows))
 

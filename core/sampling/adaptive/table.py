@@ -45,6 +45,7 @@ from core.sampling.adaptive.tree import (
     BuildSettings,
     TreeArrays,
     build_tree,
+    view_integral,
 )
 from core.threads import thread_budget
 
@@ -64,7 +65,7 @@ class TableOptions:
     """Leaves split until the rejection-free density's relative variance (chi^2 divergence from the node's,
     then from the cell's mixture of ``f cos``), estimated on the stencils, is at most this."""
     quad_tol: float = 1e-4
-    """Relative error of the nodes' integrals (the exact mode's normalizer), by the trees' own estimate."""
+    """Relative error of the normalizer's values (exact mode), by the quadrature's own estimate."""
     warp_chi2: float = 0.05
     """Halve an interval while a node's rejection-free density has a chi^2 above this at its cell's edge."""
     warp_chi2_anisotropic: float = 0.2
@@ -76,7 +77,8 @@ class TableOptions:
     so the efficiency relative to cosine's in the same run went 21 -> 28; Ashikhmin-Shirley nu=10 nv=200:
     3.2 s / 2.5 MB -> 0.84 s / 0.81 MB, efficiency 88 -> 77)."""
     norm_tol: float = 5e-5
-    """Halve an interval while the normalizer's interpolation error is estimated above this."""
+    """Halve an interval of the normalizer's own polar angles (not the trees') while its interpolation error
+    is estimated above this (exact mode)."""
     phi_count: int = 4
     """Azimuth nodes of an anisotropic material (over the quadrant when it is mirror-symmetric)."""
     max_thetas: int = 48
@@ -276,16 +278,17 @@ def choose_projection(brdf: BRDF, symmetry: int, parameterization: str = "auto")
 
 
 def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ...], symmetry: int,
-           follow: bool) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+           follow: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """A node's views (row 0 the node), their weights in the cell's mixture (the trapezoidal rule over the
-    cell), and whether each lies on the cell's theta edge."""
+    cell), whether each lies on the cell's theta edge, and each one's ``(theta, phi)``."""
     if symmetry == ISOTROPIC:
         ts = [theta, theta_lo, 0.5 * (theta_lo + theta), 0.5 * (theta + theta_hi), theta_hi]
         a = theta - theta_lo
         b = theta_hi - theta
         w = np.array([0.25 * (a + b), 0.25 * a, 0.5 * a, 0.5 * b, 0.25 * b])
         edge = [False, True, False, False, True]
-        return np.array([make_view(t, 0.0) for t in ts]), _normalized(w), np.array(edge)
+        angles = np.array([[t, 0.0] for t in ts])
+        return np.array([make_view(t, 0.0) for t in ts]), _normalized(w), np.array(edge), angles
     # the node, the middles of the cell's four edges and its four corners: the lobe turns and the horizon's
     # front moves across an anisotropic cell, and their extremes are at its corners (with the edges' middles
     # only, a bound there fell short 1.2x on wi disks and 1800x beyond a half-vector disk's front)
@@ -295,21 +298,7 @@ def _views(theta_lo: float, theta: float, theta_hi: float, phis: tuple[float, ..
     rows = [make_view(t, ph, follow) for t, ph in pairs]
     weights = np.array([4.0, 2.0, 2.0, 2.0, 2.0, 1.0, 1.0, 1.0, 1.0])
     edge = [False, False, False, True, True, True, True, True, True]
-    return np.array(rows), _normalized(weights), np.array(edge)
-
-
-RIDGE_STEPS = 17
-"""Polar angles across a cell at which the lobe's ridge is followed (and 5 azimuths when anisotropic)."""
-
-
-def _ridge_views(cell: np.ndarray, symmetry: int, follow: bool) -> np.ndarray:
-    """A finer set of views than the stencils': a lobe narrower than the stencils' views' spacing still has
-    its peak among a leaf's candidates (:func:`core.sampling.adaptive.tree._ridge`)."""
-    thetas = np.linspace(cell[0], cell[1], RIDGE_STEPS)
-    if symmetry == ISOTROPIC:
-        return np.array([make_view(t, 0.0) for t in thetas])
-    phis = np.linspace(cell[2], cell[3], 5)
-    return np.array([make_view(t, ph, follow) for t in thetas for ph in phis])
+    return np.array(rows), _normalized(weights), np.array(edge), np.array(pairs, dtype=np.float64)
 
 
 def _normalized(w: np.ndarray) -> np.ndarray:
@@ -334,7 +323,8 @@ short at the front); the ``wi`` disk has no such front."""
 
 
 def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
-                phi: float, phi_cell: tuple[float, float], projection: int, follow: int) -> _Node:  # fmt: skip
+                phi: float, phi_cell: tuple[float, float], projection: int, follow: int,
+                norm: tuple[np.ndarray, np.ndarray]) -> _Node:  # fmt: skip
     """One node's tree (``projection`` ORTHOGRAPHIC for a Lambertian material)."""
     t0 = time.perf_counter()
     if symmetry == ISOTROPIC:
@@ -343,7 +333,7 @@ def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, 
         phis = (phi, phi_cell[0], phi_cell[1])
     if projection == HALF_VECTOR and cell[1] > HALF_VECTOR_LIMIT:
         projection, follow = EQUAL_AREA, 1
-    views, weights, edge = _views(cell[0], theta, cell[1], phis, symmetry, bool(follow))
+    views, weights, edge, angles = _views(cell[0], theta, cell[1], phis, symmetry, bool(follow))
     mid = brdf.model.id
     if symmetry == ISOTROPIC:
         cell_arr = np.array([cell[0], cell[1], 0.0, 0.0, 1.0])
@@ -354,8 +344,9 @@ def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, 
         settings = settings._replace(bound_safety=0.0)
     elif symmetry != ISOTROPIC:
         settings = settings._replace(bound_safety=ANISOTROPIC_BOUND_SAFETY)
-    tree = build_tree(mid, brdf.params, projection, views, weights, cell_arr, settings,
-                      _ridge_views(cell_arr, symmetry, bool(follow)))  # fmt: skip
+    tree = build_tree(
+        mid, brdf.params, projection, views, weights, cell_arr, settings, angles, norm[0], norm[1]
+    )
     return _Node(tree, projection, follow, edge, time.perf_counter() - t0)
 
 
@@ -383,6 +374,14 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
     min_spacing = math.radians(options.min_spacing_deg)
     target = (1.0 + ACCEPT_MARGIN) / options.n_max
     with ThreadPoolExecutor(max_workers=workers) as pool:
+        if options.bounds:  # the normalizer first: the trees' bounds are on g / c, c as the draws read it
+            norm_thetas, norm_values, norm_err, report.evaluations = _normalizer(
+                brdf, options, symmetry, phis, thetas, projection, follow, pool
+            )
+            norm = _norm_table(symmetry, norm_thetas, norm_values)
+        else:
+            norm = (np.zeros((4, 1)), 1.0, 0)
+        norm_args = (norm[0], np.array([float(symmetry), norm[1], float(norm[2])]))
         while True:
             report.rounds += 1
             edges = cell_edges(thetas, 0.0, THETA_END)
@@ -404,6 +403,7 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
                     (float(phi_edges[key[3]]), float(phi_edges[key[3] + 1])),
                     projection,
                     follow,
+                    norm_args,
                 )  # fmt: skip
                 for key in wanted
             }
@@ -420,11 +420,15 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
             new = 0.5 * (thetas[:-1] + thetas[1:])[halve]
             new = new[: options.max_thetas - len(thetas)]
             thetas = np.sort(np.concatenate([thetas, new]))
-    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid, options.bounds)
+    if not options.bounds:  # the rejection-free mode never reads the normalizer: the trees' own integrals
+        norm_values = np.array([[n.tree.integrals[0] for n in row] for row in grid])
+        norm_err = _interpolation_errors(thetas, norm_values)
+        norm = _norm_table(symmetry, thetas, norm_values)
+    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid, norm)
     report.seconds = time.perf_counter() - t0
     report.trees = len(thetas) * len(phis)
     report.leaves = len(table.bound)
-    report.evaluations = sum(n.tree.evaluations for n in nodes.values())
+    report.evaluations += sum(n.tree.evaluations for n in nodes.values())
     report.acceptance_min = (
         min(1.0 / n.tree.envelope if n.tree.envelope > 0 else 0.0 for row in grid for n in row)
         if options.bounds
@@ -437,35 +441,78 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
         report.chi2_max_phi_edge = max(
             float(np.max(n.tree.chi2[PHI_EDGE_VIEWS])) for row in grid for n in row
         )
-    report.norm_error_max = float(np.max(_norm_errors(thetas, grid, symmetry, options.bounds)))
+    report.norm_error_max = float(np.max(norm_err))
     return table, report
 
 
-def _node_integrals(grid: list[list[_Node]], symmetry: int, exact: bool) -> np.ndarray:
-    """``(K, J')``: the normalizer's values at the polar nodes and equally spaced azimuths. For an anisotropic
-    table with bounds (``exact``), the azimuths are the nodes' and their cells' edges between them (each tree
-    integrates the views on its cell's azimuth edges to ``quad_tol`` as well; neighbours share an edge and
-    their two integrals of it are averaged): ``2 J - 1`` values over the mirror's quadrant, ``2 J`` around the
-    circle. Otherwise the nodes' ``J``."""
-    nodes = np.array([[n.tree.integrals[0] for n in row] for row in grid])
-    j = nodes.shape[1]
-    if symmetry == ISOTROPIC or not exact or j == 1:
-        return nodes
-    count = 2 * j if symmetry == FULL else 2 * j - 1
-    out = np.empty((nodes.shape[0], count))
-    out[:, 0::2] = nodes
-    for k, row in enumerate(grid):
-        for a in range(count // 2):
-            b = (a + 1) % j
-            out[k, 2 * a + 1] = 0.5 * (row[a].tree.integrals[2] + row[b].tree.integrals[1])
-    return out
+NORM_MAX_NODES = 192
+"""At most this many polar angles for the exact mode's normalizer."""
 
 
-def _norm_errors(thetas: np.ndarray, grid: list[list[_Node]], symmetry: int, exact: bool) -> np.ndarray:
-    """``(K,)``: the normalizer's estimated interpolation error at each polar node (relative, the worst
-    azimuth). The nodes' own quadrature errors are the trees' business (``quad_tol``): halving an interval
-    does not change them."""
-    values = _node_integrals(grid, symmetry, exact)
+def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
+    """The azimuths the normalizer is tabulated at: the azimuth nodes and the cells' edges between them,
+    equally spaced (``2 J - 1`` over the mirror's quadrant, ends included; ``2 J`` around the circle): through
+    the nodes alone the azimuth series was 0.26-0.3 % off between them at 80-89 degrees (Ashikhmin-Shirley
+    nu=10 nv=200)."""
+    j = len(phis)
+    if symmetry == ISOTROPIC or j == 1:
+        return np.zeros(1)
+    if symmetry == MIRROR:
+        return np.linspace(0.0, HALF_PI, 2 * j - 1)
+    return np.arange(2 * j) * (math.pi / j)
+
+
+def _view_integral(brdf: BRDF, options: TableOptions, theta: float, phi: float, projection: int,
+                   follow: int) -> tuple[float, int]:  # fmt: skip
+    """``I(theta, phi)`` to ``quad_tol`` on the disk a tree there would use, and the evaluations made."""
+    if projection == HALF_VECTOR and theta > HALF_VECTOR_LIMIT:
+        projection, follow = EQUAL_AREA, 1
+    s = options.settings()
+    value, _, evals = view_integral(brdf.model.id, brdf.params, int(projection), make_view(theta, phi, bool(follow)),
+                                    s.warp_tol, s.quad_tol, s.base_level, s.max_level, s.capacity)  # fmt: skip
+    return float(value), int(evals)
+
+
+def _normalizer(brdf: BRDF, options: TableOptions, symmetry: int, phis: np.ndarray, tree_thetas: np.ndarray,
+                projection: int, follow: int, pool: ThreadPoolExecutor) -> tuple[
+                    np.ndarray, np.ndarray, np.ndarray, int]:  # fmt: skip
+    """The exact mode's normalizer, on polar angles of its own: from the trees' nodes, an interval is halved
+    while the interpolation error at either end is estimated above ``norm_tol``; each angle's values are
+    integrals of one view each (:func:`~core.sampling.adaptive.tree.view_integral`: a tree for the view's
+    own density, then the quadrature), not a node's tree with its bounds. Until this, only trees carried the
+    normalizer, and the layout halved their intervals for it: Schlick's exact table had 24 trees where its
+    rejection-free one has 7. Returns ``(thetas, values (K, J'), errors (K,), evaluations)``."""
+    azimuths = _norm_azimuths(symmetry, phis)
+    min_spacing = math.radians(options.min_spacing_deg)
+    thetas = np.asarray(tree_thetas, dtype=np.float64)
+    values: dict[float, np.ndarray] = {}
+    evals = 0
+    while True:
+        new = [float(t) for t in thetas if float(t) not in values]
+        jobs = {(t, k): pool.submit(_view_integral, brdf, options, t, float(ph), projection, follow)
+                for t in new for k, ph in enumerate(azimuths)}  # fmt: skip
+        for t in new:
+            row = np.empty(len(azimuths))
+            for k in range(len(azimuths)):
+                row[k], e = jobs[(t, k)].result()
+                evals += e
+            values[t] = row
+        table = np.array([values[float(t)] for t in thetas])
+        err = _interpolation_errors(thetas, table)
+        bad = err > options.norm_tol
+        halve = np.zeros(len(thetas) - 1, dtype=bool)
+        halve |= bad[:-1]
+        halve |= bad[1:]
+        halve &= np.diff(thetas) > 2.0 * min_spacing
+        if not np.any(halve) or len(thetas) >= NORM_MAX_NODES:
+            return thetas, table, err, evals
+        mids = 0.5 * (thetas[:-1] + thetas[1:])[halve]
+        thetas = np.sort(np.concatenate([thetas, mids[: NORM_MAX_NODES - len(thetas)]]))
+
+
+def _interpolation_errors(thetas: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``(K,)``: the normalizer's estimated interpolation error at each polar angle (relative, the worst
+    azimuth) from its values ``(K, J')``."""
     s = norm_coordinate(thetas)
     if np.all(values > 0.0):
         cols = [interpolation_errors(s, np.log(values[:, j])) for j in range(values.shape[1])]
@@ -480,7 +527,6 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], symmetry: i
     """``(K - 1,)``: the intervals the material asks to halve (see :mod:`core.sampling.adaptive.layout`)."""
     k = len(thetas)
     halve = np.zeros(k - 1, dtype=bool)
-    norm_err = _norm_errors(thetas, grid, symmetry, options.bounds)
     chi2_limit = options.warp_chi2 if symmetry == ISOTROPIC else options.warp_chi2_anisotropic
     for i in range(k):
         row = grid[i]
@@ -490,11 +536,9 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], symmetry: i
             views_lo, views_hi = _edge_views(n, len(row) > 1)
             rough_lo |= bool(np.max(n.tree.chi2[views_lo]) > chi2_limit)
             rough_hi |= bool(np.max(n.tree.chi2[views_hi]) > chi2_limit)
-        # the normalizer serves the exact mode only
-        inexact = options.bounds and norm_err[i] > options.norm_tol
-        if i > 0 and (weak or rough_lo or inexact):
+        if i > 0 and (weak or rough_lo):
             halve[i - 1] = True
-        if i < k - 1 and (weak or rough_hi or inexact):
+        if i < k - 1 and (weak or rough_hi):
             halve[i] = True
     return halve
 
@@ -511,8 +555,19 @@ PHI_EDGE_VIEWS = np.array([1, 2])
 """An anisotropic node's views on its cell's azimuth edges, at the node's theta (see :func:`_views`)."""
 
 
+def _norm_table(symmetry: int, thetas: np.ndarray, integrals: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """The normalizer's fine table, its step and whether it holds logarithms (see
+    :func:`~core.sampling.adaptive.layout.normalizer_at`) from its values ``(K, J')`` at ``thetas``."""
+    norm_log = bool(np.all(integrals > 0.0))
+    values = np.log(integrals) if norm_log else integrals
+    norm = series_coefficients(values) if symmetry == MIRROR else values
+    norm_fine, norm_ds = normalizer_table(thetas, norm)
+    return np.ascontiguousarray(norm_fine, dtype=np.float64), float(norm_ds), int(norm_log)
+
+
 def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
-          phi_edges: np.ndarray, grid: list[list[_Node]], exact: bool) -> AdaptiveTable:  # fmt: skip
+          phi_edges: np.ndarray, grid: list[list[_Node]],
+          norm: tuple[np.ndarray, float, int]) -> AdaptiveTable:  # fmt: skip
     children, masses, envelopes, corners, bounds, roots, projections = [], [], [], [], [], [], []
     node_base = 0
     leaf_base = 0
@@ -535,11 +590,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
             projections.append(n.projection)
             node_base += len(child)
             leaf_base += len(tr.bound)
-    integrals = _node_integrals(grid, symmetry, exact)
-    norm_log = bool(np.all(integrals > 0.0))
-    values = np.log(integrals) if norm_log else integrals
-    norm = series_coefficients(values) if symmetry == MIRROR else values
-    norm_fine, norm_ds = normalizer_table(thetas, norm)
+    norm_fine, norm_ds, norm_log = norm
     cell_mu = -np.cos(theta_edges)
     starts = -1.0 + np.arange(CELL_LUT) / CELL_LUT
     lut = np.clip(np.searchsorted(cell_mu, starts, side="right") - 1, 0, len(thetas) - 1)
@@ -561,7 +612,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         envelope=np.concatenate(envelopes).astype(np.float32),
         corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float32),
         bound=np.concatenate(bounds).astype(np.float32),
-        norm=np.ascontiguousarray(norm_fine, dtype=np.float64),
+        norm=norm_fine,
         norm_ds=float(norm_ds),
         norm_log=int(norm_log),
         cos_min=float(math.cos(THETA_END)),
@@ -581,12 +632,18 @@ def _masses(child: np.ndarray, level: np.ndarray, corners: np.ndarray, bound: np
     idx = -1 - child[leaf]
     mass[leaf] = area[leaf] * corners[idx].astype(np.float64).mean(axis=1)
     env[leaf] = mass[leaf] * bound[idx].astype(np.float64)
-    for i in range(n - 1, -1, -1):
+    _sum_children(child, mass, env)
+    return mass, env
+
+
+@njit(nogil=True, cache=True)
+def _sum_children(child, mass, env):
+    """Inner nodes' masses from their children's (children follow their parents: one reverse pass)."""
+    for i in range(child.shape[0] - 1, -1, -1):
         c = child[i]
         if c >= 0:
-            mass[i] = mass[c : c + 4].sum()
-            env[i] = env[c : c + 4].sum()
-    return mass, env
+            mass[i] = mass[c] + mass[c + 1] + mass[c + 2] + mass[c + 3]
+            env[i] = env[c] + env[c + 1] + env[c + 2] + env[c + 3]
 
 
 # ------------------------------------------------------------------------------------------ storage

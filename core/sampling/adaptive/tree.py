@@ -11,17 +11,21 @@ cell (its edges and the points between).
    interpolant of its corners, exceeds ``warp_tol * I``. The leaves' corner values (plus a floor of
    ``FLOOR * I``, so that the density is positive wherever ``f`` can be) define a piecewise-bilinear density
    with exact integrals: the rejection-free mode draws from it and its pdf is exact for its own samples.
-2. :func:`bound` (the seed's exact mode). Every leaf gets ``M_L >= g_view / c_view`` over the whole cell: the
-   largest value over its stencil at every view, plus a quarter of the largest second difference along a
-   line of the stencil (twice what a parabola through them rises between its points), plus the lobe's
-   *ridge*: the mirror direction of each view, and the peak of the node's ``g`` moved with it, clamped into
-   each leaf near them (a narrow lobe that moves across the cell passes there); then a safety factor. These
-   are checked, not proven: every trial with ``g > c M`` is counted at run time, and the test suite asserts
-   none (``tests/core/test_adaptive.py``).
+2. :func:`bound` (the seed's exact mode). Every leaf gets ``M_L >= g_view / c_view`` over the whole cell,
+   ``c`` the exact mode's normalizer as the draws read it (:func:`inv_norm`; the table builds it first):
+   the largest value over its stencil at every view, plus a quarter of the largest second difference along
+   a line of the stencil (twice what a parabola through them rises between its points), plus the lobe's
+   *ridge*: the mirror direction of views across the cell (:func:`make_ridge`), and the peak of the node's
+   ``g`` moved with it, clamped into each leaf near them (a narrow lobe that moves across the cell passes
+   there); then a safety factor. These are checked, not proven: every trial with ``g > c M`` is counted at
+   run time, and the test suite asserts none for isotropic materials (``tests/core/test_adaptive.py``).
 3. :func:`refine` (the seed's ``n_max``). While the envelope's mass ``V = sum area_L M_L`` (in units of the
    normalizer, so the acceptance is ``1 / V`` at every view) exceeds ``n_max / (1 + ACCEPT_MARGIN)``, the leaves
    with the largest excess ``V_L - I_L / c`` are split and bounded again. The seed asks it of every leaf
    (``n_max I_L / V_L >= 1``); the mean number of trials only needs it of the sum, which takes fewer leaves.
+
+A tree's own integrals are Simpson sums over its leaves; the normalizer's values, to ``quad_tol``, come from
+:func:`view_integral` (step 1's tree for one view, then :func:`quadrature`), at polar angles of their own.
 
 Nodes are created in order: the root is 0, a node's four children are contiguous and ordered
 ``(x0, y0), (x0 + h, y0), (x0, y0 + h), (x0 + h, y0 + h)`` (``h`` half the parent's side).
@@ -36,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from core.rng import next_u01, stream
+from core.sampling.adaptive.layout import FULL, TWO_PI, normalizer_at
 from core.sampling.adaptive.maps import HALF_VECTOR, direction_to_square
 from core.sampling.adaptive.target import g_at, g_dir, square_point
 
@@ -342,12 +347,30 @@ def _leaf_mass(stv_i, scales, weights, x0, y0, h):
 
 
 @njit(nogil=True, cache=True)
+def inv_norm(norm, norm_meta, theta, phi):
+    """``1 / c`` at the view ``(theta, phi)``, ``c`` the exact mode's normalizer exactly as the draws read it
+    (:func:`~core.sampling.adaptive.layout.normalizer_at` on the fine table ``norm``; ``norm_meta = (symmetry,
+    step, log)``), 0 where ``c`` is not positive. The bounds are on ``g / c``, the ratio the draws test: they
+    hold for the normalizer as it is, whatever its interpolation error. The trees' own integrals of their
+    views (Simpson's rule on stencils fitted to the node's density) served before and were off by orders
+    of magnitude for a view whose lobe the tree does not resolve (Cook-Torrance m = 0.005): the largest of
+    their inverses over the cell, which the ridge and the probes used, covered that, and erred high by
+    ``I``'s range across the cell (16x in a grazing cell of Schlick's, whose envelopes then filled their
+    trees' capacity and still missed ``n_max``)."""
+    symmetry = int(norm_meta[0])
+    if symmetry == FULL:
+        phi = phi % TWO_PI
+    c = normalizer_at(symmetry, norm, norm_meta[1], int(norm_meta[2]), math.cos(theta), phi)
+    return 1.0 / c if c > 0.0 else 0.0
+
+
+@njit(nogil=True, cache=True)
 def _leaf_bound(
-    mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
+    mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
 ):
-    """``K_L``, a bound of ``(g_v / I_v) / q`` on leaf ``i`` for every view of the cell, ``q`` the leaf's
-    bilinear density (its stencils at every view must be in ``stv[i]``); returns ``(K, evaluations)``
-    (``(1, 0)`` when ``safety`` is 0: a table without bounds)."""
+    """``K_L``, a bound of ``(g_v / c_v) / q`` on leaf ``i`` for every view of the cell (``bscales[v] =
+    1 / c_v``, :func:`inv_norm`), ``q`` the leaf's bilinear density (its stencils at every view must be in
+    ``stv[i]``); returns ``(K, evaluations)`` (``(1, 0)`` when ``safety`` is 0: a table without bounds)."""
     if safety <= 0.0:
         return 1.0, 0
     h = 0.5 ** level[i]
@@ -361,21 +384,21 @@ def _leaf_bound(
     for v in range(views.shape[0]):
         top = 0.0
         for k in range(9):
-            ratio[k] = stv[i, v, k] * scales[v] / q[k]
+            ratio[k] = stv[i, v, k] * bscales[v] / q[k]
             top = max(top, ratio[k])
         m = max(m, top + CURVATURE * _max_curvature(ratio))
     evals = 0
-    lo_x = x0[i] - h
-    hi_x = x0[i] + 2.0 * h
-    lo_y = y0[i] - h
-    hi_y = y0[i] + 2.0 * h
+    pad = (
+        max(h, ridge[0, 4]) if ridge.shape[0] > 0 else h
+    )  # a leaf smaller than the ridge's step still meets it
+    lo_x = x0[i] - pad
+    hi_x = x0[i] + h + pad
+    lo_y = y0[i] - pad
+    hi_y = y0[i] + h + pad
     c0 = mix[0] + FLOOR
     c1 = mix[2] + FLOOR
     c2 = mix[6] + FLOOR
     c3 = mix[8] + FLOOR
-    top_scale = 0.0  # the ridge views lie between the stencils' views: their largest scale errs high
-    for v in range(scales.shape[0]):
-        top_scale = max(top_scale, scales[v])
     for r in range(ridge.shape[0]):
         v = int(ridge[r, 2])
         a = ridge[r, 0]
@@ -387,7 +410,7 @@ def _leaf_bound(
         tx = (a - x0[i]) / h
         ty = (b - y0[i]) / h
         qq = (1.0 - tx) * (1.0 - ty) * c0 + tx * (1.0 - ty) * c1 + (1.0 - tx) * ty * c2 + tx * ty * c3
-        m = max(m, g_at(mid, p, a, b, projection, ridge_views[v]) * top_scale / qq)
+        m = max(m, g_at(mid, p, a, b, projection, ridge_views[v]) * ridge[r, 3] / qq)
         evals += 1
     if x0[i] == 0.0 or y0[i] == 0.0 or x0[i] + h == 1.0 or y0[i] + h == 1.0:
         safety *= RIM_BOUND_SAFETY
@@ -406,10 +429,11 @@ def _mirror_point(view, projection):
 
 
 @njit(nogil=True, cache=True)
-def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n):
-    """Ridge points ``(r, 3)``: ``(a, b, view)`` of the mirror direction of each of the ``ridge_views`` (a
-    finer set than the stencils' views: a lobe narrower than their spacing is still met), and of the node
-    view's peak moved with it."""
+def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n, rscales, step):
+    """Ridge points ``(r, 5)``: ``(a, b, view, scale, step)`` of the mirror direction of each of the
+    ``ridge_views`` (a finer set than the stencils' views: a lobe narrower than their spacing is still met),
+    and of the node view's peak moved with it; ``scale`` is ``1 / c`` at the ridge view (:func:`inv_norm`),
+    ``step`` the distance between neighbouring ridge points on the square."""
     # the peak of g at the node view, among the stencils' points
     best = -1.0
     pa = 0.5
@@ -425,9 +449,13 @@ def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n):
     ma0, mb0 = _mirror_point(views[0], projection)
     da = pa - ma0
     db = pb - mb0
-    out = np.empty((2 * ridge_views.shape[0], 3))
+    out = np.empty((2 * ridge_views.shape[0], 5))
     for v in range(ridge_views.shape[0]):
         ma, mb = _mirror_point(ridge_views[v], projection)
+        out[2 * v, 3] = rscales[v]
+        out[2 * v + 1, 3] = rscales[v]
+        out[2 * v, 4] = step
+        out[2 * v + 1, 4] = step
         out[2 * v, 0] = ma
         out[2 * v, 1] = mb
         out[2 * v, 2] = v
@@ -435,6 +463,65 @@ def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n):
         out[2 * v + 1, 1] = min(max(mb + db, 0.0), 1.0)
         out[2 * v + 1, 2] = v
     return out
+
+
+RIDGE_STEPS = 17
+"""Polar angles across a cell at which the lobe's ridge is followed at least (and 5 azimuths when
+anisotropic); more where the lobe is narrow against the mirror direction's motion across the cell
+(:func:`make_ridge`), up to :data:`RIDGE_MAX_STEPS`."""
+
+RIDGE_MAX_STEPS = 513
+
+
+@njit(nogil=True, cache=True)
+def _view_row(theta, phi, follow, out):
+    """A view row (:func:`core.sampling.adaptive.target.make_view`)."""
+    st = math.sin(theta)
+    if follow:
+        out[0] = st
+        out[1] = 0.0
+        out[3] = math.cos(phi)
+        out[4] = math.sin(phi)
+    else:
+        out[0] = st * math.cos(phi)
+        out[1] = st * math.sin(phi)
+        out[3] = 1.0
+        out[4] = 0.0
+    out[2] = math.cos(theta)
+    out[5] = 1.0
+
+
+@njit(nogil=True, cache=True)
+def make_ridge(cell, projection, view0, child, x0, y0, level, norm, norm_meta, safety):
+    """The views along which the lobe's ridge is followed (polar angles across the cell, times 5 azimuths
+    when anisotropic), ``1 / c`` at each and the step between their mirror points on the square. The polar
+    steps are at least :data:`RIDGE_STEPS` and halved while the mirror point moves more than a quarter of
+    the lobe's width between them (the side of the leaf holding the node's mirror point once the tree is
+    grown): a peak between two ridge points is then no higher than theirs, give or take the bound's safety
+    factor (17 steps let Cook-Torrance m = 0.005's bounds be violated at 1e-4 of its trials)."""
+    follow = cell[4] > 0.5
+    n_phi = 5 if cell[3] > cell[2] else 1
+    ma, mb = _mirror_point(view0, projection)
+    width = 0.5 ** level[_leaf_holding(child, x0, y0, level, ma, mb)]
+    row = np.empty(6)
+    _view_row(cell[0], cell[2], follow, row)
+    a0, b0 = _mirror_point(row, projection)
+    _view_row(cell[1], cell[2], follow, row)
+    a1, b1 = _mirror_point(row, projection)
+    motion = math.sqrt((a1 - a0) ** 2 + (b1 - b0) ** 2)
+    steps = RIDGE_STEPS
+    while steps < RIDGE_MAX_STEPS and motion / (steps - 1) > 0.25 * width:
+        steps = 2 * steps - 1
+    out = np.empty((steps * n_phi, 6))
+    scales = np.zeros(steps * n_phi)
+    for t in range(steps):
+        theta = cell[0] + (cell[1] - cell[0]) * t / (steps - 1)
+        for j in range(n_phi):
+            phi = cell[2] + (cell[3] - cell[2]) * j / max(n_phi - 1, 1)
+            _view_row(theta, phi, follow, out[t * n_phi + j])
+            if safety > 0.0:
+                scales[t * n_phi + j] = inv_norm(norm, norm_meta, theta, phi)
+    return out, scales, motion / (steps - 1)
 
 
 @njit(nogil=True, cache=True)
@@ -452,10 +539,37 @@ def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
 
 
 @njit(nogil=True, cache=True)
-def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety):
+def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level, st, stv):
+    """Child ``c`` (quarter ``q`` of ``parent``)'s stencils at every view: its corners are stencil points of
+    its parent's (as in :func:`_child_stencil`), so five points are evaluated, not nine. Returns the
+    evaluations made."""
+    qi = q % 2
+    qj = q // 2
+    h = 0.5 ** level[c]
+    for k in range(9):
+        stv[c, 0, k] = st[c, k]
+        i = k % 3
+        j = k // 3
+        if i % 2 == 0 and j % 2 == 0:
+            src = (qj + j // 2) * 3 + qi + i // 2
+            for v in range(1, views.shape[0]):
+                stv[c, v, k] = stv[parent, v, src]
+        else:
+            a, b = _point(x0[c], y0[c], h, k)
+            x, y, z, w = square_point(a, b, projection)
+            for v in range(1, views.shape[0]):
+                stv[c, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
+    return 5 * (views.shape[0] - 1)
+
+
+@njit(nogil=True, cache=True)
+def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety, bscales,
+          rscales, step):  # fmt: skip
     """Step 2: every leaf's stencils at every view, the views' integrals, and every leaf's bound ``m``.
 
-    Returns ``(scales, ridge, evaluations)``: ``scales[v] = 1 / I_v`` (the bounds are on ``g_v / I_v``)."""
+    Returns ``(scales, ridge, rho, evaluations)``: ``scales[v] = 1 / I_v`` (the mixture's normalization;
+    the bounds are on ``g_v / c_v``, ``bscales`` raised in place where ``1 / I_v`` is larger), ``rho`` the
+    factor on ``1 / c`` between the views."""
     evals = 0
     nv = views.shape[0]
     integral = np.zeros(nv)
@@ -465,16 +579,27 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
             for v in range(nv):
                 integral[v] += _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
     scales = np.zeros(nv)
+    rho = 1.0
     for v in range(nv):
         scales[v] = 1.0 / integral[v] if integral[v] > 0.0 else 0.0
-    ridge = _ridge(projection, views, ridge_views, child, x0, y0, level, st, n)
+        # at the stencils, the larger of 1 / c and the stencils' own 1 / I_v: where a view's lobe falls between
+        # the stencils' points, its own integral is too small and its ratios there err high, as they should
+        # (with 1 / c alone, Cook-Torrance m = 0.005's bounds failed at 2e-4 of its trials)
+        if safety > 0.0 and bscales[v] > 0.0:
+            rho = max(rho, scales[v] / bscales[v])
+        bscales[v] = max(bscales[v], scales[v]) if safety > 0.0 else 0.0
+    # between the views (ridge, probes): 1 / c there times how far the stencils' integrals fell short of c at
+    # the views (rho = 1 where they resolve every view's lobe; a lobe narrower than the stencils' spacing
+    # makes it large, and the bounds between the views then err high by as much, as before 1 / c was used)
+    for r in range(rscales.shape[0]):
+        rscales[r] *= rho
+    ridge = _ridge(projection, views, ridge_views, child, x0, y0, level, st, n, rscales, step)
     for i in range(n):
         if child[i] == -1:
-            m[i], e = _leaf_bound(
-                mid, p, projection, views, scales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
-            )
+            m[i], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0,
+                                  level, stv, safety)  # fmt: skip
             evals += e
-    return scales, ridge, evals
+    return scales, ridge, rho, evals
 
 
 @njit(nogil=True, cache=True)
@@ -520,7 +645,7 @@ def _rim_lift(mix, x0, y0, h):
 
 
 @njit(nogil=True, cache=True)
-def refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, warp_tol, max_level, n, child,
+def refine_warp(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, warp_tol, max_level, n, child,
                 x0, y0, level, st, stv, m, safety):  # fmt: skip
     """Step 2b: the rejection-free density is the cell's *mixture* ``sum_v w_v g_v / I_v`` (the draws use one
     tree for the whole cell, so it should fit every view of it, not only the node's; where the lobe moves or a
@@ -544,19 +669,22 @@ def refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, 
         n, split, e = _split_worst(mid, p, projection, views[0], errs, total - 0.5 * warp_tol, max_level, n, child,
                                    x0, y0, level, st)  # fmt: skip
         evals += e
-        for c in range(start, n):
-            evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
-            m[c], e = _leaf_bound(
-                mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0, y0, level, stv, safety
-            )
-            evals += e
+        for i in range(start):
+            if child[i] < start:  # a leaf, or split before this round
+                continue
+            for q in range(4):
+                c = child[i] + q
+                evals += _child_view_stencils(mid, p, projection, views, i, q, c, x0, y0, level, st, stv)
+                m[c], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, c, x0,
+                                      y0, level, stv, safety)  # fmt: skip
+                evals += e
         if split == 0:
             break
     return n, evals
 
 
 @njit(nogil=True, cache=True)
-def refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max, max_level, n, child, x0, y0,
+def refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, n_max, max_level, n, child, x0, y0,
            level, st, stv, m, safety):  # fmt: skip
     """Step 3: split the leaves with the largest excess ``(K_L - 1) q_L`` until the envelope's mass
     ``V = sum K_L q_L <= n_max / (1 + ACCEPT_MARGIN)`` (``q_L`` the leaf's mass under the density).
@@ -588,9 +716,10 @@ def refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max
                 n = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
                 evals += 20
                 for c in range(n - 4, n):
-                    evals += _view_stencils(mid, p, projection, views, c, x0, y0, level, st, stv)
-                    m[c], e = _leaf_bound(mid, p, projection, views, scales, weights, ridge, ridge_views, c, x0,
-                                          y0, level, stv, safety)  # fmt: skip
+                    evals += _child_view_stencils(mid, p, projection, views, i, c - (n - 4), c, x0, y0, level, st,
+                                                  stv)  # fmt: skip
+                    m[c], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, c,
+                                          x0, y0, level, stv, safety)  # fmt: skip
                     evals += e
         if n == end:
             break
@@ -623,17 +752,12 @@ def _has_front(stv_i):
 
 
 @njit(nogil=True, cache=True)
-def probe(
-    mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed, safety
-):
+def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed, safety,
+          norm, norm_meta, rho):  # fmt: skip
     """Step 3b: every leaf's bound checked at ``PROBES`` random points, each at a random view of the cell
     (``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``): between the stencils' points and between the
     views, where no rule covers it. A bound found short is raised to ``PROBE_MARGIN`` times the ratio seen
-    (the views' scale is the largest of the sampled views', so the check errs high). Returns the number of
-    bounds raised and the evaluations made."""
-    scale = 0.0
-    for v in range(scales.shape[0]):
-        scale = max(scale, scales[v])
+    (against ``rho g / c`` at the probe's view, :func:`inv_norm`, ``rho`` from :func:`bound`). Returns the number of bounds raised and the evaluations made."""
     raised = 0
     evals = 0
     mix = np.empty(9)
@@ -675,7 +799,7 @@ def probe(
             view[2] = math.cos(theta)
             qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
             g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
-            worst = max(worst, g * scale / qq)
+            worst = max(worst, g * rho * inv_norm(norm, norm_meta, theta, phi) / qq)
             evals += 1
         if worst * safety > m[i]:
             m[i] = worst * PROBE_MARGIN
@@ -845,18 +969,25 @@ def build(
     p,
     projection,
     views,
-    ridge_views,
     weights,
     cell,
     n_max,
     warp_tol,
-    quad_tol,
     base_level,
     max_level,
     capacity,
     safety,
+    angles,
+    norm,
+    norm_meta,
 ):
-    """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there)."""
+    """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there). ``angles``: the
+    ``(theta, phi)`` of the views; ``norm, norm_meta``: the exact mode's normalizer (:func:`inv_norm`; unread
+    when ``safety`` is 0)."""
+    bscales = np.zeros(views.shape[0])
+    if safety > 0.0:
+        for v in range(views.shape[0]):
+            bscales[v] = inv_norm(norm, norm_meta, angles[v, 0], angles[v, 1])
     child = np.empty(capacity, dtype=np.int32)
     x0 = np.empty(capacity)
     y0 = np.empty(capacity)
@@ -866,61 +997,37 @@ def build(
     m = np.zeros(capacity)
     n, integral0, evals = grow(mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0,
                                level, st)  # fmt: skip
-    scales, ridge, e = bound(
-        mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety
+    ridge_v, rscales, step = make_ridge(
+        cell, projection, views[0], child, x0, y0, level, norm, norm_meta, safety
     )
+    scales, ridge, rho, e = bound(mid, p, projection, views, ridge_v, weights, n, child, x0, y0, level, st, stv, m,
+                             safety, bscales, rscales, step)  # fmt: skip
     evals += e
-    n, e = refine_warp(mid, p, projection, views, scales, weights, ridge, ridge_views, warp_tol, max_level, n,
+    n, e = refine_warp(mid, p, projection, views, scales, bscales, weights, ridge, ridge_v, warp_tol, max_level, n,
                        child, x0, y0, level, st, stv, m, safety)  # fmt: skip
     evals += e
     probed = np.zeros(capacity, dtype=np.bool_)
     rounds = 5 if safety > 0.0 else 0  # no bounds: no acceptance to refine for, nothing to probe
     for r in range(rounds):  # the acceptance, then the probes; a raised bound may call for more leaves
-        n, envelope, e = refine(mid, p, projection, views, scales, weights, ridge, ridge_views, n_max, max_level, n,
+        n, envelope, e = refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_v, n_max, max_level, n,
                                 child, x0, y0, level, st, stv, m, safety)  # fmt: skip
         evals += e
         if r == rounds - 1:  # the last step is a refinement: the acceptance holds for the bounds as raised
             break
         raised, e = probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, mid,
-                          probed, safety)  # fmt: skip
+                          probed, safety, norm, norm_meta, rho)  # fmt: skip
         evals += e
         if raised == 0:
             break
     fine = np.zeros(capacity)
     fine_err = np.zeros(capacity)
-    n_keep = n
-    n, e = quadrature(mid, p, projection, views[0], quad_tol, max_level, n, child, x0, y0, level, st, fine,
-                      fine_err)  # fmt: skip
-    evals += e
-    _fold_quadrature(n_keep, n, child, fine, fine_err)
-    n = n_keep
+    for i in range(n):  # the node view's integral, Simpson's rule on the leaves (the normalizer has its own)
+        if child[i] == -1:
+            h = 0.5 ** level[i]
+            fine[i] = _rule(st[i], x0[i], y0[i], h)
+            fine_err[i] = abs(fine[i] - _trapezoids(st[i], h * h))
     corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
                                                                    fine_err, scales, weights)  # fmt: skip
-    if safety > 0.0 and cell[3] > cell[2]:
-        # an anisotropic exact table: the views on the cell's azimuth edges (1 and 2) to quad_tol as well, for
-        # the normalizer's azimuth series (the nodes alone left it 0.3 % off between them at grazing angles)
-        for v in range(1, 3):
-            st_v = np.zeros((capacity, 9))
-            st_v[:n_keep] = stv[:n_keep, v]
-            for i in range(n_keep):  # summarize numbered the leaves; quadrature wants them as -1
-                if child[i] < 0:
-                    child[i] = -1
-            n, e = quadrature(mid, p, projection, views[v], quad_tol, max_level, n_keep, child, x0, y0, level,
-                              st_v, fine, fine_err)  # fmt: skip
-            evals += e
-            _fold_quadrature(n_keep, n, child, fine, fine_err)
-            integrals[v] = 0.0
-            errors[v] = 0.0
-            for i in range(n_keep):
-                if child[i] == -1:
-                    integrals[v] += fine[i]
-                    errors[v] += fine_err[i]
-        k = 0
-        for i in range(n_keep):  # number the leaves again
-            if child[i] < 0:
-                child[i] = -1 - k
-                k += 1
-        n = n_keep
     return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,
             errors, chi2, envelope, evals)  # fmt: skip
 
@@ -933,24 +1040,51 @@ def build_tree(
     weights: np.ndarray,
     cell: np.ndarray,
     settings: BuildSettings,
-    ridge_views: np.ndarray | None = None,
+    angles: np.ndarray,
+    norm: np.ndarray,
+    norm_meta: np.ndarray,
 ) -> TreeArrays:
     """One node's tree (``views[0]`` is the node; the others span its cell, with the mixture's ``weights``;
-    ``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``; ``ridge_views``: where the lobe's ridge is
-    followed, by default the views)."""
-    if ridge_views is None:
-        ridge_views = views
+    ``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``; ``angles``: each view's ``(theta, phi)``; ``norm,
+    norm_meta``: the exact mode's normalizer, whose ``g / c`` the bounds bound (:func:`inv_norm`))."""
     out = build(
         int(mid), np.ascontiguousarray(p, dtype=np.float64), int(projection),
-        np.ascontiguousarray(views, dtype=np.float64), np.ascontiguousarray(ridge_views, dtype=np.float64),
-        np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(views, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
         np.ascontiguousarray(cell, dtype=np.float64),
         float(settings.n_max), float(settings.warp_tol),
-        float(settings.quad_tol),
         int(settings.base_level), int(settings.max_level), int(settings.capacity),
         float(settings.bound_safety),
+        np.ascontiguousarray(angles, dtype=np.float64),
+        np.ascontiguousarray(norm, dtype=np.float64), np.ascontiguousarray(norm_meta, dtype=np.float64),
     )  # fmt: skip
     return TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
+
+
+@njit(nogil=True, cache=True)
+def view_integral(mid, p, projection, view, warp_tol, quad_tol, base_level, max_level, capacity):
+    """``I`` of one view to ``quad_tol`` (relative, by its own estimate): step 1's tree, then step 4.
+    Returns ``(I, estimated error, evaluations)``. The exact mode's normalizer is interpolated from these, at
+    polar angles of its own (:func:`core.sampling.adaptive.table.build_table`): a node's tree is not needed
+    where only the normalizer asks for another node."""
+    child = np.empty(capacity, dtype=np.int32)
+    x0 = np.empty(capacity)
+    y0 = np.empty(capacity)
+    level = np.empty(capacity, dtype=np.int32)
+    st = np.zeros((capacity, 9))
+    n, _, evals = grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y0, level, st)
+    fine = np.zeros(capacity)
+    fine_err = np.zeros(capacity)
+    n_keep = n
+    n, e = quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, level, st, fine,
+                      fine_err)  # fmt: skip
+    _fold_quadrature(n_keep, n, child, fine, fine_err)
+    total = 0.0
+    err = 0.0
+    for i in range(n_keep):
+        if child[i] == -1:
+            total += fine[i]
+            err += fine_err[i]
+    return total, err, evals + e
 
 
 def acceptance(tree: TreeArrays) -> float:
