@@ -5,8 +5,9 @@ by ``tests/app/test_autosave_crash.py``, which kills it.
         opens PROJECT, edits it (a parameter and a new material, through the document as the editors do),
         writes REPORT (the pid and the edit) and keeps running, autosaving, until it is killed;
     python -m tests.app.autosave_app restore PROJECT REPORT
-        launches on PROJECT as a user would (``restore="ask"``; the question is answered yes), writes REPORT
-        (whether it was asked, the document it shows, its own autosave) and saves the project, then quits;
+        launches on PROJECT as a user would (``restore="ask"``; the question is answered yes), saves the
+        project and writes REPORT (whether it was asked, the document it showed, its own autosave before the
+        save, the autosaves left after it), then keeps running until it is killed;
     python -m tests.app.autosave_app saves PROJECT REPORT
         opens PROJECT and saves it over and over, each time with another value of the edited parameter
         (:func:`saved_value`), until it is killed; REPORT (the pid) is written after the first save.
@@ -50,18 +51,20 @@ def main(phase: str, project: Path, report: Path) -> int:
     def check_and_save(window) -> None:
         doc = window.document
         own = settings.autosave_path()
-        _write(report, {
+        seen = {
             "pid": os.getpid(),
             "asked": asked,
             "path": str(doc.path) if doc.path else None,
             "dirty": doc.dirty,
             "document": doc.to_dict(),
-            "errors": window.errors,
+            "errors": list(window.errors),
             "own_autosave": settings.read_autosave(own)["document"] if own.exists() else None,
             "autosaves": sorted(p.name for p in settings.config_dir().glob("autosave-*.json")),
-        })  # fmt: skip
-        window.save_project()  # the user saves the restored work
-        window.close()
+        }
+        saved = window.save_project()  # the user saves the restored work
+        seen["saved"] = saved and not doc.dirty
+        seen["autosaves_after_save"] = sorted(p.name for p in settings.config_dir().glob("autosave-*.json"))
+        _write(report, seen)
 
     saves = [0]
 
