@@ -111,7 +111,7 @@ class ErrorPlot(FigureView):
         if added:
             for ax in self.axes_by_metric.values():
                 if ax.lines:
-                    ax.legend(fontsize=8)
+                    ax.legend(fontsize=8, loc="upper right")  # "best" searched the data on every full draw
             self.set_animated(list(self._lines.values()))
         self.verdict = equal_time_verdict(curves, "rmse")
         self.status.setText(f"<b>{self.verdict}</b>" if self.verdict else "")
@@ -136,7 +136,14 @@ class ErrorPlot(FigureView):
                 ax.set_xlim(min(t) / 1.5, max(max(t) * 8.0, 1.3 * (self.horizon or 0.0)))
                 changed = True
             if not self._limits_set.get(metric) or min(e) < y0 or max(e) > y1:
-                ax.set_ylim(min(e) / 10.0, max(e) * 3.0)
+                # knowing the render's length: room for the error at its end (Monte Carlo: RMSE ~ t^-1/2,
+                # relMSE ~ t^-1), so the error axis too needs no full draw half-way
+                fall = (
+                    min(1.0, min(t) / self.horizon) ** (1.0 if metric == "relmse" else 0.5)
+                    if self.horizon
+                    else 1.0
+                )
+                ax.set_ylim(min(e) * fall / 10.0, max(e) * 3.0)
                 changed = True
             self._limits_set[metric] = True
         return changed
