@@ -421,7 +421,6 @@ def test_generated_broken_scenes_large(capsys, scene_dir, scene):
             "translate",
         ),
         ({"meshes": [{"path": "ball.obj", "material": "ball", "transform": {"scale": 1e200}}]}, "scale"),
-        ({"render": {"width": 16384, "height": 16384, "sampler": "cosine"}}, "needs"),
         ({"render": {"sampler": "cosine", "sampler_options": {"n_max": 0.5}}}, "takes no options"),
         ({"render": {"sampler": "adaptive", "sampler_options": {"theta_step": 0}}}, "no option 'theta_step'"),
         ({"render": {"sampler": "adaptive", "sampler_options": {"cache": 5}}}, "'cache'"),
@@ -436,6 +435,19 @@ def test_absurd_scene_values_are_refused_with_the_field_and_range(capsys, scene_
     code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), scene_dir / "absurd.exr")
     assert problem("render", code, err) is None, err
     assert where in err
+
+
+def test_a_scene_too_large_even_for_bands_is_refused(capsys, scene_dir, monkeypatch):
+    """A 16384x16384 scene is rendered in bands where its film does not fit (this 4 GiB machine); on a 4 MiB
+    machine not even a band of one row fits: refused before any work, naming the need."""
+    monkeypatch.setenv("BRDF_STUDIO_MEMORY", str(4 << 20))
+    scene = {
+        **json.loads(json.dumps(SCENE)),
+        "render": {"width": 16384, "height": 16384, "sampler": "cosine"},
+    }
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), scene_dir / "absurd.exr")
+    assert problem("render", code, err) is None and code == 2, err
+    assert "in bands of one row needs" in err
 
 
 def test_deeply_nested_json_is_refused(capsys, scene_dir):
