@@ -36,6 +36,9 @@ class ErrorPlot(FigureView):
         self._lines: dict[tuple[str, str], object] | None = None
         self._limits_set: dict[str, bool] = {}
         self.verdict = ""
+        # The verdict's line keeps its height when the verdict appears half-way through a render: a taller
+        # label would shrink the canvas, and a canvas of a new size needs a full draw.
+        self.status.setMinimumHeight(2 * self.status.fontMetrics().lineSpacing())
         self.horizon: float | None = None
         """The render's expected length in seconds (equal time), or ``None``: the time axis reaches past it at
         once, so the render needs no full draw for the time axis after its first frame."""

@@ -158,6 +158,7 @@ class RenderPanel(QWidget):
         self.error_plot = ErrorPlot()
         self.status = QLabel("Set up the scene, then Render. Renders use the Scene tab's camera.")
         self.status.setWordWrap(True)
+        self.status.setMinimumHeight(2 * self.status.fontMetrics().lineSpacing())  # see ErrorPlot's status
         split = QSplitter()
         split.setOrientation(split.orientation().Vertical)
         split.addWidget(images)

@@ -80,3 +80,8 @@ def test_the_second_strategys_first_frame_costs_no_full_draw(qtbot):
     plot.show_curves({"uniform": recs, "adaptive": recs[:2]})
     plot.canvas.repaint()
     assert plot.full_draws == draws and len(plot._lines[("adaptive", "rmse")].get_xdata()) == 2
+    canvas = plot.canvas.size()
+    plot.show_curves({"uniform": recs, "adaptive": recs})  # both strategies complete: the verdict appears
+    plot.canvas.repaint()
+    assert plot.verdict and plot.canvas.size() == canvas  # the same canvas: no full draw for a new size
+    assert plot.full_draws == draws
