@@ -68,9 +68,13 @@ def test_render_start_and_cancel_repeated_leave_nothing_behind(window, qtbot, tm
         assert not panel.running and "Cancelled" in panel.status_text
         qtbot.waitUntil(lambda: not panel.server.busy, timeout=60_000)  # the render process acknowledged it
 
+    from app import snapshot_process
+
+    snapshot_process.prewarm()  # the app starts it at launch (its pool's process must not count as new)
     try:
         for how in ("frames", "early"):  # warm-up: the render process, its kernels, Qt's thread pools
             cycle(how)
+        qtbot.waitUntil(window.jobs_idle, timeout=PREPARE_TIMEOUT_MS)  # the edits' redraws, in their threads
         qtbot.wait(200)
         before = _resources(panel)
         t0 = time.monotonic()
