@@ -362,7 +362,12 @@ def _render_in_bands(
     width, height = job.tracer.width, job.tracer.height
     bar = tqdm(total=height, desc=f"{strategy}: render in bands", unit="row", disable=quiet, file=sys.stderr)
     exr = ExrRows(with_extension(stem, ".exr"), width, height, {"spp": spp, "sampler": strategy})
-    png = PngRows(with_extension(stem, ".png"), width, height, exposure)
+    try:
+        png = PngRows(with_extension(stem, ".png"), width, height, exposure)
+    except BaseException:
+        exr.discard()
+        bar.close()
+        raise
     try:
         done = 0
         with _signals.cooperative() as stop:
