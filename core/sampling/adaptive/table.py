@@ -445,10 +445,6 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
     return table, report
 
 
-NORM_MAX_NODES = 192
-"""At most this many polar angles for the exact mode's normalizer."""
-
-
 def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
     """The azimuths the normalizer is tabulated at: the azimuth nodes and the cells' edges between them,
     equally spaced (``2 J - 1`` over the mirror's quadrant, ends included; ``2 J`` around the circle): through
@@ -504,10 +500,10 @@ def _normalizer(brdf: BRDF, options: TableOptions, symmetry: int, phis: np.ndarr
         halve |= bad[:-1]
         halve |= bad[1:]
         halve &= np.diff(thetas) > 2.0 * min_spacing
-        if not np.any(halve) or len(thetas) >= NORM_MAX_NODES:
+        if not np.any(halve) or len(thetas) >= options.max_thetas:
             return thetas, table, err, evals
         mids = 0.5 * (thetas[:-1] + thetas[1:])[halve]
-        thetas = np.sort(np.concatenate([thetas, mids[: NORM_MAX_NODES - len(thetas)]]))
+        thetas = np.sort(np.concatenate([thetas, mids[: options.max_thetas - len(thetas)]]))
 
 
 def _interpolation_errors(thetas: np.ndarray, values: np.ndarray) -> np.ndarray:
