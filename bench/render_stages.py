@@ -1,7 +1,8 @@
 """Where a pass of the path tracer spends its time: CPU seconds per stage of a demo-scene pass.
 
 Each strategy's scene is prepared with one thread (``threads=1``: the stages and Embree run on the calling
-thread, so the process CPU time of a call is that stage's cost, whatever else the machine runs), one warm-up
+thread, so the process CPU time of a call is that stage's own; other jobs on the machine still inflate it
+through shared caches and memory, so quote the load average printed with the table), one warm-up
 pass is rendered, then ``--passes`` passes with every stage of the wavefront timed (camera, Embree closest
 hits, hits, material sort, surface + light sample, the compiled BRDF stage, the samplers with tables,
 continuation, compaction, Embree shadow rays, shadows) plus what is left (the pass's own numpy: the sum of
