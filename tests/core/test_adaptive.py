@@ -50,19 +50,22 @@ the slow sweep."""
 ALPHA = sidak_alpha(0.01, len(CHI2_CASES))
 
 
-ANISOTROPIC_VIOLATION_RATE = 3e-5
-"""Bound violations per trial allowed to an anisotropic material's exact mode. Its bounds are checked at nine
+VIOLATION_RATE = 3e-5
+"""Bound violations per trial allowed to an anisotropic material's exact mode (and to every material in the slow sweep). Its bounds are checked at nine
 views of each cell, along the lobe's ridge and by probes, not proven: between the views a lobe that turns
 with ``wo`` can rise above them, at grazing angles mostly (measured: Ward sx=0.05 sy=0.25, Ashikhmin-Shirley
 nu=10 nv=200 and Poulin-Fournier, 2e6 draws each at 400 random ``wo``: 3, 4 and 3 violations in ~3.4e6
-trials, ~1e-6 a trial; 6 in 5.3e5 at 89 degrees). An isotropic material's bounds have never been seen to
-fail: its tests allow none."""
+trials, ~1e-6 a trial; 6 in 5.3e5 at 89 degrees). An isotropic material's bounds are checked the same way
+and hold in every fast test (they allow none), but not everywhere: the slow sweep's 1e6 draws at 89 degrees
+find 2 trials above Lewis's bound, and a 64-angle sweep of Cook-Torrance m=0.005 finds 3e-5 of trials above
+it (the construction before the bounds on g/c: 6e-5). The slow sweep allows this rate to every material; see
+docs/adaptive.md, "Bounds"."""
 
 
 def _allowed_violations(sampler: AdaptiveSampler) -> float:
     if symmetry_of(sampler.brdf) == ISOTROPIC:
         return 0.0
-    return ANISOTROPIC_VIOLATION_RATE * sampler.trials
+    return VIOLATION_RATE * sampler.trials
 
 
 def _wo(theta: float, phi: float = 0.0) -> np.ndarray:
@@ -139,7 +142,7 @@ def test_the_exact_modes_weight_is_the_albedo_for_every_sample(name, params, the
 )  # fmt: skip
 def test_bounds_hold_and_acceptance_meets_n_max_over_whole_cells(name, params, n_max, rng):
     """Random outgoing directions over the whole hemisphere (so every cell, its edges included, and every
-    azimuth): no trial finds f above its bound (anisotropic: see ANISOTROPIC_VIOLATION_RATE), and the
+    azimuth): no trial finds f above its bound (anisotropic: see VIOLATION_RATE), and the
     acceptance is at least 1 / n_max; for an anisotropic material, at least 0.9 / n_max within 5 degrees of
     the horizon (those trees fill their capacity before the envelope reaches n_max: measured 0.47 at
     89.9 degrees for n_max = 2)."""
@@ -319,7 +322,7 @@ def test_chi2_full_sweep(model, mode, n_max):
         sample, pdf = sampler_functions(sampler, _wo(theta, phi))
         result = chi2_test(sample, pdf, n_samples=1_000_000, seed=int(theta) + 1, alpha=alpha)
         assert result.passed, f"{model} {mode} n_max={n_max} theta={theta}: {result.summary()}"
-    assert sampler.bound_violations == 0
+    assert sampler.bound_violations <= VIOLATION_RATE * sampler.trials
     if mode == "exact":
         wo = np.array([_wo(t, 17.0) for t in thetas])
         assert np.all(sampler.acceptance(wo) >= 1.0 / n_max)
