@@ -72,6 +72,9 @@ class FileManager:
     def new_project(self) -> None:
         if self.maybe_save():
             self.document.replace(default_scene(), None)
+            # as when a project is opened: the edits just saved or discarded must not be offered after a crash
+            settings.clear_autosave()
+            self.autosaved_revision = self.document.revision
 
     def open_project(
         self, path: Path | str | None = None, confirm: bool = True, remember: bool = True
