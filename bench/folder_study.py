@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.errors import BrdfStudioError  # noqa: E402
 from core.study import StudyConfig  # noqa: E402
 from core.study_folder import material_files, run_folder_study  # noqa: E402
 
@@ -69,7 +70,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--warmup", type=int, default=3, help="files of the untimed warm-up run (0: none)")
     parser.add_argument("--out", type=Path, default=Path("results/bench"))
     args = parser.parse_args(argv)
-    files = material_files(args.materials)
+    try:
+        files = material_files(args.materials)
+    except BrdfStudioError as exc:
+        print(
+            f"error: {exc} (write it with: python bench/make_materials.py --out {args.materials})",
+            file=sys.stderr,
+        )
+        return 2
     config = StudyConfig(
         thetas=(30.0,),
         counts=(16, 64, 256),
