@@ -788,18 +788,7 @@ def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, le
             state, u4 = next_u01(state)
             theta = cell[0] + u3 * (cell[1] - cell[0])
             phi = cell[2] + u4 * (cell[3] - cell[2])
-            st = math.sin(theta)
-            if cell[4] > 0.5:
-                view[0] = st
-                view[1] = 0.0
-                view[3] = math.cos(phi)
-                view[4] = math.sin(phi)
-            else:
-                view[0] = st * math.cos(phi)
-                view[1] = st * math.sin(phi)
-                view[3] = 1.0
-                view[4] = 0.0
-            view[2] = math.cos(theta)
+            _view_row(theta, phi, cell[4] > 0.5, view)
             qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
             g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
             worst = max(worst, g * rho * inv_norm(norm, norm_meta, theta, phi) / qq)
