@@ -23,6 +23,7 @@ import multiprocessing
 import queue
 import signal
 import threading
+import time
 from collections import deque
 from typing import Any
 
@@ -41,6 +42,7 @@ class _Handle:
         self.process = ctx.Process(
             target=serve, args=(child_commands, child_events), name="brdf-studio-render", daemon=True
         )
+        self.started_at = time.monotonic()  # the clock the process's time stamps use (see Timeline)
         self.process.start()
         # Keep only our ends: the process sees end-of-file on its command pipe when the app goes away, and we
         # see it on the event pipe when the process goes away.
@@ -104,7 +106,8 @@ class RenderServer(QObject):
     """Runs render jobs in a separate, long-lived process; see the module docstring.
 
     Signals: ``events_received(list)`` with a batch of event dicts, in order (those of
-    :mod:`app.render_session`, each with ``job`` and ``pid``), plus ``{"kind": "crashed", "job": None,
+    :mod:`app.render_session`, each with ``job``, ``pid``, ``sent`` and ``received``: ``time.monotonic()``
+    when the process sent it and when the app read it), plus ``{"kind": "crashed", "job": None,
     "text": ...}`` when the process died by itself.
     """
 
@@ -142,6 +145,11 @@ class RenderServer(QObject):
         return self._handle.pid if self._handle is not None else None
 
     @property
+    def started_at(self) -> float | None:
+        """When the running render process was started (``time.monotonic()``), or None when none runs."""
+        return self._handle.started_at if self._handle is not None else None
+
+    @property
     def busy(self) -> bool:
         """True while a job sent to the process has not ended."""
         return bool(self._jobs)
@@ -165,6 +173,7 @@ class RenderServer(QObject):
         self._post(handle, {"kind": "exit", "code": handle.process.exitcode})
 
     def _post(self, handle: _Handle, message: dict[str, Any]) -> None:  # runs in the reader thread
+        message["received"] = time.monotonic()  # beside the process's "sent": the transfer's time
         with self._lock:
             self._inbox.append((handle, message))
             wake = not self._wake_pending and self._alive["yes"]

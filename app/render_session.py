@@ -1,7 +1,8 @@
 """Side-by-side progressive renders without Qt, and the render process that runs them.
 
-:func:`render_events` prepares each strategy, then interleaves their passes so both advance together; each
-event is a plain dict the render panel draws. :func:`serve` is the main loop of the render process
+:func:`render_events` prepares each strategy and renders its first pass (a small one) before the next strategy
+is prepared, so the first image of the first strategy never waits for the second's tables; then it
+interleaves their passes so both advance together. Each event is a plain dict the render panel draws. :func:`serve` is the main loop of the render process
 (started by :mod:`app.render_process`): it takes jobs and cancels from a pipe and sends the events of each
 job back through another, so that preparation (kernel compilation, sampler tables) and passes never hold the
 GUI process's interpreter lock. The process stays alive between renders: what it compiled and built is
@@ -9,8 +10,14 @@ reused by the next render.
 
 Events: ``{"kind": "status", "text"}`` while preparing; ``{"kind": "frame", "strategy", "image", "spp",
 "seconds", "rays", "rmse", "relmse"}`` after every pass (errors only with a reference image);
-``{"kind": "done"}`` at the end. :func:`serve` adds ``"job"`` and ``"pid"`` to each, and ends every job with
-exactly one of ``done``, ``cancelled`` or ``{"kind": "error", "text"}``.
+``{"kind": "done"}`` at the end; ``{"kind": "timing", "marks"}`` after each strategy's first frame and at the
+end (see :class:`Timeline`: where the seconds before the first images went). :func:`serve` adds ``"job"``,
+``"pid"`` and ``"sent"`` (``time.monotonic()``) to each, and ends every job with exactly one of ``done``,
+``cancelled`` or ``{"kind": "error", "text"}``.
+
+While no job has come yet, the process loads the kernels a render calls (:func:`renderer.warmup.load_kernels`,
+seconds that the first render would otherwise wait for); a job that arrives meanwhile waits at most for the
+step in progress.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ import os
 import queue
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Iterator, Sequence
 from multiprocessing.connection import Connection
@@ -30,12 +38,99 @@ import numpy as np
 from core.errors import BrdfStudioError, ParameterError
 from core.scene import Scene
 
+IMPORTED_AT = time.monotonic()
+"""When this module (and numpy) had been imported: in the render process, its first time stamp."""
+
 RENDER_NICENESS = 5
 """The render process runs at a lower scheduling priority, so that on a busy machine the GUI gets the CPU
 first (both strategies of a comparison are slowed alike: equal time stays fair)."""
 
 TERMINAL_KINDS = ("done", "cancelled", "error")
 """Event kinds that end a job: exactly one of them is the last event of every job :func:`serve` runs."""
+
+FIRST_PASS_SPP = 1
+"""Samples per pixel of each strategy's first pass: its first image in a fraction of a second (the passes
+after it trace ~2^18 paths each, :func:`renderer.render.pass_spp`: 5 spp at 256x192, ~1 s in a cold
+process). The estimate is the same; only the passes' sizes differ."""
+
+WARM_STRATEGIES = ("uniform", "adaptive_warp", "adaptive")
+"""Strategies whose kernels the idle render process loads before its first job (the panel's defaults and
+the adaptive modes, whose table builders are the slowest to load)."""
+
+
+class NumbaClock:
+    """Seconds numba has spent in this process: ``dispatch_s`` in its compile path (loading compiled kernels
+    from its disk cache, or compiling them; with the wait for its lock) and ``compile_s`` compiling (a
+    kernel missing from the disk cache), summed over threads. :meth:`install` registers it with numba's
+    event API (``numba.core.event``)."""
+
+    def __init__(self) -> None:
+        self.dispatch_s = 0.0
+        self.compile_s = 0.0
+        self.compiles = 0
+        self._open: dict[tuple[str, int], tuple[int, float]] = {}  # (kind, thread) -> (depth, start)
+        self._lock = threading.Lock()
+
+    def install(self) -> NumbaClock:
+        from numba.core import event
+
+        clock = self
+
+        class Listener(event.Listener):
+            def on_start(self, ev: Any) -> None:
+                clock._start(ev.kind)
+
+            def on_end(self, ev: Any) -> None:
+                clock._end(ev.kind)
+
+        listener = Listener()
+        for kind in ("numba:compiler_lock", "numba:compile"):
+            event.register(kind, listener)
+        return self
+
+    def _start(self, kind: str) -> None:
+        key = (kind, threading.get_ident())
+        with self._lock:
+            depth, start = self._open.get(key, (0, 0.0))
+            self._open[key] = (depth + 1, time.monotonic() if depth == 0 else start)
+
+    def _end(self, kind: str) -> None:
+        key = (kind, threading.get_ident())
+        with self._lock:
+            depth, start = self._open.pop(key, (1, time.monotonic()))
+            if depth > 1:
+                self._open[key] = (depth - 1, start)
+                return
+            seconds = time.monotonic() - start
+            if kind == "numba:compile":
+                self.compile_s += seconds
+                self.compiles += 1
+            else:
+                self.dispatch_s += seconds
+
+
+class Timeline:
+    """Time stamps of the render process's steps, for the benchmark (``bench/app_latency.py --parts first``)
+    and for anyone asking where the seconds before a first image went.
+
+    Each mark is ``{"step", "t", "numba_s", "compile_s"}``: ``t`` is ``time.monotonic()`` (one clock for
+    every process of the machine, so the app can place the marks after its own click), and the numba seconds
+    are :class:`NumbaClock`'s totals at that moment (``None`` without a clock)."""
+
+    def __init__(self, numba: NumbaClock | None = None, marks: Sequence[dict[str, Any]] = ()) -> None:
+        self.numba = numba
+        self.marks: list[dict[str, Any]] = list(marks)
+
+    def mark(self, step: str) -> None:
+        numba = self.numba
+        self.marks.append({
+            "step": step, "t": time.monotonic(),
+            "numba_s": None if numba is None else round(numba.dispatch_s, 4),
+            "compile_s": None if numba is None else round(numba.compile_s, 4),
+        })  # fmt: skip
+
+    def event(self) -> dict[str, Any]:
+        return {"kind": "timing", "marks": [dict(m) for m in self.marks]}
 
 
 class RenderCancelled(Exception):
@@ -68,68 +163,88 @@ def render_events(
     seed: int = 0,
     reference: np.ndarray | None = None,
     cancel: threading.Event | None = None,
+    timeline: Timeline | None = None,
+    first_spp: int | None = FIRST_PASS_SPP,
 ) -> Iterator[dict[str, Any]]:
     """Render ``scene`` with each strategy to the same budget: ``mode`` ``"spp"`` (samples per pixel) or
-    ``"time"`` (seconds of rendering each, preparation excluded). Setting ``cancel`` stops the render between
-    two preparation steps or two passes (the generator then ends without ``done``)."""
+    ``"time"`` (seconds of rendering each, preparation excluded). Each strategy is prepared and renders its
+    first pass (``first_spp`` samples per pixel; ``None``: a full pass) before the next one is prepared;
+    then their passes alternate. Setting ``cancel`` stops the render between two preparation steps or two
+    passes (the generator then ends without ``done``). With a ``timeline``, its steps are marked and it is
+    yielded (a ``timing`` event) after each strategy's first frame and at the end."""
     from renderer.image_io import image_errors
     from renderer.render import prepare
 
     check_request(mode, budget, width, height, reference)
+    mark = timeline.mark if timeline is not None else lambda step: None
 
     def on_step(label: str, i: int, n: int, steps: list[str]) -> None:
         if cancel is not None and cancel.is_set():
             raise RenderCancelled
         steps.append(f"{label} ({i}/{n})")
 
-    jobs = {}
-    try:
-        for name in strategies:
-            steps: list[str] = []
-            yield {"kind": "status", "text": f"Preparing '{name}': geometry, kernels, sampler tables ..."}
-            options = dict(scene.render.sampler_options) if name == scene.render.sampler else {}
-            if name.startswith("adaptive"):
-                # a coarse table at once and the full one in the background, swapped in between passes: the
-                # first image comes in seconds (core.sampling.adaptive.sampler, "progressive")
-                options["progressive"] = True
-            jobs[name] = prepare(
+    def frame_event(name: str, frame: Any) -> dict[str, Any]:
+        event = {
+            "kind": "frame",
+            "strategy": name,
+            "image": frame.image,
+            "spp": frame.spp,
+            "seconds": frame.elapsed,
+            "rays": frame.rays,
+            "rmse": float("nan"),
+            "relmse": float("nan"),
+        }
+        if reference is not None:
+            event.update(image_errors(frame.image, reference))
+        return event
+
+    passes: dict[str, Iterator[Any]] = {}
+    active: list[str] = []
+    for name in strategies:
+        steps: list[str] = []
+        yield {"kind": "status", "text": f"Preparing '{name}': geometry, kernels, sampler tables ..."}
+        mark(f"prepare {name}")
+        options = dict(scene.render.sampler_options) if name == scene.render.sampler else {}
+        if name.startswith("adaptive"):
+            # a coarse table at once and the full one in the background, swapped in between passes: the
+            # first image comes in seconds (core.sampling.adaptive.sampler, "progressive")
+            options["progressive"] = True
+        try:
+            job = prepare(
                 scene, sampler=name, sampler_options=options, width=width, height=height, seed=seed,
                 on_step=lambda label, i, n, steps=steps: on_step(label, i, n, steps),
             )  # fmt: skip
-            report = jobs[name].prepare_report
-            secs = sum(v for k, v in report.items() if k.endswith("seconds") and isinstance(v, int | float))
-            yield {"kind": "status", "text": f"Prepared '{name}' in {secs:.1f} s ({len(steps)} steps)"}
-    except RenderCancelled:
-        return
-    passes = {
-        name: job.passes(spp=int(budget), cancel=cancel)
-        if mode == "spp"
-        else job.passes(time_s=float(budget), cancel=cancel)
-        for name, job in jobs.items()
-    }
-    active = list(passes)
+        except RenderCancelled:
+            return
+        report = job.prepare_report
+        secs = sum(v for k, v in report.items() if k.endswith("seconds") and isinstance(v, int | float))
+        mark(f"prepared {name}: geometry {report.get('geometry_seconds', 0):.2f} s, materials "
+             f"{report.get('compile_seconds', 0):.2f} s, tables {report.get('warm_up_seconds', 0):.2f} s")  # fmt: skip
+        yield {"kind": "status", "text": f"Prepared '{name}' in {secs:.1f} s ({len(steps)} steps)"}
+        budget_kw = {"spp": int(budget)} if mode == "spp" else {"time_s": float(budget)}
+        passes[name] = job.passes(cancel=cancel, first_spp=first_spp, **budget_kw)
+        # its first image now: the next strategy's preparation does not hold it back
+        frame = next(passes[name], None)
+        if cancel is not None and cancel.is_set():
+            return
+        if frame is not None:
+            active.append(name)
+            mark(f"first pass {name}: {frame.spp} spp, {frame.elapsed:.2f} s")
+            yield frame_event(name, frame)
+            if timeline is not None:
+                yield timeline.event()
     while active:
         for name in list(active):
             if cancel is not None and cancel.is_set():
                 return
-            try:
-                frame = next(passes[name])
-            except StopIteration:
+            frame = next(passes[name], None)
+            if frame is None:
                 active.remove(name)
                 continue
-            event = {
-                "kind": "frame",
-                "strategy": name,
-                "image": frame.image,
-                "spp": frame.spp,
-                "seconds": frame.elapsed,
-                "rays": frame.rays,
-                "rmse": float("nan"),
-                "relmse": float("nan"),
-            }
-            if reference is not None:
-                event.update(image_errors(frame.image, reference))
-            yield event
+            yield frame_event(name, frame)
+    if timeline is not None:
+        mark("done")
+        yield timeline.event()
     yield {"kind": "done"}
 
 
@@ -144,8 +259,13 @@ def serve(commands: Connection, events: Connection) -> None:
     ``strategies``, ``mode``, ``budget``, ``width``, ``height``, ``seed``, ``reference`` and, for tests,
     ``hold_s``: an uninterruptible pause before preparing, standing in for a long compilation);
     ``("cancel", job_id)``; ``("quit",)``. A listener thread reads them while the main thread renders, so a
-    cancel is seen between two preparation steps or two passes.
+    cancel is seen between two preparation steps or two passes. Before the first job, the main thread loads
+    the renderer's kernels (:data:`WARM_STRATEGIES`), one step at a time, and stops when a job is waiting.
     """
+    numba = NumbaClock().install()
+    timeline = Timeline(numba)
+    timeline.marks.append({"step": "process: python started, app.render_session imported",
+                           "t": IMPORTED_AT, "numba_s": 0.0, "compile_s": 0.0})  # fmt: skip
     pending: queue.Queue[dict[str, Any]] = queue.Queue()
     lock = threading.Lock()
     cancelled: set[int] = set()
@@ -159,7 +279,7 @@ def serve(commands: Connection, events: Connection) -> None:
             except (EOFError, OSError):
                 os._exit(0)  # the app is gone (even killed): never outlive it
             if message[0] == "start":
-                pending.put(message[1])
+                pending.put({**message[1], "arrived": time.monotonic()})
             elif message[0] == "cancel":
                 with lock:
                     cancelled.add(message[1])
@@ -170,7 +290,7 @@ def serve(commands: Connection, events: Connection) -> None:
 
     def send(job_id: int, event: dict[str, Any]) -> None:
         try:
-            events.send({**event, "job": job_id, "pid": pid})
+            events.send({**event, "job": job_id, "pid": pid, "sent": time.monotonic()})
         except (BrokenPipeError, EOFError, OSError):
             os._exit(0)
 
@@ -179,6 +299,11 @@ def serve(commands: Connection, events: Connection) -> None:
         os.nice(RENDER_NICENESS)
     import renderer.render  # noqa: F401  (import while the first job is on its way)
 
+    timeline.mark("process: renderer imported")
+    from renderer.warmup import load_kernels
+
+    for name, _ in load_kernels(WARM_STRATEGIES, stop=lambda: not pending.empty()):
+        timeline.mark(f"process: kernels of '{name}' loaded (idle)")
     while True:
         job = pending.get()
         job_id = int(job["id"])
@@ -187,15 +312,20 @@ def serve(commands: Connection, events: Connection) -> None:
             if job_id in cancelled:
                 cancel.set()
             current["id"], current["cancel"] = job_id, cancel
+        arrived = {"step": "job arrived", "t": job["arrived"], "numba_s": None, "compile_s": None}
+        job_timeline = Timeline(numba, sorted([*timeline.marks, arrived], key=lambda m: m["t"]))
+        job_timeline.mark("job taken")
         try:
-            _run_job(job, cancel, lambda event, job_id=job_id: send(job_id, event))
+            _run_job(job, cancel, lambda event, job_id=job_id: send(job_id, event), job_timeline)
         finally:
             with lock:
                 current["id"] = None
                 cancelled.discard(job_id)
 
 
-def _run_job(job: dict[str, Any], cancel: threading.Event, send: Any) -> None:
+def _run_job(
+    job: dict[str, Any], cancel: threading.Event, send: Any, timeline: Timeline | None = None
+) -> None:
     """Run one job, sending its events; its last event is ``done``, ``cancelled`` or ``error``."""
     from core.scene import scene_from_dict
 
@@ -211,10 +341,12 @@ def _run_job(job: dict[str, Any], cancel: threading.Event, send: Any) -> None:
         scene = scene_from_dict(
             job["scene"], source=job["source"], base_dir=job["base_dir"], check_files=False
         )
+        if timeline is not None:
+            timeline.mark("scene read")
         finished = False
         for event in render_events(
             scene, job["strategies"], job["mode"], job["budget"], job["width"], job["height"],
-            job["seed"], job["reference"], cancel=cancel,
+            job["seed"], job["reference"], cancel=cancel, timeline=timeline,
         ):  # fmt: skip
             if cancel.is_set():
                 break

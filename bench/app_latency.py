@@ -1,7 +1,7 @@
 """Desktop-app responsiveness: parameter edit -> redraw time, and event-loop stalls while a render runs.
 
     .venv/bin/python bench/app_latency.py [--edits 15] [--render-seconds 8] [--models ggx,phong,...]
-        [--parts latency,stall] [--fresh] [--strategy-b adaptive_warp] [--reference-spp 64]
+        [--parts latency,stall,first] [--fresh] [--strategy-b adaptive_warp] [--reference-spp 64] [--lead 3]
 
 1. ``latency``: for each analytic model, after a warm-up (kernel compilation excluded) and once the slow
    background jobs (albedo quadrature, adaptive-table facts) are done, ``--edits`` edits of one float
@@ -15,6 +15,8 @@
    - ``lobe+tree``: until both are on screen (the later of the two: the GUI thread draws the lobe while the
      worker builds the tree). Target: <= 100 ms.
    - ``all``: until lobe, tree, polar slice and lit sphere are all on screen.
+   The redraw runs as after a user's edit, from the app's own zero-delay timer (the lobe painted at once, the
+   polar slice and the lit sphere in the next event-loop turn).
    By default the edits alternate between two values, so after the first two edits the adaptive tables come
    from the sampler's in-memory cache (the app's case for undo/redo or a slider going back); ``--fresh``
    gives every edit a new value, so every edit makes a new table (the case of a slider drag: a whole table,
@@ -31,7 +33,18 @@
    for ``MS`` ms, and prints, for each of the longest stalls, where the GUI thread was (the innermost frames
    seen most often): what to make faster or move off the GUI thread.
 
-Prints tables; writes ``results/bench/app_latency.csv`` and ``results/bench/app_stall.csv``. Runs under Xvfb
+3. ``first`` (only when asked for): the demo scene in the Render tab, A = uniform, B = ``adaptive_warp``, then
+   B = ``adaptive`` (exact), 256x192, equal spp; for each pair a new render process with a new, empty table
+   cache, started ``--lead`` seconds before the click (the panel starts it when the Render tab is shown);
+   seconds from the click (``RenderPanel.start``) until each strategy's first frame is drawn
+   (``RenderPanel._show_frame``). Target: <= 5 s. Then where the seconds went: the render process's time
+   stamps (``app.render_session.Timeline``: process start, imports, the idle kernel loading, the job's
+   arrival, each strategy's preparation and first pass, with numba's compile seconds so far) and each
+   first frame's way to the screen (sent, read by the app, on the GUI thread, drawn), on one clock
+   (``time.monotonic()``); and the seconds numba spent compiling in each process (target: <= 1 s).
+
+Prints tables; writes ``results/bench/app_latency.csv`` and ``results/bench/app_stall.csv`` (and, for
+``first``, ``app_first_image.csv`` and ``app_first_image_steps.csv``). Runs under Xvfb
 when there is no display. The machine's load average is printed: other processes inflate the numbers.
 """
 
@@ -193,8 +206,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
         for k in range(edits):
             t0 = time.perf_counter()
             doc.set_param(param.name, values[k])
-            doc.end_merge()
-            window.refresh_now()
+            doc.end_merge()  # the app's own zero-delay timer redraws, as after a user's edit
             t_sync = time.perf_counter()
             ok = run_until(
                 lambda t0=t0: all(clock.on_screen(v, t0) is not None for v in views), timeout=120.0
@@ -223,10 +235,24 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
     return rows
 
 
-def first_part(events, window, timeout: float = 600.0) -> list[dict]:
-    """Seconds from a click on Render until the first frame of each strategy is shown; see the docstring."""
+def _numba_clock():
+    """The app's :class:`~app.render_session.NumbaClock` for this (the GUI) process, or a stand-in that counts
+    nothing in a version of the app without one."""
+    try:
+        from app.render_session import NumbaClock
+    except ImportError:
+        from types import SimpleNamespace
+
+        return SimpleNamespace(compile_s=float("nan"))
+    return NumbaClock().install()
+
+
+def first_part(events, window, lead_s: float = 3.0, timeout: float = 600.0) -> tuple[list[dict], list[dict]]:
+    """Seconds from a click on Render until the first frame of each strategy is shown, and where they went;
+    see the module docstring. Returns ``(rows, timeline rows)``."""
     from app.main_window import demo_scene_path
 
+    gui_numba = _numba_clock()  # kernels this (the GUI) process loads or compiles after the click
     window.open_project(demo_scene_path(), confirm=False, remember=False)
     window.tabs.setCurrentWidget(window.render_panel)
     panel = window.render_view
@@ -235,10 +261,12 @@ def first_part(events, window, timeout: float = 600.0) -> list[dict]:
 
     def show_frame(event):
         out = show(event)
-        shown.setdefault(event["strategy"], time.perf_counter())
+        shown.setdefault(event["strategy"], time.monotonic())
         return out
 
     panel._show_frame = show_frame
+    received: list[tuple[float, dict]] = []  # (when the GUI thread had the batch, event)
+    panel.server.events_received.connect(lambda batch: received.extend((time.monotonic(), e) for e in batch))
 
     def run_for(seconds: float, until=lambda: False) -> None:
         end = time.monotonic() + seconds
@@ -246,35 +274,70 @@ def first_part(events, window, timeout: float = 600.0) -> list[dict]:
             events.processEvents()
             time.sleep(0.001)
 
-    rows = []
+    rows, timeline_rows = [], []
     print(f"\nfirst image after Render (demo scene, {panel.width_box.value()}x{panel.height_box.value()}, "
-          f"{panel.mode.currentText()}; load average {os.getloadavg()[0]:.2f})")  # fmt: skip
+          f"{panel.mode.currentText()}; the render process started {lead_s:g} s before the click, as when "
+          f"the Render tab is shown; load average {os.getloadavg()[0]:.2f})")  # fmt: skip
     print(f"{'A / B':<24} {'strategy':<15} {'s to first image':>17} {'target s':>9} {'met':>4}")
     for b in ("adaptive_warp", "adaptive"):
         panel.server.stop()  # a new process, with a new and empty table cache
         os.environ["BRDF_STUDIO_CACHE"] = tempfile.mkdtemp(prefix="brdf-studio-bench-first-")
         panel.server.ensure_started()
-        run_for(3.0)
+        spawned = getattr(panel.server, "started_at", None)  # (None: a version without time stamps)
+        run_for(lead_s)
         panel.strategy_a.setCurrentText("uniform")
         panel.strategy_b.setCurrentText(b)
         names = panel.strategies()
         shown.clear()
-        t0 = time.perf_counter()
+        received.clear()
+        gui_compile0 = gui_numba.compile_s
+        t0 = time.monotonic()
         panel.start()
+        job = panel.job
         run_for(timeout, until=lambda names=names: all(n in shown for n in names) or not panel.running)
         panel.cancel()
+        pair = f"uniform / {b}"
         for name in names:
             secs = shown[name] - t0 if name in shown else float("nan")
             met = secs <= FIRST_TARGET_S
             ok = "yes" if met else "no"
-            print(f"{'uniform / ' + b:<24} {name:<15} {secs:>17.2f} {FIRST_TARGET_S:>9g} {ok:>4}")
+            print(f"{pair:<24} {name:<15} {secs:>17.2f} {FIRST_TARGET_S:>9g} {ok:>4}")
             rows.append({"a": "uniform", "b": b, "strategy": name, "seconds": round(secs, 3),
-                         "target_s": FIRST_TARGET_S, "met": met})  # fmt: skip
+                         "target_s": FIRST_TARGET_S, "met": met, "lead_s": lead_s})  # fmt: skip
         if panel.status_text:
             print(f"  status: {panel.status_text}")
+        # where the seconds went: the render process's marks, then each first frame's way to the screen
+        mine = [(t, e) for t, e in received if e.get("job") == job]
+        timings = [e for _, e in mine if e["kind"] == "timing"]
+        marks = timings[-1]["marks"] if timings else []
+        steps = [("render process started (spawn)", spawned, None)]
+        steps += [(m["step"], m["t"], m["compile_s"]) for m in marks]
+        for name in names:
+            first = next(((t, e) for t, e in mine if e["kind"] == "frame" and e["strategy"] == name), None)
+            if first is not None:
+                drained, event = first
+                steps += [(f"frame {name}: sent", event.get("sent"), None),
+                          (f"frame {name}: read by the app", event.get("received"), None),
+                          (f"frame {name}: on the GUI thread", drained, None)]  # fmt: skip
+            if name in shown:
+                steps.append((f"frame {name}: shown", shown[name], None))
+        steps.append(("click on Render", t0, None))
+        steps = sorted((s for s in steps if s[1] is not None), key=lambda x: x[1])
+        print(f"  {'s from click':>12} {'step s':>7}  step (render process: numba compile s so far)")
+        previous = None
+        for label, t, compile_s in steps:
+            delta = "" if previous is None else f"{t - previous:7.2f}"
+            note = "" if compile_s is None else f" (compile {compile_s:.2f})"
+            print(f"  {t - t0:12.2f} {delta:>7}  {label}{note}")
+            timeline_rows.append({"pair": pair, "step": label, "s_from_click": round(t - t0, 4),
+                                  "compile_s": compile_s})  # fmt: skip
+            previous = t
+        compiled = [m["compile_s"] for m in marks if m["compile_s"] is not None]
+        print(f"  numba compiling after setup: render process {max(compiled, default=0.0):.2f} s, "
+              f"app (GUI) process during the render {gui_numba.compile_s - gui_compile0:.2f} s (target <= 1 s)")  # fmt: skip
     panel.server.stop()
     panel._show_frame = show
-    return rows
+    return rows, timeline_rows
 
 
 class StallStacks:
@@ -389,6 +452,12 @@ def main() -> int:
     )
     parser.add_argument("--fresh", action="store_true", help="a new parameter value (a new tree) every edit")
     parser.add_argument(
+        "--lead",
+        type=float,
+        default=3.0,
+        help="first part: seconds between the render process's start (the Render tab shown) and the click",
+    )
+    parser.add_argument(
         "--stacks",
         type=float,
         default=0.0,
@@ -443,12 +512,13 @@ def main() -> int:
                 w.writerows(rows)
     if "first" in parts:
         cache = os.environ["BRDF_STUDIO_CACHE"]
-        rows = first_part(events, window)
+        rows, timeline_rows = first_part(events, window, args.lead)
         os.environ["BRDF_STUDIO_CACHE"] = cache
-        with open(args.out / "app_first_image.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        for name, table in (("app_first_image.csv", rows), ("app_first_image_steps.csv", timeline_rows)):
+            with open(args.out / name, "w", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=list(table[0]))
+                w.writeheader()
+                w.writerows(table)
     if "stall" not in parts:
         window.close()
         from app.workers import exit_if_abandoned

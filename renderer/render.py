@@ -83,9 +83,12 @@ class RenderJob:
         time_s: float | None = None,
         cancel: threading.Event | None = None,
         callback: Callable[[Frame], None] | None = None,
+        first_spp: int | None = None,
     ) -> Iterator[Frame]:
         """Render passes until ``spp`` samples per pixel (equal-spp) or ``time_s`` seconds (equal-time, at least
-        one pass; the last pass may run past the limit) are reached, or ``cancel`` is set."""
+        one pass; the last pass may run past the limit) are reached, or ``cancel`` is set. ``first_spp``: the
+        film's first pass traces at most that many samples per pixel (a first image sooner; the samples are
+        numbered on, so the estimate is the same, only the passes' sizes differ)."""
         if spp is None and time_s is None:
             spp = self.settings["spp"]
         if spp is not None and spp < 1:
@@ -100,6 +103,8 @@ class RenderJob:
             if time_s is not None and self.film.spp > 0 and self.elapsed >= time_s:
                 return
             batch = self.batch if spp is None else min(self.batch, spp - self.film.spp)
+            if first_spp is not None and self.film.spp == 0:
+                batch = max(1, min(batch, int(first_spp)))
             t0 = time.perf_counter()
             self.world.refresh_samplers()  # better tables built in the background, between passes only
             radiance = self.tracer.render_pass(self.passes_done, batch, first_sample=self.film.spp)

@@ -4,12 +4,20 @@
 The kernels (:mod:`renderer.kernels`, the environment map's in :mod:`renderer.envmap`) are compiled by
 rendering the bundled demo scene (an area light, a sky map, analytic and measured materials) at a few pixels,
 so that they see the argument types a real render gives them.
+
+:func:`load_kernels` does the same in a long-lived process that will render later (the app's render
+process, while the user sets up the render): loading the compiled kernels from numba's disk cache takes
+seconds, which the first render would otherwise wait for.
 """
 
 from __future__ import annotations
 
 import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
 from importlib.resources import files
+
+import numpy as np
 
 from core.scene import load_scene
 from core.warmup import WarmUp, run
@@ -23,6 +31,53 @@ def _demo_render() -> None:
     scene = load_scene(str(files("resources") / "scenes" / "demo" / "demo.json"))
     for ris_candidates in (0, 2):
         render(scene, spp=1, width=6, height=4, max_depth=3, threads=1, ris_candidates=ris_candidates)
+
+
+SMALL_ADAPTIVE = {"cache": False, "max_thetas": 7, "warp_tol": 0.5, "quad_tol": 1e-2, "phi_count": 2,
+                  "capacity": 256}  # fmt: skip
+"""Options of the adaptive tables :func:`load_kernels` builds: small (all the kernels of a full build, in a
+fraction of its time) and never stored (the table cache holds only the tables renders asked for)."""
+
+
+def load_kernels(
+    strategies: Sequence[str] = ("uniform", "adaptive_warp", "adaptive"),
+    stop: Callable[[], bool] = lambda: False,
+) -> Iterator[tuple[str, float]]:
+    """Load into this process every kernel a render with ``strategies`` calls (numba's compiled code, read
+    from its disk cache; compiled if the setup's warm-up did not run), by rendering the bundled demo scene
+    (analytic, measured and anisotropic materials, an area light and a sky) at 8x6 pixels with each, and
+    the threaded evaluation the preparation of a large image calls. Adaptive strategies build small tables,
+    kept neither on disk nor in memory; other table-based strategies are skipped (their first render loads
+    their kernels). Yields ``(strategy, seconds)`` after each step. ``stop()`` is asked before each step:
+    when it returns True (a render is waiting), the remaining steps are skipped, and the render loads what
+    it needs itself."""
+    from core.scene import load_scene
+    from renderer.render import EAGER_SAMPLERS, prepare
+
+    scene = load_scene(str(files("resources") / "scenes" / "demo" / "demo.json"))
+    wo = np.array([[0.0, 0.6, 0.8]])
+    for name in dict.fromkeys(["uniform", *strategies]):
+        adaptive = name.startswith("adaptive")
+        if name not in EAGER_SAMPLERS and not adaptive:
+            continue
+        if stop():
+            return
+        t0 = time.perf_counter()
+        job = prepare(scene, sampler=name, sampler_options=dict(SMALL_ADAPTIVE) if adaptive else {},
+                      width=8, height=6, seed=0)  # fmt: skip
+        try:
+            job.run(spp=1)
+            if name == "uniform":
+                for rt in job.world.materials_by_index:
+                    if rt is not None:
+                        rt.brdf.eval(wo, wo, threads=True)
+        finally:
+            job.world.accel.close()
+        if adaptive:
+            from core.sampling.adaptive import clear_memory_cache
+
+            clear_memory_cache()
+        yield name, time.perf_counter() - t0
 
 
 WARM_UPS: list[WarmUp] = [

@@ -83,6 +83,47 @@ def test_passes_of_any_size_use_each_sample_number_once(scene_file: Path) -> Non
     assert used == [(0, 3), (3, 1), (4, 4)]
 
 
+def test_a_small_first_pass_then_full_passes_numbered_on(scene_file: Path) -> None:
+    """``first_spp`` cuts the film's first pass only (the app's first image): 1 + 3 + 3 samples are samples 0,
+    1-3 and 4-6; in equal time too the first frame holds ``first_spp`` samples, and a resumed render (film
+    not empty) is not cut again."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=16, height=16)
+    used = []
+    real = job.tracer.render_pass
+
+    def spy(pass_index, spp=1, first_sample=None):  # type: ignore[no-untyped-def]
+        used.append((first_sample, spp))
+        return real(pass_index, spp, first_sample)
+
+    job.tracer.render_pass = spy  # type: ignore[method-assign]
+    job.batch = 3
+    assert [f.spp for f in job.passes(spp=7, first_spp=1)] == [1, 4, 7]
+    assert used == [(0, 1), (1, 3), (4, 3)]
+    assert job.run(spp=10, first_spp=1).spp == 10 and used[-1] == (7, 3)
+
+    timed = prepare(load_scene(scene_file), width=16, height=16)
+    timed.batch = 3
+    first = next(timed.passes(time_s=10.0, first_spp=2))
+    assert first.spp == 2
+
+
+def test_kernel_loading_stores_no_table_and_stops_when_asked(tmp_path: Path, monkeypatch) -> None:
+    """``load_kernels`` (the render process's idle warm-up) builds small adaptive tables only to load the
+    builders' kernels: none reaches the table cache; and it takes no step once ``stop()`` is True."""
+    from renderer.warmup import load_kernels
+
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
+    done = []
+    for name, seconds in load_kernels(("uniform", "adaptive_warp", "cosine"), stop=lambda: len(done) == 2):
+        done.append(name)
+        assert seconds > 0
+    assert done == ["uniform", "adaptive_warp"]
+    assert not list((tmp_path / "tables").rglob("*.npz"))
+    assert list(load_kernels(stop=lambda: True)) == []
+
+
 def test_pre_pass_finds_the_directions_each_material_is_seen_from(scene_file: Path) -> None:
     """What a lazily built sampler gets asked for before the first pass: local outgoing directions of both
     materials (the floor is also reached by the bounce from the ball), unit length, above the surface."""
