@@ -219,7 +219,7 @@ def sampler_build(sampler: Sampler, mode: str, times: list[float], cpus: list[fl
     return BuildResult(
         mode=mode, seconds=min(times), cpu_seconds=min(cpus), runs_s=times, sampler_seconds=sampler.report.seconds,
         memory_kb=memory_bytes(table) / 1024.0, trees=report.trees, leaves=report.leaves, report=report,
-        same_table=len(mine.bound) == len(table.bound) and len(mine.root) == len(table.root),
+        same_table=len(mine.corners) == len(table.corners) and len(mine.root) == len(table.root),
     )  # fmt: skip
 
 

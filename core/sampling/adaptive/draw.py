@@ -4,24 +4,32 @@ Both modes use the tree of the node whose cell holds ``wo`` (:class:`~core.sampl
 AdaptiveTable`):
 
 ``exact`` (the seed's)
-    A leaf chosen by its envelope mass ``V_L = K_L q_L`` (``q_L`` its mass under the rejection-free density
-    ``q``, ``K_L`` a bound of ``g / (c q)`` on it; descending by the children's masses); a point of the leaf
-    drawn from ``q`` (the rejection-free mode's warp), accepted with probability ``g / (c K_L q)``,
-    ``c = I(wo)`` the interpolated normalizer; on rejection the draw restarts from the root. The accepted
-    point has density exactly ``g / I`` on the square: ``pdf = f cos / I(wo)`` per unit solid angle, and the
+    A leaf chosen with probability ``P_L``, the stored ``K_L q_L / V`` (``q_L`` its mass under the
+    rejection-free density ``q``, ``K_L`` a bound of ``g / (c q)`` on it, ``V`` their sum); a point of the
+    leaf drawn from ``q`` (the rejection-free mode's warp), so that the trial has density
+    ``p(s) = P_L q(s) / q_L`` on the square; accepted with probability ``g / (c V p)``, ``c = I(wo)`` the
+    interpolated normalizer; on rejection the draw starts again. The accepted point has density exactly
+    ``g / I`` on the square whatever rounding made the stored ``P_L`` (``V p`` is the envelope the trials
+    were drawn under, ``K_L q`` to that rounding): ``pdf = f cos / I(wo)`` per unit solid angle, and the
     weight ``f cos / pdf = I(wo)`` is the same for every sample (the zero-variance property). The seed's
     envelope is constant on a leaf (``M_L``); a bilinear one follows the lobe inside the leaf, so the same
-    acceptance takes far fewer leaves. Every trial with ``g > c K_L q`` is counted (a bound that did not
-    hold); the tests assert there are none.
+    acceptance takes far fewer leaves. Every trial with ``g > c V p`` is counted (a bound that did not
+    hold).
 
 ``warp`` (rejection-free)
-    A leaf chosen by the bilinear density's masses; the point warped inside the leaf by the bilinear
-    density of its corners (a square root per axis). The density on the square is the leaf's probability
-    (the product of the children's shares along its path) times the bilinear density, so the pdf is exact
-    for the samples it makes, with no bound and one evaluation of ``f``.
+    A leaf chosen with probability ``P_L = q_L``; the point warped inside the leaf by the bilinear density
+    of its corners (a square root per axis). The density on the square is ``P_L`` times the leaf's bilinear
+    density, so the pdf is exact for the samples it makes, with no bound and one evaluation of ``f``.
     (Blending the two nodes around ``wo``, as Mitsuba's conditional warps do, was tried: it needs a second
     tree's density at every sample, a third more time per sample, for a variance the layout's refinement
     already bounds at the cells' edges.)
+
+Choosing the leaf: one uniform ``u``, a guide table (Chen and Asau) to the first candidate of the tree's
+cumulative ``P_L``, a step or two along it; ``P_L`` is the difference of two entries, the length of the
+interval of ``u`` that chooses the leaf (exact up to the 2^-53 spacing of the uniforms, as the tree descent
+it replaced was up to its rounding). Until 2026-12-02 a leaf was reached by descending the tree, one uniform
+and four masses per level (15 ns a level); the tree is now only read by the rejection-free mode's ``pdf``,
+to locate a given direction.
 
 Every draw returns what it computed: the direction, its pdf, and ``f`` (RGB) there.
 """
@@ -35,7 +43,7 @@ from numba import njit
 
 from core.dispatch import eval_model
 from core.rng import next_u01, stream
-from core.sampling.adaptive.layout import FULL, ISOTROPIC, MIRROR, TWO_PI, locate, normalizer_at
+from core.sampling.adaptive.layout import FULL, ISOTROPIC, MIRROR, TWO_PI, normalizer_at
 from core.sampling.adaptive.maps import (
     HALF_VECTOR,
     INV_PI,
@@ -100,14 +108,71 @@ def _frame(symmetry, wx, wy, wz):
 # fell from 56 to 4 ns. (With the row loops written out, :func:`sample_rows`, a rejection-free draw of Phong
 # with f went from 553 to 270 ns, a Lambertian one from 190 to 95, on a loaded machine.)
 @njit(inline="always", nogil=True, cache=True)
-def _tree_frame(symmetry, follow, cell_lut, cell_mu, phis, phi_edges, wx, wy, wz):
-    """The tree serving ``wo`` and its frame: ``(t, mu, phi, cos, sin, sx, sy)`` (no turn for a tree kept in
-    the local frame)."""
-    mu, phi, c, s, sx, sy = _frame(symmetry, wx, wy, wz)
-    t = _node(cell_lut, cell_mu, symmetry, phis, phi_edges, mu, phi)
+def _fold(symmetry, wx, wy):
+    """``(cos, sin, sx, sy)``: ``wo``'s azimuth as a unit vector (folded into the quadrant when
+    mirror-symmetric) and the mirror signs; no trigonometry."""
+    sx = 1.0
+    sy = 1.0
+    if symmetry == MIRROR:
+        if wx < 0.0:
+            sx = -1.0
+        if wy < 0.0:
+            sy = -1.0
+        wx = abs(wx)
+        wy = abs(wy)
+    rho = math.sqrt(wx * wx + wy * wy)
+    if rho > 0.0:
+        inv = 1.0 / rho
+        return wx * inv, wy * inv, sx, sy
+    return 1.0, 0.0, sx, sy
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _azimuth(symmetry, c, s):
+    """The azimuth of :func:`_fold`'s unit vector (``[0, pi/2]`` folded, ``[0, 2 pi)`` else; 0 when
+    isotropic, where nothing reads it)."""
+    if symmetry == ISOTROPIC:
+        return 0.0
+    phi = math.atan2(s, c)
+    if phi < 0.0:
+        phi += TWO_PI
+    return phi
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _phi_cell(symmetry, phis, edge_cos, edge_sin, c, s):
+    """The azimuth node whose cell holds the azimuth of unit vector ``(c, s)``: for a mirror-symmetric table
+    the count of inner cell edges ``e`` at or below it, ``sin(phi - e) >= 0`` (``phi - e`` within
+    ``[-pi/2, pi/2]``), no arc tangent."""
+    j = phis.shape[0]
+    if symmetry == ISOTROPIC or j == 1:
+        return 0
+    if symmetry == FULL:
+        return int(math.floor(_azimuth(symmetry, c, s) / TWO_PI * j + 0.5)) % j
+    k = 0
+    for e in range(1, j):
+        if s * edge_cos[e] - c * edge_sin[e] >= 0.0:
+            k = e
+    return k
+
+
+# The kernels take the table (a tuple of arrays) and hand the functions they call per row only the arrays
+# they need: a table passed to a function inlined by numba is copied with a reference count taken and dropped
+# on every array (~50 ns a call), and to one that is not, copied by value (~120 ns); the tree lookup per row
+# fell from 56 to 4 ns. (With the row loops written out, :func:`sample_rows`, a rejection-free draw of Phong
+# with f went from 553 to 270 ns, a Lambertian one from 190 to 95, on a loaded machine.)
+@njit(inline="always", nogil=True, cache=True)
+def _tree_frame(symmetry, follow, cell_lut, cell_mu, phis, edge_cos, edge_sin, wx, wy, wz):
+    """The tree serving ``wo`` and its frame: ``(t, cos, sin, sx, sy, cos_o, sin_o)``, the last two
+    ``wo``'s folded azimuth (:func:`_fold`; the frame's turn is ``(1, 0)`` for a tree kept in the local
+    frame)."""
+    c, s, sx, sy = _fold(symmetry, wx, wy)
+    t = _theta_cell(cell_lut, cell_mu, -wz) * phis.shape[0] + _phi_cell(
+        symmetry, phis, edge_cos, edge_sin, c, s
+    )
     if follow[t] == 0:
-        return t, mu, phi, 1.0, 0.0, sx, sy
-    return t, mu, phi, c, s, sx, sy
+        return t, 1.0, 0.0, sx, sy, c, s
+    return t, c, s, sx, sy, c, s
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -130,17 +195,6 @@ def _to_tree(wx, wy, wz, c, s, sx, sy):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _phi_node(symmetry, phis, phi_edges, phi):
-    """The azimuth node whose cell holds ``phi``."""
-    j = phis.shape[0]
-    if symmetry == ISOTROPIC or j == 1:
-        return 0
-    if symmetry == FULL:
-        return int(math.floor(phi / TWO_PI * j + 0.5)) % j
-    return locate(phi_edges, phi)
-
-
-@njit(inline="always", nogil=True, cache=True)
 def _sample_linear(u, a, b):
     """``t`` in ``[0, 1]`` with density proportional to ``(1 - t) a + t b`` (``a, b >= 0``)."""
     if a + b <= 0.0:
@@ -149,120 +203,116 @@ def _sample_linear(u, a, b):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _descend(masses, child, root, state):
-    """A leaf chosen by ``masses`` from ``root``, one uniform per level: ``(state, leaf, x0, y0, h, prob)``,
-    ``prob`` its probability, the product of the chosen children's masses over the product of the levels'
-    totals (float64 sums of the stored float32 masses, the same arithmetic as :func:`_leaf_at`: the pdf is
-    the density of the draws whatever the masses' precision). No division per level: a fresh uniform replaces
-    the rescaled one, and the shares are divided once at the leaf."""
-    node = root
-    x0 = 0.0
-    y0 = 0.0
-    h = 1.0
-    num = 1.0
-    den = 1.0
-    while True:
-        c = child[node]
-        if c < 0:
-            return state, -1 - c, x0, y0, h, num / den
-        state, u = next_u01(state)
-        m0 = np.float64(masses[c])
-        m1 = m0 + np.float64(masses[c + 1])
-        m2 = m1 + np.float64(masses[c + 2])
-        m3 = m2 + np.float64(masses[c + 3])
-        t = u * m3  # < m3, so a child of zero mass is never chosen
-        q = int(t >= m0) + int(t >= m1) + int(t >= m2)
-        num *= np.float64(masses[c + q])
-        den *= m3
-        h *= 0.5
-        x0 += h * (q & 1)
-        y0 += h * (q >> 1)
-        node = c + q
+def _pick_leaf(cdf, guide, start, end, u):
+    """The leaf of ``start : end`` (one tree's, global indices) whose ``cdf`` interval holds ``u``, and its
+    probability, the interval's length: the guide table's entry, then a step or two (the steps back undo a
+    bucket index rounded up)."""
+    n = end - start
+    j = start + guide[start + min(int(u * n), n - 1)]
+    while cdf[j] <= u:
+        j += 1
+    while j > start and cdf[j - 1] > u:
+        j -= 1
+    if j == start:
+        return j, cdf[j]
+    return j, cdf[j] - cdf[j - 1]
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _leaf_at(masses, child, root, a, b):
-    """The leaf holding square point ``(a, b)``: ``(leaf, x0, y0, h, prob)``, ``prob`` the probability
-    :func:`_descend` reaches it with (the product of the children's shares along the path, from the same
-    stored masses: the pdf is the density of the draws whatever the masses' precision)."""
+def _leaf_box(leaf_cell, leaf):
+    """``(x0, y0, h)`` of a leaf from its packed cell (:attr:`~core.sampling.adaptive.table.AdaptiveTable.
+    leaf_cell`): exact, the origins are multiples of ``2^-14``."""
+    c = np.int64(leaf_cell[leaf])
+    return (
+        (c & 16383) * 6.103515625e-05,
+        ((c >> 14) & 16383) * 6.103515625e-05,
+        (np.int64(1) << (14 - (c >> 28))) * 6.103515625e-05,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _leaf_at(child, root, a, b):
+    """The leaf holding square point ``(a, b)``: ``(leaf, x0, y0, h)``."""
     node = root
     x0 = 0.0
     y0 = 0.0
     h = 1.0
-    num = 1.0
-    den = 1.0
     while True:
         c = child[node]
         if c < 0:
-            return -1 - c, x0, y0, h, num / den
+            return -1 - c, x0, y0, h
         h *= 0.5
         qi = int(a >= x0 + h)
         qj = int(b >= y0 + h)
         x0 += h * qi
         y0 += h * qj
-        q = qi + 2 * qj
-        total = np.float64(masses[c]) + np.float64(masses[c + 1]) + np.float64(masses[c + 2])
-        total += np.float64(masses[c + 3])
-        num *= np.float64(masses[c + q])
-        den *= total
-        node = c + q
+        node = c + qi + 2 * qj
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _leaf_probability(cdf, start, leaf):
+    """A leaf's probability: its interval of ``cdf`` (the one :func:`_pick_leaf` chooses it by)."""
+    if leaf == start:
+        return cdf[leaf]
+    return cdf[leaf] - cdf[leaf - 1]
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _warp_in_leaf(corners, leaf, state):
     """A point ``(tx, ty)`` of the unit leaf drawn from its bilinear density (two uniforms, a square root
-    per axis): ``(state, tx, ty)``."""
-    v0 = corners[leaf, 0]
-    v1 = corners[leaf, 1]
-    v2 = corners[leaf, 2]
-    v3 = corners[leaf, 3]
+    per axis), and that density there (per unit leaf area; the sums the warp needs make it):
+    ``(state, tx, ty, density)``."""
+    v0 = np.float64(corners[leaf, 0])
+    v1 = np.float64(corners[leaf, 1])
+    v2 = np.float64(corners[leaf, 2])
+    v3 = np.float64(corners[leaf, 3])
     state, u1 = next_u01(state)
     state, u2 = next_u01(state)
-    tx = _sample_linear(u1, v0 + v2, v1 + v3)
-    ty = _sample_linear(u2, (1.0 - tx) * v0 + tx * v1, (1.0 - tx) * v2 + tx * v3)
-    return state, tx, ty
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _bilinear(corners, leaf, tx, ty):
-    return (
-        (1.0 - tx) * (1.0 - ty) * corners[leaf, 0]
-        + tx * (1.0 - ty) * corners[leaf, 1]
-        + (1.0 - tx) * ty * corners[leaf, 2]
-        + tx * ty * corners[leaf, 3]
-    )
+    left = v0 + v2
+    right = v1 + v3
+    tx = _sample_linear(u1, left, right)
+    low = (1.0 - tx) * v0 + tx * v1
+    high = (1.0 - tx) * v2 + tx * v3
+    ty = _sample_linear(u2, low, high)
+    return state, tx, ty, 4.0 * ((1.0 - ty) * low + ty * high) / (left + right)
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _leaf_density(corners, leaf, tx, ty, h):
     """The bilinear density of a leaf of side ``h`` at its point ``(tx, ty)`` (per unit square area; it
-    integrates to 1 over the leaf)."""
-    mean = 0.25 * (corners[leaf, 0] + corners[leaf, 1] + corners[leaf, 2] + corners[leaf, 3])
-    return _bilinear(corners, leaf, tx, ty) / (mean * h * h)
+    integrates to 1 over the leaf), in the arithmetic of :func:`_warp_in_leaf`."""
+    v0 = np.float64(corners[leaf, 0])
+    v1 = np.float64(corners[leaf, 1])
+    v2 = np.float64(corners[leaf, 2])
+    v3 = np.float64(corners[leaf, 3])
+    low = (1.0 - tx) * v0 + tx * v1
+    high = (1.0 - tx) * v2 + tx * v3
+    return 4.0 * ((1.0 - ty) * low + ty * high) / ((v0 + v2) + (v1 + v3)) / (h * h)
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _warp_pdf(projection, mass, child, corners, root, x, y, z):
-    """The rejection-free density of the tree at ``root`` at the tree-frame direction ``(x, y, z)``, per unit
-    solid angle: the leaf's probability times its bilinear density on the square, times ``dA/d(omega) / pi``."""
+def _warp_pdf(projection, child, corners, cdf, root, start, x, y, z):
+    """The rejection-free density of the tree at ``root`` (its leaves from ``start``) at the tree-frame
+    direction ``(x, y, z)``, per unit solid angle: the leaf's probability times its bilinear density on the
+    square, times ``dA/d(omega) / pi``."""
     if z <= 0.0:
         return 0.0
     a, b, jac = direction_to_square(x, y, z, projection)
-    leaf, x0, y0, h, prob = _leaf_at(mass, child, root, a, b)
+    leaf, x0, y0, h = _leaf_at(child, root, a, b)
     tx = min(max((a - x0) / h, 0.0), 1.0)
     ty = min(max((b - y0) / h, 0.0), 1.0)
-    return prob * _leaf_density(corners, leaf, tx, ty, h) * INV_PI * jac
+    return _leaf_probability(cdf, start, leaf) * _leaf_density(corners, leaf, tx, ty, h) * INV_PI * jac
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _node(cell_lut, cell_mu, symmetry, phis, phi_edges, mu, phi):
-    """The tree of the node whose cell holds ``(mu, phi)`` (``mu = -cos theta``)."""
+def _theta_cell(cell_lut, cell_mu, mu):
+    """The polar node whose cell holds ``mu = -cos theta``."""
     n = cell_lut.shape[0]
     k = cell_lut[min(max(int((mu + 1.0) * n), 0), n - 1)]
     last = cell_mu.shape[0] - 2
     while k < last and mu >= cell_mu[k + 1]:
         k += 1
-    return k * phis.shape[0] + _phi_node(symmetry, phis, phi_edges, phi)
+    return k
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -293,9 +343,16 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     fourteen arrays of the table made that ~110 ns a row (the Lambertian path: 190 ns against 60)."""
     violations = 0
     flat, symmetry, follow = table.flat, table.symmetry, table.follow
-    cell_lut, cell_mu, phis, phi_edges = table.cell_lut, table.cell_mu, table.phis, table.phi_edges
-    projection, root, child, mass = table.projection, table.root, table.child, table.mass
-    envelope, corners, bounds, cos_min = table.envelope, table.corners, table.bound, table.cos_min
+    cell_lut, cell_mu, phis = table.cell_lut, table.cell_mu, table.phis
+    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
+    projection, leaf_base, leaf_cell, cdf, guide = (
+        table.projection,
+        table.leaf_base,
+        table.leaf_cell,
+        table.cdf,
+        table.guide,
+    )
+    corners, total, cos_min = table.corners, table.total, table.cos_min
     norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
     for i in range(wo.shape[0]):
         state = stream(seed, offset + i)
@@ -305,12 +362,14 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
         wov = (wx, wy, wz)
         trials = 1
         if not flat:  # (a Lambertian BRDF: the trees' density is the cosine-weighted hemisphere's, below)
-            t, theta, phi, c, s, sx, sy = _tree_frame(
-                symmetry, follow, cell_lut, cell_mu, phis, phi_edges, wx, wy, wz
+            t, c, s, sx, sy, cos_o, sin_o = _tree_frame(
+                symmetry, follow, cell_lut, cell_mu, phis, edge_cos, edge_sin, wx, wy, wz
             )
             if mode == WARP and wz > 0.0:
-                state, leaf, x0, y0, h, prob = _descend(mass, child, root[t], state)
-                state, tx, ty = _warp_in_leaf(corners, leaf, state)
+                state, u = next_u01(state)
+                leaf, prob = _pick_leaf(cdf, guide, leaf_base[t], leaf_base[t + 1], u)
+                x0, y0, h = _leaf_box(leaf_cell, leaf)
+                state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
                 proj = projection[t]
                 x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
                 lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
@@ -330,19 +389,24 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                 else:
                     # per solid angle of wi: on the square, then on the disk, per solid angle of the point
                     # (and of wi through h: d(omega_i) = 4 |wo.h| d(omega_h); d = 1/4 makes that 1 for wi)
-                    out_pdf[i] = (
-                        prob * _leaf_density(corners, leaf, tx, ty, h) * INV_PI * jac / (4.0 * abs(d))
-                    )
+                    out_pdf[i] = prob * density * INV_PI * jac / (h * h * 4.0 * abs(d))
                 continue
             norm = 0.0
             if mode == EXACT and wz >= cos_min:
-                norm = normalizer_at(symmetry, norm_fine, norm_ds, norm_log, wz, phi)
+                norm = normalizer_at(
+                    symmetry, norm_fine, norm_ds, norm_log, wz, _azimuth(symmetry, cos_o, sin_o)
+                )
             if norm > 0.0:
                 proj = projection[t]
+                start = leaf_base[t]
+                end = leaf_base[t + 1]
+                envelope = total[t]
                 accepted = False
                 for trial in range(1, MAX_TRIALS + 1):
-                    state, leaf, x0, y0, h, _ = _descend(envelope, child, root[t], state)
-                    state, tx, ty = _warp_in_leaf(corners, leaf, state)
+                    state, u = next_u01(state)
+                    leaf, prob = _pick_leaf(cdf, guide, start, end, u)
+                    x0, y0, h = _leaf_box(leaf_cell, leaf)
+                    state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
                     state, u4 = next_u01(state)
                     x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
                     lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
@@ -358,7 +422,9 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                     if not lum > 0.0 or z <= 0.0:
                         continue
                     gn = PI * lum * scale / norm
-                    bound = bounds[leaf] * _bilinear(corners, leaf, tx, ty)
+                    # the trial's own density on the square times V: K_L q up to the rounding of the
+                    # stored leaf probabilities, and exactly the envelope the trials were drawn under
+                    bound = envelope * prob * density / (h * h)
                     if gn > bound:
                         violations += 1
                     if u4 * bound < gn:
@@ -395,9 +461,10 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
     """``pdf(wo[i], wi[i])`` per unit solid angle, and ``f`` there (the loop written out as in
     :func:`sample_rows`)."""
     flat, symmetry, follow = table.flat, table.symmetry, table.follow
-    cell_lut, cell_mu, phis, phi_edges = table.cell_lut, table.cell_mu, table.phis, table.phi_edges
-    projection, root, child, mass = table.projection, table.root, table.child, table.mass
-    corners, cos_min = table.corners, table.cos_min
+    cell_lut, cell_mu, phis = table.cell_lut, table.cell_mu, table.phis
+    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
+    projection, root, child, leaf_base = table.projection, table.root, table.child, table.leaf_base
+    corners, cdf, cos_min = table.corners, table.cdf, table.cos_min
     norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
     for i in range(wo.shape[0]):
         wx = wo[i, 0]
@@ -414,8 +481,8 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
         if flat:
             out_pdf[i] = cosine
             continue
-        t, theta, phi, c, s, sx, sy = _tree_frame(
-            symmetry, follow, cell_lut, cell_mu, phis, phi_edges, wx, wy, wz
+        t, c, s, sx, sy, cos_o, sin_o = _tree_frame(
+            symmetry, follow, cell_lut, cell_mu, phis, edge_cos, edge_sin, wx, wy, wz
         )
         if mode == WARP and wz > 0.0:
             if projection[t] == HALF_VECTOR:
@@ -436,14 +503,16 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
                     out_pdf[i] = 0.0
                     continue
                 x, y, z = _to_tree(hx, hy, hz, c, s, sx, sy)
-                out_pdf[i] = _warp_pdf(HALF_VECTOR, mass, child, corners, root[t], x, y, z) / (4.0 * d)
+                out_pdf[i] = _warp_pdf(HALF_VECTOR, child, corners, cdf, root[t], leaf_base[t], x, y, z) / (
+                    4.0 * d
+                )
             else:
                 x, y, z = _to_tree(ix, iy, iz, c, s, sx, sy)
-                out_pdf[i] = _warp_pdf(projection[t], mass, child, corners, root[t], x, y, z)
+                out_pdf[i] = _warp_pdf(projection[t], child, corners, cdf, root[t], leaf_base[t], x, y, z)
             continue
         norm = 0.0
         if mode == EXACT and wz >= cos_min:
-            norm = normalizer_at(symmetry, norm_fine, norm_ds, norm_log, wz, phi)
+            norm = normalizer_at(symmetry, norm_fine, norm_ds, norm_log, wz, _azimuth(symmetry, cos_o, sin_o))
         if norm > 0.0:
             out_pdf[i] = max(luminance3(r, g, b), 0.0) * iz / norm if iz > 0.0 else 0.0
         else:
@@ -454,8 +523,9 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
 def normalizer_rows(table, wo, out):
     """The exact mode's ``I(wo)`` per row (0 where it draws the cosine density)."""
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
+        c, s, _, _ = _fold(table.symmetry, wo[i, 0], wo[i, 1])
         if wo[i, 2] >= table.cos_min:
+            phi = _azimuth(table.symmetry, c, s)
             out[i] = max(
                 normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wo[i, 2], phi), 0.0
             )
@@ -466,8 +536,11 @@ def normalizer_rows(table, wo, out):
 @njit(nogil=True, cache=True)
 def acceptance_rows(table, wo, out):
     """The exact mode's acceptance ``I(wo) / (c V)`` per row: ``1 / V`` of the tree serving it (``c = I``)."""
+    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
     for i in range(wo.shape[0]):
-        theta, phi, _, _, _, _ = _frame(table.symmetry, wo[i, 0], wo[i, 1], wo[i, 2])
-        t = _node(table.cell_lut, table.cell_mu, table.symmetry, table.phis, table.phi_edges, theta, phi)
-        v = table.envelope[table.root[t]]
+        t, _, _, _, _, _, _ = _tree_frame(
+            table.symmetry, table.follow, table.cell_lut, table.cell_mu, table.phis, edge_cos, edge_sin,
+            wo[i, 0], wo[i, 1], wo[i, 2],
+        )  # fmt: skip
+        v = table.total[t]
         out[i] = 1.0 / v if v > 0.0 else 0.0

@@ -17,7 +17,7 @@ from core.sampling.adaptive.draw import _frame
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, TWO_PI
 from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI
 from core.sampling.adaptive.sampler import AdaptiveSampler
-from core.sampling.adaptive.table import AdaptiveTable
+from core.sampling.adaptive.table import LEAF_GRID, AdaptiveTable
 
 
 class TreeView(NamedTuple):
@@ -61,21 +61,20 @@ def _tree_of(table: AdaptiveTable, wo: np.ndarray) -> int:
 
 
 def leaves_of(table: AdaptiveTable, t: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(boxes (k, 4), leaf index (k,))`` of tree ``t``, leaves in tree order."""
-    boxes: list[tuple[float, float, float, float]] = []
-    index: list[int] = []
-    stack = [(int(table.root[t]), 0.0, 0.0, 1.0)]
-    while stack:
-        node, x0, y0, h = stack.pop()
-        c = int(table.child[node])
-        if c < 0:
-            boxes.append((x0, y0, x0 + h, y0 + h))
-            index.append(-1 - c)
-            continue
-        h2 = 0.5 * h
-        for q in (3, 2, 1, 0):
-            stack.append((c + q, x0 + h2 * (q % 2), y0 + h2 * (q // 2), h2))
-    return np.array(boxes).reshape(-1, 4), np.array(index, dtype=np.int64)
+    """``(boxes (k, 4), leaf index (k,))`` of tree ``t``, leaves in the table's order."""
+    idx = np.arange(int(table.leaf_base[t]), int(table.leaf_base[t + 1]), dtype=np.int64)
+    cell = table.leaf_cell[idx].astype(np.int64)
+    scale = 1.0 / (1 << LEAF_GRID)
+    x0 = (cell & ((1 << LEAF_GRID) - 1)) * scale
+    y0 = ((cell >> LEAF_GRID) & ((1 << LEAF_GRID) - 1)) * scale
+    h = 0.5 ** (cell >> (2 * LEAF_GRID)).astype(np.float64)
+    return np.column_stack([x0, y0, x0 + h, y0 + h]).reshape(-1, 4), idx
+
+
+def leaf_probabilities(table: AdaptiveTable, t: int) -> np.ndarray:
+    """``(k,)``: the probability each leaf of tree ``t`` is chosen with (the differences of its ``cdf``)."""
+    cdf = table.cdf[int(table.leaf_base[t]) : int(table.leaf_base[t + 1])]
+    return np.diff(cdf, prepend=0.0)
 
 
 def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
@@ -89,6 +88,12 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
     corners = table.corners[idx].astype(np.float64)
     mass_total = float(np.sum(area * corners.mean(axis=1)))
     density = corners.mean(axis=1) / mass_total if mass_total > 0 else np.zeros(len(idx))
+    if table.exact:  # K_L = P_L V / q_L, the envelope the draws use (see draw.py)
+        q = area * corners.mean(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = np.where(q > 0, leaf_probabilities(table, t) * float(table.total[t]) / q, 1.0)
+    else:  # a rejection-free table has no envelope
+        bound = np.ones(len(idx))
     k, j = divmod(t, len(table.phis))
     th_lo, th_hi = np.degrees(table.theta_edges[k : k + 2])
     if table.symmetry == ISOTROPIC:
@@ -103,7 +108,7 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
         cell_deg=(float(th_lo), float(th_hi), float(ph_lo), float(ph_hi)),
         boxes=boxes,
         density=density,
-        bound=table.bound[idx].astype(np.float64),
+        bound=bound,
         acceptance=float(sampler.acceptance(wo)[0]),
         normalizer=float(sampler.normalizer(wo)[0]),
         mirror=(float(sx), float(sy)),

@@ -359,7 +359,7 @@ class AdaptiveSampler(Sampler):
 
     def info(self) -> dict[str, Any]:
         table, report = self._entry()
-        leaves = len(table.bound)
+        leaves = len(table.corners)
         return {
             "sampler": self.name,
             "mode": self.mode,

@@ -49,7 +49,7 @@ from core.sampling.adaptive.tree import (
 )
 from core.threads import thread_budget
 
-TABLE_FORMAT = 7
+TABLE_FORMAT = 8
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -139,23 +139,34 @@ class AdaptiveTable(NamedTuple):
     """``(J + 1,)`` cells in phi."""
     projection: np.ndarray
     """``(K * J,)`` int64: each tree's disk projection."""
+    exact: int
+    """1: the exact mode's table (its leaves chosen by the envelope ``K_L q_L``, no tree structure kept: the
+    exact mode's pdf is ``f cos / I``); 0: the rejection-free mode's (leaves chosen by ``q_L``)."""
     root: np.ndarray
-    """``(K * J,)`` int64: each tree's root in the node arrays."""
+    """``(K * J,)`` int64: each tree's root in ``child`` (the rejection-free mode's pdf locates a point by it)."""
     child: np.ndarray
-    """``(N,)`` int32: a node's first child, or ``-1 - leaf`` (leaf index into the leaf arrays)."""
-    mass: np.ndarray
-    """``(N,)`` float32: the rejection-free density's mass under each node (a leaf's: area times its
-    corners' mean). The draws' densities are products of the stored shares, exact at any precision."""
-    envelope: np.ndarray
-    """``(N,)`` float32: the exact mode's envelope mass under each node (a leaf's: its bound times its mass;
-    the leaves' relative masses must be those of ``K_L q_L``, to float32 rounding, which the bound's margin
-    covers)."""
+    """``(N,)`` int32: a node's first child, or ``-1 - leaf`` (global leaf index); empty in an exact table."""
+    leaf_base: np.ndarray
+    """``(K * J + 1,)`` int64: tree ``t``'s leaves are ``leaf_base[t] : leaf_base[t + 1]`` of the leaf arrays."""
+    leaf_cell: np.ndarray
+    """``(L,)`` uint32: a leaf's place on the square, ``ix | iy << 14 | level << 28`` (origin
+    ``(ix, iy) / 2^14``, side ``2^-level``; ``max_level <= 14``): the draws go from the chosen leaf to its
+    square without a descent."""
     corners: np.ndarray
     """``(L, 4)`` float32: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-    (the masses are computed from these stored values, so the density stays exact)."""
-    bound: np.ndarray
-    """``(L,)`` float32: ``K_L``, the bound of ``(g / I) / q`` on the leaf over its node's cell, ``q`` the
-    leaf's bilinear density (rounded up)."""
+    (a leaf's density on the square is ``bilinear / (mean * h^2)`` from these stored values: exact)."""
+    cdf: np.ndarray
+    """``(L,)`` float64: per tree, the cumulative probability of its leaves (ending at 1): the rejection-free
+    mode's ``q_L``, the exact mode's ``K_L q_L``, normalized. A leaf's probability is the difference of two
+    entries, the very interval a uniform falls in to choose it: the densities are exact whatever rounding
+    made the entries."""
+    guide: np.ndarray
+    """``(L,)`` int32: per tree of ``n`` leaves, ``guide[k]`` the first leaf whose ``cdf`` exceeds ``k / n``
+    (Chen and Asau's guide table: a lookup and a step or two instead of a search or a descent)."""
+    total: np.ndarray
+    """``(K * J,)`` float64: the exact mode's envelope mass ``V = sum K_L q_L`` per tree (the acceptance is
+    ``1 / V``; a trial's envelope is ``V`` times its own density, see :mod:`~core.sampling.adaptive.draw`);
+    1 in a rejection-free table."""
     norm: np.ndarray
     """``(M, J)``: the normalizer's fine table in ``s = -log(cos theta)`` (``log I``, or ``I`` when
     ``norm_log`` is 0; MIRROR: cosine-series coefficients), see
@@ -424,10 +435,12 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
         norm_values = np.array([[n.tree.integrals[0] for n in row] for row in grid])
         norm_err = _interpolation_errors(thetas, norm_values)
         norm = _norm_table(symmetry, thetas, norm_values)
-    table = _pack(symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid, norm)
+    table = _pack(
+        symmetry, thetas, phis, cell_edges(thetas, 0.0, THETA_END), phi_edges, grid, norm, options.bounds
+    )
     report.seconds = time.perf_counter() - t0
     report.trees = len(thetas) * len(phis)
-    report.leaves = len(table.bound)
+    report.leaves = len(table.corners)
     report.evaluations += sum(n.tree.evaluations for n in nodes.values())
     report.acceptance_min = (
         min(1.0 / n.tree.envelope if n.tree.envelope > 0 else 0.0 for row in grid for n in row)
@@ -562,30 +575,35 @@ def _norm_table(symmetry: int, thetas: np.ndarray, integrals: np.ndarray) -> tup
 
 
 def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
-          phi_edges: np.ndarray, grid: list[list[_Node]],
-          norm: tuple[np.ndarray, float, int]) -> AdaptiveTable:  # fmt: skip
-    children, masses, envelopes, corners, bounds, roots, projections = [], [], [], [], [], [], []
+          phi_edges: np.ndarray, grid: list[list[_Node]], norm: tuple[np.ndarray, float, int],
+          exact: bool) -> AdaptiveTable:  # fmt: skip
+    children, corners, cells, cdfs, guides, roots, projections, totals = [], [], [], [], [], [], [], []
+    leaf_base = [0]
     node_base = 0
-    leaf_base = 0
     for row in grid:
         for n in row:
             tr = n.tree
-            child = tr.child.astype(np.int64)
-            inner = child >= 0
-            child[inner] += node_base
-            child[~inner] -= leaf_base
             corner32 = tr.corners.astype(np.float32)
-            bound32 = np.nextafter(tr.bound.astype(np.float32), np.float32(np.inf))
-            mass, env = _masses(tr.child, tr.level, corner32, bound32)
-            children.append(child)
-            masses.append(mass)
-            envelopes.append(env)
-            corners.append(corner32)
-            bounds.append(bound32)
+            leaves = _leaves(tr)
+            cells.append(_leaf_cells(tr, leaves))
+            weight = 0.25 ** tr.level[leaves].astype(np.float64) * corner32.astype(np.float64).mean(axis=1)
+            if exact:  # K_L rounded up to float32 as before (the envelope never decreases)
+                weight *= np.nextafter(tr.bound.astype(np.float32), np.float32(np.inf)).astype(np.float64)
+            cdf, guide, total = _leaf_cdf(weight)
+            cdfs.append(cdf)
+            guides.append(guide)
+            totals.append(total if exact else 1.0)
+            if not exact:
+                child = tr.child.astype(np.int64)
+                inner = child >= 0
+                child[inner] += node_base
+                child[~inner] -= leaf_base[-1]
+                children.append(child)
             roots.append(node_base)
+            node_base += 0 if exact else len(tr.child)
+            corners.append(corner32)
             projections.append(n.projection)
-            node_base += len(child)
-            leaf_base += len(tr.bound)
+            leaf_base.append(leaf_base[-1] + len(weight))
     norm_fine, norm_ds, norm_log = norm
     cell_mu = -np.cos(theta_edges)
     starts = -1.0 + np.arange(CELL_LUT) / CELL_LUT
@@ -602,12 +620,15 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         cell_lut=lut.astype(np.int32),
         phi_edges=np.ascontiguousarray(phi_edges, dtype=np.float64),
         projection=np.array(projections, dtype=np.int64),
+        exact=int(exact),
         root=np.array(roots, dtype=np.int64),
-        child=np.concatenate(children).astype(np.int32),
-        mass=np.concatenate(masses).astype(np.float32),
-        envelope=np.concatenate(envelopes).astype(np.float32),
+        child=np.concatenate(children).astype(np.int32) if children else np.zeros(0, dtype=np.int32),
+        leaf_base=np.array(leaf_base, dtype=np.int64),
+        leaf_cell=np.concatenate(cells).astype(np.uint32),
         corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float32),
-        bound=np.concatenate(bounds).astype(np.float32),
+        cdf=np.concatenate(cdfs),
+        guide=np.concatenate(guides).astype(np.int32),
+        total=np.array(totals, dtype=np.float64),
         norm=norm_fine,
         norm_ds=float(norm_ds),
         norm_log=int(norm_log),
@@ -615,31 +636,41 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
     )
 
 
-def _masses(child: np.ndarray, level: np.ndarray, corners: np.ndarray, bound: np.ndarray) -> tuple[
-        np.ndarray, np.ndarray]:  # fmt: skip
-    """Both densities' masses under every node, in float64 from the stored (float32) leaf values, so that
-    the draws' densities are exactly those of the stored values (children follow their parents: one
-    reverse pass)."""
-    n = len(child)
-    area = 0.25 ** level.astype(np.float64)
-    mass = np.zeros(n)
-    env = np.zeros(n)
-    leaf = child < 0
-    idx = -1 - child[leaf]
-    mass[leaf] = area[leaf] * corners[idx].astype(np.float64).mean(axis=1)
-    env[leaf] = mass[leaf] * bound[idx].astype(np.float64)
-    _sum_children(child, mass, env)
-    return mass, env
+LEAF_GRID = 14
+"""Leaf origins are stored on the ``2^-14`` grid (``max_level`` is at most 14)."""
 
 
-@njit(nogil=True, cache=True)
-def _sum_children(child, mass, env):
-    """Inner nodes' masses from their children's (children follow their parents: one reverse pass)."""
-    for i in range(child.shape[0] - 1, -1, -1):
-        c = child[i]
-        if c >= 0:
-            mass[i] = mass[c] + mass[c + 1] + mass[c + 2] + mass[c + 3]
-            env[i] = env[c] + env[c + 1] + env[c + 2] + env[c + 3]
+def _leaves(tree: TreeArrays) -> np.ndarray:
+    """The node of every leaf, in leaf order."""
+    nodes = np.flatnonzero(tree.child < 0)
+    out = np.empty(len(nodes), dtype=np.int64)
+    out[-1 - tree.child[nodes]] = nodes
+    return out
+
+
+def _leaf_cells(tree: TreeArrays, leaves: np.ndarray) -> np.ndarray:
+    """Each leaf's packed origin and level (:attr:`AdaptiveTable.leaf_cell`)."""
+    level = tree.level[leaves].astype(np.int64)
+    if len(level) and int(level.max()) > LEAF_GRID:
+        raise ValueError(f"a leaf at level {int(level.max())}: the table stores leaves to level {LEAF_GRID}")
+    scale = float(1 << LEAF_GRID)
+    ix = np.rint(tree.x0[leaves] * scale).astype(np.int64)
+    iy = np.rint(tree.y0[leaves] * scale).astype(np.int64)
+    return (ix | (iy << LEAF_GRID) | (level << (2 * LEAF_GRID))).astype(np.uint32)
+
+
+def _leaf_cdf(weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(cdf, guide, total)`` of one tree's leaf weights (:attr:`AdaptiveTable.cdf`, ``guide``): the
+    cumulative sums over the total, the last entry exactly 1 (no uniform in ``[0, 1)`` falls beyond it)."""
+    total = float(weight.sum())
+    if not total > 0.0:  # (no tree has an empty density: the floor keeps every corner positive)
+        weight = np.ones_like(weight)
+        total = float(len(weight))
+    cdf = np.cumsum(weight) / total
+    cdf[-1] = 1.0
+    cdf = np.minimum(cdf, 1.0)
+    guide = np.searchsorted(cdf, np.arange(len(cdf)) / len(cdf), side="right")
+    return cdf, np.minimum(guide, len(cdf) - 1).astype(np.int32), total
 
 
 # ------------------------------------------------------------------------------------------ storage
@@ -705,13 +736,14 @@ def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport]
         fields["symmetry"] = int(fields["symmetry"])
         fields["flat"] = int(fields["flat"])
         fields["norm_log"] = int(fields["norm_log"])
+        fields["exact"] = int(fields["exact"])
         fields["cos_min"] = float(fields["cos_min"])
         fields["norm_ds"] = float(fields["norm_ds"])
         table = AdaptiveTable(**fields)
     except (KeyError, ValueError, TypeError):
         return None
     report = TableReport(
-        seconds=float(rep[0]), evaluations=int(rep[1]), trees=len(table.root), leaves=len(table.bound),
+        seconds=float(rep[0]), evaluations=int(rep[1]), trees=len(table.root), leaves=len(table.corners),
         rounds=int(rep[2]), acceptance_min=float(rep[3]), chi2_max_edge=float(rep[4]),
         norm_error_max=float(rep[5]), from_cache=True,
     )  # fmt: skip
