@@ -39,24 +39,44 @@ SMALL_ADAPTIVE = {"cache": False, "max_thetas": 7, "warp_tol": 0.5, "quad_tol": 
 fraction of its time) and never stored (the table cache holds only the tables renders asked for)."""
 
 
+KERNEL_MATERIALS = ("floor", "red plastic (measured, synthetic MERL)", "brushed steel")
+"""The demo's materials :func:`load_kernels` renders: an isotropic analytic, a measured and an anisotropic
+one reach every kernel (one switch serves all models); each further material only adds table builds
+(~0.15 s each for the adaptive modes, most of it their normalizer's Python loop)."""
+
+
+def _kernel_scene():  # type: ignore[no-untyped-def]
+    """The bundled demo scene (its light, sky and mesh formats) with the meshes of :data:`KERNEL_MATERIALS`."""
+    import json
+
+    from core.scene import scene_from_dict
+
+    folder = files("resources") / "scenes" / "demo"
+    data = json.loads((folder / "demo.json").read_text(encoding="utf-8"))
+    data["materials"] = [m for m in data["materials"] if m["name"] in KERNEL_MATERIALS]
+    data["meshes"] = [m for m in data["meshes"] if m["material"] in KERNEL_MATERIALS]
+    return scene_from_dict(data, source="demo.json (kernel loading)", base_dir=str(folder))
+
+
 def load_kernels(
     strategies: Sequence[str] = ("uniform", "adaptive_warp", "adaptive"),
     stop: Callable[[], bool] = lambda: False,
 ) -> Iterator[tuple[str, float]]:
     """Load into this process every kernel a render with ``strategies`` calls (numba's compiled code, read
     from its disk cache; compiled if the setup's warm-up did not run), by rendering the bundled demo scene
-    (analytic, measured and anisotropic materials, an area light and a sky) at 8x6 pixels with each, and
-    the threaded evaluation the preparation of a large image calls. Adaptive strategies build small tables,
+    (analytic, measured and anisotropic materials, an area light and a sky; :func:`_kernel_scene`) at 8x6
+    pixels with each, and the threaded evaluation the preparation of a large image calls, in the order given (the first step loads
+    most: the mesh readers, the models, the path tracer). Adaptive strategies build small tables,
     kept neither on disk nor in memory; other table-based strategies are skipped (their first render loads
     their kernels). Yields ``(strategy, seconds)`` after each step. ``stop()`` is asked before each step:
     when it returns True (a render is waiting), the remaining steps are skipped, and the render loads what
     it needs itself."""
-    from core.scene import load_scene
     from renderer.render import EAGER_SAMPLERS, prepare
 
-    scene = load_scene(str(files("resources") / "scenes" / "demo" / "demo.json"))
+    scene = _kernel_scene()
     wo = np.array([[0.0, 0.6, 0.8]])
-    for name in dict.fromkeys(["uniform", *strategies]):
+    first = True
+    for name in dict.fromkeys(strategies):
         adaptive = name.startswith("adaptive")
         if name not in EAGER_SAMPLERS and not adaptive:
             continue
@@ -67,10 +87,11 @@ def load_kernels(
                       width=8, height=6, seed=0)  # fmt: skip
         try:
             job.run(spp=1)
-            if name == "uniform":
+            if first:  # what every strategy's preparation calls on a large image
                 for rt in job.world.materials_by_index:
                     if rt is not None:
                         rt.brdf.eval(wo, wo, threads=True)
+                first = False
         finally:
             job.world.accel.close()
         if adaptive:
