@@ -2,7 +2,9 @@
 sampler view's snapshot, the albedo curve and the adaptive table's facts computed as background jobs.
 
 Redraws are coalesced: document events mark views stale and a zero-delay timer redraws them once per
-event-loop turn (a slider drag never queues redraws up). The albedo quadrature and the table facts (seconds of
+event-loop turn (a slider drag never queues redraws up), or just before the window's next paint if that comes
+first, so that the views and the editor's widgets reach the screen in one flush. Views on a hidden tab stay
+stale until shown. The albedo quadrature and the table facts (seconds of
 work) start once edits pause for :data:`SLOW_JOB_DELAY_MS`, so a drag keeps the CPU for the lobe and tree.
 """
 
@@ -12,7 +14,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from PySide6.QtCore import QTimer
+from PySide6.QtCore import QEvent, QObject, QTimer
 
 from app import snapshot_process
 from app.jobs import Job, Lane
@@ -26,8 +28,9 @@ if TYPE_CHECKING:
 SLOW_JOB_DELAY_MS = 300
 
 
-class Redrawer:
+class Redrawer(QObject):
     def __init__(self, window: MainWindow):
+        super().__init__(window)
         self.window = window
         self.document = window.document
         self.timings: dict[str, float] = {}
@@ -41,6 +44,9 @@ class Redrawer:
         self._timer.setSingleShot(True)
         self._timer.setInterval(0)
         self._timer.timeout.connect(self.refresh_now)
+        self._stale: set[str] = set()
+        """The Explore tab's views whose picture is out of date: ``lobe``, ``polar``, ``sphere``."""
+        window.installEventFilter(self)
         self.slow_timer = QTimer(window)
         self.slow_timer.setSingleShot(True)
         self.slow_timer.setInterval(SLOW_JOB_DELAY_MS)
@@ -71,6 +77,23 @@ class Redrawer:
 
     def refresh_now(self) -> None:
         """Redraw what is stale, now (tests and benchmarks call this instead of waiting for the timer)."""
+        self._refresh()
+
+    def eventFilter(self, obj: Any, event: QEvent) -> bool:  # noqa: N802 (Qt name)
+        """Redraw stale views just before the window's next paint, so that they are composed with it: a
+        parameter edit also repaints the editor's widgets, and the window would otherwise be flushed once for
+        them and again for the views (each flush composes the whole window through OpenGL: tens of ms under
+        a software renderer)."""
+        if event.type() == QEvent.Type.UpdateRequest and self._pending:
+            self._refresh()
+        return False
+
+    def _explore_shown(self) -> bool:
+        """The Explore tab's views can be seen (or the window is not shown at all: tests draw offscreen)."""
+        w = self.window
+        return not w.isVisible() or w.tabs.currentWidget() is w.explore
+
+    def _refresh(self) -> None:
         self._timer.stop()
         pending, self._pending = self._pending, set()
         w, doc = self.window, self.document
@@ -97,10 +120,20 @@ class Redrawer:
                 done=self._sampling_done, failed=w.sampling_view.show_message,
             ))  # fmt: skip
         if pending & {"brdf", "direction"}:
-            self._timed("lobe", w.lobe_view.show_lobe, brdf, wo)
-            self._timed("polar", w.polar_view.show_slice, brdf, wo)
+            self._stale |= {"lobe", "polar"}
         if pending & {"brdf", "light"}:
-            self._timed("sphere", w.sphere_view.show_material, brdf, doc.light_dir)
+            self._stale.add("sphere")
+        # Views on a hidden tab stay stale until it is shown (a tab change schedules a refresh): an edit made
+        # on the Sampling tab does not pay for the lobe, the slice and the sphere nobody sees.
+        if self._stale and self._explore_shown():
+            for view, draw, args in (
+                ("lobe", w.lobe_view.show_lobe, (brdf, wo)),
+                ("polar", w.polar_view.show_slice, (brdf, wo)),
+                ("sphere", w.sphere_view.show_material, (brdf, doc.light_dir)),
+            ):
+                if view in self._stale:
+                    self._stale.discard(view)
+                    self._timed(view, draw, *args)
         if "brdf" in pending:
             self.slow_timer.start()  # restarts: the quadrature waits until edits pause
 

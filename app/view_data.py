@@ -243,6 +243,13 @@ class SamplingSnapshot:
     """Relative standard deviation of the weight ``f cos / pdf`` (luminance) over ``ratio_sampler``'s draw."""
     table: dict
     """The adaptive table's facts (:meth:`~core.sampling.adaptive.AdaptiveSampler.info`)."""
+    leaf_rgba: np.ndarray | None = None
+    """``(TREE_RASTER, TREE_RASTER, 4)`` uint8: the leaves coloured by :meth:`leaf_density`
+    (:func:`leaf_colours`), made with the snapshot so that the GUI thread only shows it."""
+    density_range: tuple[float, float] = (0.0, 0.0)
+    """The densities at the ends of ``leaf_rgba``'s colour scale."""
+    ratio_rgba: np.ndarray | None = None
+    """``ratio`` coloured as the view shows it (:func:`ratio_colours`)."""
 
     @property
     def acceptance(self) -> float:
@@ -253,13 +260,63 @@ class SamplingSnapshot:
         """``(k,)``: the density the mode proposes on each leaf, per unit square area (1 on average): the
         rejection-free density ``q`` in the warp mode; in the exact mode the density of trials, ``K_L q``
         normalized (``K_L q / V``)."""
-        t = self.tree
-        if self.mode == "warp":
-            return t.density
-        area = (t.boxes[:, 2] - t.boxes[:, 0]) * (t.boxes[:, 3] - t.boxes[:, 1])
-        trials = t.bound * t.density
-        v = float(np.sum(area * trials))
-        return trials / v if v > 0 else trials
+        return _leaf_density(self.mode, self.tree)
+
+
+def _leaf_density(mode: str, t: TreeView) -> np.ndarray:
+    if mode == "warp":
+        return t.density
+    area = (t.boxes[:, 2] - t.boxes[:, 0]) * (t.boxes[:, 3] - t.boxes[:, 1])
+    trials = t.bound * t.density
+    v = float(np.sum(area * trials))
+    return trials / v if v > 0 else trials
+
+
+TREE_RASTER = 192
+"""Pixels across the sampler view's picture of a tree's disk."""
+DENSITY_RANGE = 1e-4
+"""The tree picture's colour scale spans this factor below the densest leaf."""
+RATIO_RANGE = 2.0
+"""The ratio map's colour scale: ``log2`` of the ratio from ``-RATIO_RANGE`` to ``RATIO_RANGE``."""
+DENSITY_CMAP, RATIO_CMAP = "magma", "coolwarm"
+
+
+def leaf_colours(
+    tree: TreeView, density: np.ndarray, size: int = TREE_RASTER
+) -> tuple[np.ndarray, float, float]:
+    """``(rgba (size, size, 4) uint8, lo, hi)``: the tree's leaves coloured by ``density`` on a log scale over
+    :data:`DENSITY_RANGE` below the densest leaf; transparent outside the disk and on leaves below the range
+    (where the lobe is not: a half-vector disk's ``h`` that no ``wi`` above the horizon reaches, say)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import LogNorm
+
+    from core.sampling.adaptive.inspect import leaf_image
+
+    image = leaf_image(tree, density, size)
+    rgba = np.zeros((size, size, 4), dtype=np.uint8)
+    positive = np.isfinite(image) & (image > 0)
+    if not positive.any():
+        return rgba, 0.0, 0.0
+    hi = float(image[positive].max())
+    lo = max(float(image[positive].min()), hi * DENSITY_RANGE)
+    shown = positive & (image >= lo)
+    norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 1.0001)
+    rgba[shown] = colormaps[DENSITY_CMAP](norm(image[shown]), bytes=True)
+    return rgba, lo, hi
+
+
+def ratio_colours(ratio: np.ndarray) -> np.ndarray:
+    """``(n, n, 4)`` uint8: ``log2(ratio)`` on :data:`RATIO_CMAP` over ``[-RATIO_RANGE, RATIO_RANGE]``
+    (0 and infinity shown at the ends), transparent where the ratio is NaN."""
+    from matplotlib import colormaps
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_ratio = np.log2(ratio)
+    shown = ~np.isnan(log_ratio)
+    t = (np.clip(log_ratio[shown], -RATIO_RANGE, RATIO_RANGE) + RATIO_RANGE) / (2.0 * RATIO_RANGE)
+    rgba = np.zeros((*ratio.shape, 4), dtype=np.uint8)
+    rgba[shown] = colormaps[RATIO_CMAP](t, bytes=True)
+    return rgba
 
 
 def _disk_pixels(grid: int) -> tuple[np.ndarray, np.ndarray]:
@@ -348,7 +405,11 @@ def sampling_snapshot(
             ratio_error = str(exc)
     else:
         ratio_error = f"there is no sampler '{ratio_sampler}'"
+    leaf_rgba, lo, hi = leaf_colours(tree, _leaf_density(mode, tree))
     return SamplingSnapshot(
+        leaf_rgba=leaf_rgba,
+        density_range=(lo, hi),
+        ratio_rgba=None if ratio is None else ratio_colours(ratio),
         theta_deg=theta_deg,
         phi_deg=phi_deg,
         n_max=float(n_max),

@@ -73,7 +73,9 @@ class PolarView(FigureView):
         ax.legend(loc="upper left", bbox_to_anchor=(-0.12, 1.02), fontsize=7, frameon=False)
         self.r_max = 0.0
         """The radial limit (1/sr): the outer ring."""
-        self.set_animated([*self._rgb, self._lum, self._wo, self._mirror, *self._labels])
+        # The ring labels change only with the radial limit: drawn into the saved background when they do
+        # (text costs ~3 ms a label to draw), not on every update.
+        self.set_animated([*self._rgb, self._lum, self._wo, self._mirror], overlay=self._labels)
 
     def ring_labels(self) -> list[str]:
         """The labels of the rings, inner to outer (tests read them)."""
@@ -87,7 +89,8 @@ class PolarView(FigureView):
             float(self.values.max()) if self.values.size else 0.0, float(lum.max()) if lum.size else 0.0
         )
         top = top if math.isfinite(top) and top > 0 else 1.0
-        if not (self.LIMIT_KEEP * self.r_max <= top * 1.05 <= self.r_max):
+        relabel = not (self.LIMIT_KEEP * self.r_max <= top * 1.05 <= self.r_max)
+        if relabel:
             self.r_max = nice_ceiling(top * 1.05)
             for text, r in zip(self._labels, RINGS, strict=True):
                 text.set_text(ring_label(r * self.r_max))
@@ -99,4 +102,7 @@ class PolarView(FigureView):
         self._wo.set_data([-theta_o, -theta_o], [0.0, 1.0])
         self._mirror.set_data([theta_o, theta_o], [0.0, 1.0])
         self.status.setText(f"peak {top:.4g} 1/sr; outer ring {ring_label(self.r_max)} 1/sr")
-        self.update_artists()
+        if relabel:
+            self.update_overlay()
+        else:
+            self.update_artists()

@@ -5,20 +5,25 @@ on the same disk."""
 from __future__ import annotations
 
 import numpy as np
-from matplotlib import colormaps
 from matplotlib.collections import LineCollection
-from matplotlib.colors import LogNorm
 from matplotlib.patches import Circle
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel, QSpinBox, QVBoxLayout, QWidget
 
-from app.view_data import SAMPLING_PROJECTIONS, SamplingSnapshot
+from app.view_data import (
+    RATIO_CMAP,
+    RATIO_RANGE,
+    SAMPLING_PROJECTIONS,
+    TREE_RASTER,
+    SamplingSnapshot,
+    leaf_colours,
+    ratio_colours,
+)
 from app.views.figure import FigureView
 from core.sampling import sampler_names
-from core.sampling.adaptive.inspect import TreeView, leaf_image, leaf_outlines
+from core.sampling.adaptive.inspect import TreeView, leaf_outlines
 
-RASTER = 192
-"""Pixels across the tree's disk."""
+RASTER = TREE_RASTER
 OUTLINE_POINTS = 4
 """Points per edge of a leaf's outline (a base-level leaf's rim edge turns by ~11 degrees)."""
 STRAIGHT_SIDE = 1.0 / 32.0
@@ -27,9 +32,6 @@ OUTLINE_LEVEL = 7
 """Leaves deeper than this are outlined as their ancestor at this level (1/128 of the square, two or three
 pixels on screen): a sharp lobe's thousands of tiny leaves would cost tens of ms to outline and show as a
 solid patch."""
-DENSITY_RANGE = 1e-4
-"""The colour scale spans this factor below the densest leaf."""
-DENSITY_CMAP = colormaps["magma"]
 
 DISK_RADIUS = {
     "orthographic": "|X| = sin theta_i",
@@ -126,9 +128,21 @@ class SamplingView(QWidget):
         fig = self.figure_view.figure
         fig.clear()
         self.ax_tree, self.ax_ratio = fig.subplots(1, 2)
-        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.07, top=0.86, wspace=0.2)
+        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.07, top=0.97, wspace=0.2)
+        # The panes' titles are Qt labels over the figure, not matplotlib texts: a title changes with most
+        # edits (the node serving wo, the layout after a parameter edit), and matplotlib draws a two-line text
+        # in ~10 ms on the GUI thread (plus a copy of the saved background); a label costs a fraction of a ms.
+        # Exports put them back into the figure (:meth:`export`).
+        self.tree_caption = QLabel("")
+        self.ratio_caption = QLabel("")
+        captions = QHBoxLayout()
+        for caption in (self.tree_caption, self.ratio_caption):
+            caption.setAlignment(Qt.AlignmentFlag.AlignCenter)
+            caption.setMinimumHeight(2 * caption.fontMetrics().lineSpacing())
+            captions.addWidget(caption, 1)
         layout = QVBoxLayout(self)
         layout.addLayout(controls)
+        layout.addLayout(captions)
         layout.addWidget(self.figure_view, 1)
         layout.addWidget(self.stats)
         self.snapshot: SamplingSnapshot | None = None
@@ -173,7 +187,6 @@ class SamplingView(QWidget):
         self._tree_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         (self._wo_mark,) = ax.plot([], [], marker="x", color="red", ms=8, ls="none")
         self._tree_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8, wrap=True)
-        self.tree_title = ax.set_title("", fontsize=9)
         ax = self.ax_ratio
         ax.set_aspect("equal")
         ax.set_xlim(-1.02, 1.02)
@@ -182,30 +195,25 @@ class SamplingView(QWidget):
             np.full((2, 2), np.nan),
             extent=(-1, 1, -1, 1),
             origin="lower",
-            cmap="coolwarm",
-            vmin=-2,
-            vmax=2,
+            cmap=RATIO_CMAP,
+            vmin=-RATIO_RANGE,
+            vmax=RATIO_RANGE,
             interpolation="nearest",
         )
         self._colorbar = self.figure_view.figure.colorbar(self._ratio_img, ax=ax, fraction=0.046, pad=0.04)
         self._colorbar.set_label("log2(pdf / (f cos / I))")
         self._ratio_rim = ax.add_patch(Circle((0, 0), 1.0, fill=False, color="gray", lw=1))
         self._ratio_msg = ax.text(0, 0, "", ha="center", va="center", fontsize=8, wrap=True)
-        self.ratio_title = ax.set_title("", fontsize=9)
         for a in (self.ax_tree, self.ax_ratio):  # few tick labels: text is most of a redraw's cost
             a.set_xticks([-1, 0, 1])
             a.set_yticks([-1, 0, 1])
         self._colorbar.set_ticks([-2, -1, 0, 1, 2])
         # What a new snapshot changes is blitted over the saved rest of the figure (axes, ticks, colour bar): a
         # full draw of this figure costs ~40 ms, the blit a fraction of it. The rim circles are redrawn so that
-        # they stay on top. The tree's title (the disk and the node) changes now and then (wo in another node's
-        # cell, another layout of the nodes after an edit) and text is slow to draw (~5-15 ms a title): it is
-        # drawn into the saved background when it changes, not on every update. The ratio map's title changes
-        # with the strategy only (a click): then the figure is drawn in full.
+        # they stay on top; the messages are drawn only while they say something (text is slow to draw).
         self.figure_view.set_animated(
             [self._tree_img, self.leaf_edges, self._samples, self._tree_rim, self._wo_mark, self._tree_msg,
-             self._ratio_img, self._ratio_rim, self._ratio_msg],
-            overlay=[self.tree_title],
+             self._ratio_img, self._ratio_rim, self._ratio_msg]
         )  # fmt: skip
         self._artists = True
 
@@ -213,8 +221,8 @@ class SamplingView(QWidget):
         if not getattr(self, "_artists", False):
             self._make_artists()
         self.stats.setText(text)
-        self._tree_msg.set_text(text)
-        self._ratio_msg.set_text("")
+        self._set_message(self._tree_msg, text)
+        self._set_message(self._ratio_msg, "")
         self._tree_img.set_visible(False)
         self.leaf_edges.set_segments([])
         self._samples.set_offsets(np.zeros((0, 2)))
@@ -222,22 +230,18 @@ class SamplingView(QWidget):
         self._ratio_img.set_visible(False)
         self.figure_view.update_artists()
 
-    def _leaf_colours(self, snap: SamplingSnapshot) -> tuple[np.ndarray, float, float]:
-        """The tree's image as RGBA, coloured here (an RGBA image skips matplotlib's masking and normalization
-        on every redraw): a log scale over :data:`DENSITY_RANGE` below the densest leaf; transparent outside
-        the disk and on leaves below the range (where the lobe is not: a half-vector disk's ``h`` that no
-        ``wi`` above the horizon reaches, say)."""
-        density = leaf_image(snap.tree, snap.leaf_density(), RASTER)
-        rgba = np.zeros((RASTER, RASTER, 4), dtype=np.uint8)
-        positive = np.isfinite(density) & (density > 0)
-        if not positive.any():
-            return rgba, 0.0, 0.0
-        hi = float(density[positive].max())
-        lo = max(float(density[positive].min()), hi * DENSITY_RANGE)
-        shown = positive & (density >= lo)
-        norm = LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 1.0001)
-        rgba[shown] = DENSITY_CMAP(norm(density[shown]), bytes=True)
-        return rgba, lo, hi
+    @staticmethod
+    def _set_message(artist, text: str) -> None:
+        artist.set_text(text)
+        artist.set_visible(bool(text))
+
+    @staticmethod
+    def _leaf_colours(snap: SamplingSnapshot) -> tuple[np.ndarray, float, float]:
+        """The tree's image as RGBA (coloured here, not by matplotlib: that skips its masking and
+        normalization on every redraw), made with the snapshot when it was (off the GUI thread)."""
+        if snap.leaf_rgba is not None:
+            return snap.leaf_rgba, *snap.density_range
+        return leaf_colours(snap.tree, snap.leaf_density(), RASTER)
 
     def show_snapshot(self, snap: SamplingSnapshot) -> None:
         if not getattr(self, "_artists", False):
@@ -253,7 +257,7 @@ class SamplingView(QWidget):
             self._wo_mark.set_data([], [])
         else:
             self._wo_mark.set_data([snap.wo_disk[0]], [snap.wo_disk[1]])
-        self._tree_msg.set_text("")
+        self._set_message(self._tree_msg, "")
         th_lo, th_hi, ph_lo, ph_hi = tree.cell_deg
         cell = f"node theta {tree.node_deg[0]:.1f} deg (cell {th_lo:.1f}-{th_hi:.1f})"
         if ph_hi - ph_lo < 360.0:
@@ -291,12 +295,9 @@ class SamplingView(QWidget):
         name = snap.ratio_sampler
         if snap.ratio is not None:
             ratio = snap.ratio
-            with np.errstate(divide="ignore", invalid="ignore"):
-                log_ratio = np.log2(ratio)
-            log_ratio = np.where(np.isinf(log_ratio), np.sign(log_ratio) * 4.0, log_ratio)
-            self._ratio_img.set_data(log_ratio)
+            self._ratio_img.set_data(ratio_colours(ratio) if snap.ratio_rgba is None else snap.ratio_rgba)
             self._ratio_img.set_visible(True)
-            self._ratio_msg.set_text("")
+            self._set_message(self._ratio_msg, "")
             finite = ratio[np.isfinite(ratio) & (ratio > 0)]
             spread = (
                 f"{np.percentile(finite, 5):.3g} .. {np.percentile(finite, 95):.3g}" if finite.size else "-"
@@ -307,7 +308,7 @@ class SamplingView(QWidget):
             )
         else:
             self._ratio_img.set_visible(False)
-            self._ratio_msg.set_text(snap.ratio_error)
+            self._set_message(self._ratio_msg, snap.ratio_error)
             lines.append(f"Ratio map: {snap.ratio_error}")
         if tree.follow:
             frame = "turned so that wo lies at phi = 0" + (" (red x)" if snap.wo_disk is not None else "")
@@ -321,15 +322,21 @@ class SamplingView(QWidget):
             f"Disk: {SAMPLING_PROJECTIONS[tree.projection]} ({DISK_RADIUS[tree.projection]}{where}); frame {frame}."
         )
         self.stats.setText("<br>".join(lines))
-        if titles[1] != self.ratio_title.get_text():  # in the saved background
-            self.tree_title.set_text(titles[0])
-            self.ratio_title.set_text(titles[1])
-            self.figure_view.redraw()
-        elif titles[0] != self.tree_title.get_text():
-            self.tree_title.set_text(titles[0])
-            self.figure_view.update_overlay()
-        else:
-            self.figure_view.update_artists()
+        self.tree_caption.setText(titles[0])
+        self.ratio_caption.setText(titles[1])
+        self.figure_view.update_artists()
 
     def export(self, path):
-        return self.figure_view.export(path)
+        """The figure with the panes' titles in it (on screen they are labels over the figure)."""
+        fig = self.figure_view.figure
+        top = fig.subplotpars.top
+        self.ax_tree.set_title(self.tree_caption.text(), fontsize=9)
+        self.ax_ratio.set_title(self.ratio_caption.text(), fontsize=9)
+        fig.subplots_adjust(top=0.86)
+        try:
+            return self.figure_view.export(path)
+        finally:
+            self.ax_tree.set_title("")
+            self.ax_ratio.set_title("")
+            fig.subplots_adjust(top=top)
+            self.figure_view.redraw()

@@ -41,7 +41,7 @@ def _use(window, model: str, name: str, params: dict) -> None:
     doc.select_material(name)
 
 
-def test_tree_follows_parameter_and_direction(window, qtbot):
+def test_tree_follows_parameter_and_direction(window, qtbot, tmp_path):
     _use(window, "lambert", "lam", {"kd": 0.5})
     window.document.set_param("kd", 0.5)
     window.document.set_direction(30.0, 0.0)
@@ -58,7 +58,7 @@ def test_tree_follows_parameter_and_direction(window, qtbot):
     # what is drawn: every leaf outlined, the samples, the title naming the disk and the node
     assert _drawn_outlines(view) == len(tree.boxes)
     assert len(view._samples.get_offsets()) == len(snap.samples) > 0
-    title = view.tree_title.get_text()
+    title = view.tree_caption.text()
     assert SAMPLING_PROJECTIONS[tree.projection] in title and f"{tree.node_deg[0]:.1f}" in title
     assert view._tree_img.get_visible() and view._tree_img.get_array().shape[:2] == (192, 192)
 
@@ -69,15 +69,24 @@ def test_tree_follows_parameter_and_direction(window, qtbot):
     np.testing.assert_array_equal(new.tree.boxes, tree.boxes)
     np.testing.assert_allclose(new.tree.density, tree.density, rtol=1e-6)
 
-    # another direction: the tree of another node, whose cell holds it; the new title is drawn into the
-    # saved background, with no full draw of the figure
+    # another direction: the tree of another node, whose cell holds it; the new title is shown with no full
+    # draw of the figure
     full = view.figure_view.full_draws
     window.document.set_direction(60.0, 0.0)
     far = _wait_snapshot(window, qtbot, lambda s: s.theta_deg == 60.0)
     assert far.tree.cell_deg[0] <= 60.0 <= far.tree.cell_deg[1]
     assert far.tree.tree != tree.tree
-    assert f"{far.tree.node_deg[0]:.1f}" in view.tree_title.get_text()
+    assert f"{far.tree.node_deg[0]:.1f}" in view.tree_caption.text()
     assert view.figure_view.full_draws == full
+    # an export puts the panes' titles (labels on screen) into the figure, and takes them out again
+    seen = []
+    export = view.figure_view.export
+    view.figure_view.export = lambda path: (seen.append(view.ax_tree.get_title()), export(path))[1]
+    try:
+        assert view.export(tmp_path / "tree.png").stat().st_size > 0
+    finally:
+        view.figure_view.export = export
+    assert seen == [view.tree_caption.text()] and view.ax_tree.get_title() == ""
     window.tabs.setCurrentIndex(0)
 
 
@@ -129,7 +138,7 @@ def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
     view.strategy.setCurrentText("uniform")
     view.strategy.activated.emit(view.strategy.currentIndex())
     snap = _wait_snapshot(window, qtbot, lambda s: s.ratio_sampler == "uniform")
-    assert "uniform" in view.ratio_title.get_text()
+    assert "uniform" in view.ratio_caption.text()
     # uniform pdf 1/(2 pi) against the ideal cos/pi: the ratio is 1 / (2 cos theta), 1/2 at the centre
     t, p = np.radians(snap.theta_deg), np.radians(snap.phi_deg)
     wo = np.array([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])

@@ -13,9 +13,11 @@ from app.view_data import (
     grid_quads,
     hemisphere_grid,
     incidence_plane,
+    leaf_colours,
     light_from_disk,
     lit_sphere,
     lobe,
+    ratio_colours,
     sampling_snapshot,
     to_srgb8,
 )
@@ -291,3 +293,29 @@ def test_leaf_outlines_follow_the_concentric_map(snapshots):
     u, v = rng.random(200), rng.random(200)
     expected = np.array([maps.square_to_disk(p, q) for p, q in zip(u, v, strict=True)])
     np.testing.assert_allclose(np.stack(square_to_disk(u, v), axis=1), expected, atol=1e-15)
+
+
+def test_snapshot_colours_are_made_with_it(snapshots):
+    """The pictures the view shows come coloured from the snapshot process: the leaves by the mode's density
+    (the densest leaf the scale's top colour, nothing outside the disk), the ratio map by log2 of the ratio
+    (1 the middle colour, NaN transparent, 0 and infinity the scale's ends)."""
+    from matplotlib import colormaps
+
+    _, snap = snapshots["phong", 30.0, "warp"]
+    rgba, lo, hi = leaf_colours(snap.tree, snap.leaf_density())
+    np.testing.assert_array_equal(snap.leaf_rgba, rgba)
+    assert snap.density_range == (lo, hi) and 0 < lo < hi
+    n = rgba.shape[0]
+    c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    outside = np.add.outer(c * c, c * c) > 1.0
+    assert not rgba[outside, 3].any() and rgba[~outside, 3].any()
+    top = np.asarray(colormaps["magma"](1.0, bytes=True))
+    assert (rgba.reshape(-1, 4) == top).all(axis=1).any()
+    ratio = np.array([[1.0, np.nan], [0.0, np.inf]])
+    got = ratio_colours(ratio)
+    cmap = colormaps["coolwarm"]
+    np.testing.assert_array_equal(got[0, 0], cmap(0.5, bytes=True))
+    assert got[0, 1, 3] == 0
+    np.testing.assert_array_equal(got[1, 0], cmap(0.0, bytes=True))
+    np.testing.assert_array_equal(got[1, 1], cmap(1.0, bytes=True))
+    assert snap.ratio_rgba is not None and snap.ratio_rgba.shape == (*snap.ratio.shape, 4)
