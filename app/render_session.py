@@ -17,7 +17,7 @@ end (see :class:`Timeline`: where the seconds before the first images went). :fu
 
 While no job has come yet, the process loads the kernels a render calls (:func:`renderer.warmup.load_kernels`,
 seconds that the first render would otherwise wait for); a job that arrives meanwhile waits at most for the
-step in progress.
+material or the tiny pass in progress.
 """
 
 from __future__ import annotations
@@ -260,7 +260,7 @@ def serve(commands: Connection, events: Connection) -> None:
     ``hold_s``: an uninterruptible pause before preparing, standing in for a long compilation);
     ``("cancel", job_id)``; ``("quit",)``. A listener thread reads them while the main thread renders, so a
     cancel is seen between two preparation steps or two passes. Before the first job, the main thread loads
-    the renderer's kernels (:data:`WARM_STRATEGIES`), one step at a time, and stops when a job is waiting.
+    the renderer's kernels (:data:`WARM_STRATEGIES`) and stops as soon as a job is waiting.
     """
     numba = NumbaClock().install()
     timeline = Timeline(numba)

@@ -58,6 +58,10 @@ def _kernel_scene():  # type: ignore[no-untyped-def]
     return scene_from_dict(data, source="demo.json (kernel loading)", base_dir=str(folder))
 
 
+class _Stopped(Exception):
+    """Raised between two steps of :func:`load_kernels`'s preparation when its caller wants it to stop."""
+
+
 def load_kernels(
     strategies: Sequence[str] = ("uniform", "adaptive_warp", "adaptive"),
     stop: Callable[[], bool] = lambda: False,
@@ -65,13 +69,17 @@ def load_kernels(
     """Load into this process every kernel a render with ``strategies`` calls (numba's compiled code, read
     from its disk cache; compiled if the setup's warm-up did not run), by rendering the bundled demo scene
     (analytic, measured and anisotropic materials, an area light and a sky; :func:`_kernel_scene`) at 8x6
-    pixels with each, and the threaded evaluation the preparation of a large image calls, in the order given (the first step loads
-    most: the mesh readers, the models, the path tracer). Adaptive strategies build small tables,
-    kept neither on disk nor in memory; other table-based strategies are skipped (their first render loads
-    their kernels). Yields ``(strategy, seconds)`` after each step. ``stop()`` is asked before each step:
-    when it returns True (a render is waiting), the remaining steps are skipped, and the render loads what
-    it needs itself."""
+    pixels with each strategy in the order given (the first step loads most: the mesh readers, the models,
+    the path tracer, and the threaded evaluation the preparation of a large image calls). Adaptive
+    strategies build small tables, kept neither on disk nor in memory; other table-based strategies are
+    skipped (their first render loads their kernels). Yields ``(strategy, seconds)`` after each step.
+    ``stop()`` is asked before each material's preparation and before each pass: once it returns True (a
+    render is waiting), loading ends there, and the render loads what is still missing itself."""
     from renderer.render import EAGER_SAMPLERS, prepare
+
+    def check(*_: object) -> None:
+        if stop():
+            raise _Stopped
 
     scene = _kernel_scene()
     wo = np.array([[0.0, 0.6, 0.8]])
@@ -80,24 +88,28 @@ def load_kernels(
         adaptive = name.startswith("adaptive")
         if name not in EAGER_SAMPLERS and not adaptive:
             continue
-        if stop():
-            return
         t0 = time.perf_counter()
-        job = prepare(scene, sampler=name, sampler_options=dict(SMALL_ADAPTIVE) if adaptive else {},
-                      width=8, height=6, seed=0)  # fmt: skip
         try:
-            job.run(spp=1)
-            if first:  # what every strategy's preparation calls on a large image
-                for rt in job.world.materials_by_index:
-                    if rt is not None:
-                        rt.brdf.eval(wo, wo, threads=True)
-                first = False
+            check()
+            job = prepare(scene, sampler=name, sampler_options=dict(SMALL_ADAPTIVE) if adaptive else {},
+                          width=8, height=6, seed=0, on_step=check)  # fmt: skip
+            try:
+                check()
+                job.run(spp=1)
+                if first:  # what every strategy's preparation calls on a large image
+                    for rt in job.world.materials_by_index:
+                        if rt is not None:
+                            rt.brdf.eval(wo, wo, threads=True)
+                    first = False
+            finally:
+                job.world.accel.close()
+        except _Stopped:
+            return
         finally:
-            job.world.accel.close()
-        if adaptive:
-            from core.sampling.adaptive import clear_memory_cache
+            if adaptive:
+                from core.sampling.adaptive import clear_memory_cache
 
-            clear_memory_cache()
+                clear_memory_cache()
         yield name, time.perf_counter() - t0
 
 

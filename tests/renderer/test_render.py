@@ -111,7 +111,8 @@ def test_a_small_first_pass_then_full_passes_numbered_on(scene_file: Path) -> No
 
 def test_kernel_loading_stores_no_table_and_stops_when_asked(tmp_path: Path, monkeypatch) -> None:
     """``load_kernels`` (the render process's idle warm-up) builds small adaptive tables only to load the
-    builders' kernels: none reaches the table cache; and it takes no step once ``stop()`` is True."""
+    builders' kernels: none reaches the table cache; it takes no step once ``stop()`` is True, and stops
+    within a step at the next material."""
     from renderer.warmup import load_kernels
 
     monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
@@ -122,6 +123,10 @@ def test_kernel_loading_stores_no_table_and_stops_when_asked(tmp_path: Path, mon
     assert done == ["uniform", "adaptive_warp"]
     assert not list((tmp_path / "tables").rglob("*.npz"))
     assert list(load_kernels(stop=lambda: True)) == []
+    # a render that arrives during a step waits for one material's preparation, not for the whole step
+    asked = []
+    assert list(load_kernels(("adaptive",), stop=lambda: asked.append(1) or len(asked) > 1)) == []
+    assert len(asked) == 2  # before the step, then before its first material: stopped there
 
 
 def test_pre_pass_finds_the_directions_each_material_is_seen_from(scene_file: Path) -> None:
