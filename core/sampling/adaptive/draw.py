@@ -195,14 +195,6 @@ def _to_tree(wx, wy, wz, c, s, sx, sy):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _sample_linear(u, a, b):
-    """``t`` in ``[0, 1]`` with density proportional to ``(1 - t) a + t b`` (``a, b >= 0``)."""
-    if a + b <= 0.0:
-        return u
-    return min(u * (a + b) / (a + math.sqrt((1.0 - u) * a * a + u * b * b)), 1.0)
-
-
-@njit(inline="always", nogil=True, cache=True)
 def _pick_leaf(cdf, guide, start, end, u):
     """The leaf of ``start : end`` (one tree's, global indices) whose ``cdf`` interval holds ``u``, and its
     probability, the interval's length: the guide table's entry, then a step or two (the steps back undo a
@@ -258,23 +250,39 @@ def _leaf_probability(cdf, start, leaf):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _bilinear_density(v0, v1, v2, v3, tx, ty):
+    """The bilinear density of corner values ``v`` at ``(tx, ty)`` of the unit leaf (it integrates to 1)."""
+    low = (1.0 - tx) * v0 + tx * v1
+    high = (1.0 - tx) * v2 + tx * v3
+    return 4.0 * ((1.0 - ty) * low + ty * high) / (((v0 + v1) + v2) + v3)
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _warp_in_leaf(corners, leaf, state):
-    """A point ``(tx, ty)`` of the unit leaf drawn from its bilinear density (two uniforms, a square root
-    per axis), and that density there (per unit leaf area; the sums the warp needs make it):
-    ``(state, tx, ty, density)``."""
+    """A point ``(tx, ty)`` of the unit leaf drawn from its bilinear density, and that density there (per
+    unit leaf area): ``(state, tx, ty, density)``.
+
+    The bilinear density is the mixture of its four corners' products of ramps, ``v_k / sum v`` times
+    ``4 (1 - tx) (1 - ty)``, ``4 tx (1 - ty)``, ...: a corner chosen by its value, then each coordinate
+    drawn from its ramp by one square root (``t = sqrt(u)`` has density ``2 t``). The same density as
+    inverting the marginal and then the conditional (the warp before 2026-12-02), without its chain of two
+    square roots and two divisions, each waiting on the last: the two roots here are independent."""
     v0 = np.float64(corners[leaf, 0])
     v1 = np.float64(corners[leaf, 1])
     v2 = np.float64(corners[leaf, 2])
     v3 = np.float64(corners[leaf, 3])
+    state, u0 = next_u01(state)
     state, u1 = next_u01(state)
     state, u2 = next_u01(state)
-    left = v0 + v2
-    right = v1 + v3
-    tx = _sample_linear(u1, left, right)
-    low = (1.0 - tx) * v0 + tx * v1
-    high = (1.0 - tx) * v2 + tx * v3
-    ty = _sample_linear(u2, low, high)
-    return state, tx, ty, 4.0 * ((1.0 - ty) * low + ty * high) / (left + right)
+    c1 = v0 + v1
+    c2 = c1 + v2
+    x = u0 * (c2 + v3)  # < the sum, so a corner of value 0 is never chosen
+    k = int(x >= v0) + int(x >= c1) + int(x >= c2)
+    rx = math.sqrt(u1)
+    ry = math.sqrt(u2)
+    tx = rx if k & 1 else 1.0 - rx
+    ty = ry if k >> 1 else 1.0 - ry
+    return state, tx, ty, _bilinear_density(v0, v1, v2, v3, tx, ty)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -285,9 +293,7 @@ def _leaf_density(corners, leaf, tx, ty, h):
     v1 = np.float64(corners[leaf, 1])
     v2 = np.float64(corners[leaf, 2])
     v3 = np.float64(corners[leaf, 3])
-    low = (1.0 - tx) * v0 + tx * v1
-    high = (1.0 - tx) * v2 + tx * v3
-    return 4.0 * ((1.0 - ty) * low + ty * high) / ((v0 + v2) + (v1 + v3)) / (h * h)
+    return _bilinear_density(v0, v1, v2, v3, tx, ty) / (h * h)
 
 
 @njit(inline="always", nogil=True, cache=True)
