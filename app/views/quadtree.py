@@ -128,7 +128,7 @@ class SamplingView(QWidget):
         fig = self.figure_view.figure
         fig.clear()
         self.ax_tree, self.ax_ratio = fig.subplots(1, 2)
-        fig.subplots_adjust(left=0.06, right=0.93, bottom=0.07, top=0.97, wspace=0.2)
+        fig.subplots_adjust(left=0.06, right=0.89, bottom=0.07, top=0.97, wspace=0.2)
         # The panes' titles are Qt labels over the figure, not matplotlib texts: a title changes with most
         # edits (the node serving wo, the layout after a parameter edit), and matplotlib draws a two-line text
         # in ~10 ms on the GUI thread (plus a copy of the saved background); a label costs a fraction of a ms.
@@ -145,12 +145,26 @@ class SamplingView(QWidget):
         layout.addLayout(captions)
         layout.addWidget(self.figure_view, 1)
         layout.addWidget(self.stats)
+        layout.addStretch(0)
         self.snapshot: SamplingSnapshot | None = None
         self.mode.activated.connect(lambda _: self.options_changed.emit())
         self.n_max.valueChanged.connect(lambda _: self.options_changed.emit())
         self.strategy.activated.connect(lambda _: self.options_changed.emit())
         self.n_samples.valueChanged.connect(lambda _: self.options_changed.emit())
         self.show_message("computing ...")
+
+    ASPECT = 0.5
+    """The figure's height over its width: two square panes side by side, their titles right above them."""
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt name)
+        # A figure taller than its two square panes would only hold blank space between them and their titles
+        # (labels above the figure): the figure keeps the panes' height and the rest goes below the facts.
+        super().resizeEvent(event)
+        cap = max(
+            160, int(self.ASPECT * self.figure_view.width()) + self.figure_view.status.sizeHint().height()
+        )
+        if self.figure_view.maximumHeight() != cap:
+            self.figure_view.setMaximumHeight(cap)
 
     def refresh_strategies(self) -> None:
         current = self.strategy.currentText() or "adaptive"

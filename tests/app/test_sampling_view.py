@@ -87,6 +87,10 @@ def test_tree_follows_parameter_and_direction(window, qtbot, tmp_path):
     finally:
         view.figure_view.export = export
     assert seen == [view.tree_caption.text()] and view.ax_tree.get_title() == ""
+    # the titles sit right above their panes: the figure is no taller than its two square panes need
+    fig = view.figure_view
+    assert fig.height() <= view.ASPECT * fig.width() + fig.status.sizeHint().height() + 1
+    assert 0 <= fig.y() - (view.tree_caption.y() + view.tree_caption.height()) <= 12
     window.tabs.setCurrentIndex(0)
 
 
