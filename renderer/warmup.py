@@ -81,7 +81,7 @@ def load_kernels(
         if stop():
             raise _Stopped
 
-    scene = _kernel_scene()
+    scene = None
     wo = np.array([[0.0, 0.6, 0.8]])
     first = True
     for name in dict.fromkeys(strategies):
@@ -91,6 +91,8 @@ def load_kernels(
         t0 = time.perf_counter()
         try:
             check()
+            if scene is None:  # read after the first check: a waiting render does not wait for it
+                scene = _kernel_scene()
             job = prepare(scene, sampler=name, sampler_options=dict(SMALL_ADAPTIVE) if adaptive else {},
                           width=8, height=6, seed=0, on_step=check)  # fmt: skip
             try:
