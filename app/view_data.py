@@ -250,6 +250,8 @@ class SamplingSnapshot:
     """The densities at the ends of ``leaf_rgba``'s colour scale."""
     ratio_rgba: np.ndarray | None = None
     """``ratio`` coloured as the view shows it (:func:`ratio_colours`)."""
+    edges: np.ndarray | None = None
+    """The polyline that outlines the tree's leaves (:func:`leaf_edges`)."""
 
     @property
     def acceptance(self) -> float:
@@ -279,6 +281,53 @@ DENSITY_RANGE = 1e-4
 RATIO_RANGE = 2.0
 """The ratio map's colour scale: ``log2`` of the ratio from ``-RATIO_RANGE`` to ``RATIO_RANGE``."""
 DENSITY_CMAP, RATIO_CMAP = "magma", "coolwarm"
+
+
+OUTLINE_POINTS = 4
+"""Points per edge of a leaf's outline (a base-level leaf's rim edge turns by ~11 degrees)."""
+STRAIGHT_SIDE = 1.0 / 32.0
+"""Leaves this small or smaller are outlined by straight chords (their edges bend by a fraction of a pixel)."""
+OUTLINE_LEVEL = 7
+"""Leaves deeper than this are outlined as their ancestor at this level (1/128 of the square, two or three
+pixels on screen): a sharp lobe's thousands of tiny leaves would cost tens of ms to outline and show as a
+solid patch."""
+
+
+def outline_path(outlines: np.ndarray) -> np.ndarray:
+    """The leaves' outlines ``(k, m, 2)`` as one polyline ``(k (m + 1), 2)``, a NaN row after each outline
+    (a break in the line): one path for the line collection instead of one per leaf, which is a few times
+    cheaper to set and draw, and edges shared by two leaves are not blended twice."""
+    k, m, _ = outlines.shape
+    out = np.full((k, m + 1, 2), np.nan)
+    out[:, :m] = outlines
+    return out.reshape(-1, 2)
+
+
+def outline_boxes(boxes: np.ndarray, max_level: int = OUTLINE_LEVEL) -> np.ndarray:
+    """The boxes ``(m, 4)`` to outline for the leaves ``boxes (k, 4)``: each leaf deeper than ``max_level``
+    replaced by its ancestor at that level, once."""
+    side = boxes[:, 2] - boxes[:, 0]
+    deep = side < 2.0**-max_level
+    if not deep.any():
+        return boxes
+    n = 1 << max_level
+    ij = np.floor(boxes[deep, :2] * n).astype(np.int64)
+    cell = np.unique(ij[:, 0] * n + ij[:, 1])
+    corner = np.stack([cell // n, cell % n], axis=1) / n
+    return np.concatenate([boxes[~deep], np.hstack([corner, corner + 1.0 / n])])
+
+
+def leaf_edges(tree: TreeView) -> np.ndarray:
+    """The polyline :func:`outline_path` that outlines the tree's leaves on its disk (:func:`outline_boxes`;
+    small leaves by chords)."""
+    from core.sampling.adaptive.inspect import leaf_outlines
+
+    boxes = outline_boxes(tree.boxes)
+    small = boxes[:, 2] - boxes[:, 0] <= STRAIGHT_SIDE
+    return np.concatenate([
+        outline_path(leaf_outlines(tree._replace(boxes=boxes[~small]), OUTLINE_POINTS)),
+        outline_path(leaf_outlines(tree._replace(boxes=boxes[small]), 1)),
+    ])  # fmt: skip
 
 
 def leaf_colours(
@@ -410,6 +459,7 @@ def sampling_snapshot(
         leaf_rgba=leaf_rgba,
         density_range=(lo, hi),
         ratio_rgba=None if ratio is None else ratio_colours(ratio),
+        edges=leaf_edges(tree),
         theta_deg=theta_deg,
         phi_deg=phi_deg,
         n_max=float(n_max),

@@ -17,22 +17,13 @@ from app.view_data import (
     TREE_RASTER,
     SamplingSnapshot,
     leaf_colours,
+    leaf_edges,
     ratio_colours,
 )
 from app.views.figure import FigureView
 from core.sampling import sampler_names
-from core.sampling.adaptive.inspect import TreeView, leaf_outlines
 
 RASTER = TREE_RASTER
-OUTLINE_POINTS = 4
-"""Points per edge of a leaf's outline (a base-level leaf's rim edge turns by ~11 degrees)."""
-STRAIGHT_SIDE = 1.0 / 32.0
-"""Leaves this small or smaller are outlined by straight chords (their edges bend by a fraction of a pixel)."""
-OUTLINE_LEVEL = 7
-"""Leaves deeper than this are outlined as their ancestor at this level (1/128 of the square, two or three
-pixels on screen): a sharp lobe's thousands of tiny leaves would cost tens of ms to outline and show as a
-solid patch."""
-
 DISK_RADIUS = {
     "orthographic": "|X| = sin theta_i",
     "equal_area": "|X| = sqrt(1 - cos theta_i)",
@@ -42,41 +33,6 @@ MODE_TIPS = {
     "exact": "exact: rejection against the leaves' bounds; pdf exactly f cos / I (the seed's sampler)",
     "warp": "warp: rejection-free, one evaluation of f per sample; pdf approximates f cos / I",
 }
-
-
-def outline_path(outlines: np.ndarray) -> np.ndarray:
-    """The leaves' outlines ``(k, m, 2)`` as one polyline ``(k (m + 1), 2)``, a NaN row after each outline
-    (a break in the line): one path for the line collection instead of one per leaf, which is a few times
-    cheaper to set and draw, and edges shared by two leaves are not blended twice."""
-    k, m, _ = outlines.shape
-    out = np.full((k, m + 1, 2), np.nan)
-    out[:, :m] = outlines
-    return out.reshape(-1, 2)
-
-
-def outline_boxes(boxes: np.ndarray, max_level: int = OUTLINE_LEVEL) -> np.ndarray:
-    """The boxes ``(m, 4)`` to outline for the leaves ``boxes (k, 4)``: each leaf deeper than ``max_level``
-    replaced by its ancestor at that level, once."""
-    side = boxes[:, 2] - boxes[:, 0]
-    deep = side < 2.0**-max_level
-    if not deep.any():
-        return boxes
-    n = 1 << max_level
-    ij = np.floor(boxes[deep, :2] * n).astype(np.int64)
-    cell = np.unique(ij[:, 0] * n + ij[:, 1])
-    corner = np.stack([cell // n, cell % n], axis=1) / n
-    return np.concatenate([boxes[~deep], np.hstack([corner, corner + 1.0 / n])])
-
-
-def leaf_edges(tree: TreeView) -> np.ndarray:
-    """The polyline :func:`outline_path` that outlines the tree's leaves on its disk (:func:`outline_boxes`;
-    small leaves by chords)."""
-    boxes = outline_boxes(tree.boxes)
-    small = boxes[:, 2] - boxes[:, 0] <= STRAIGHT_SIDE
-    return np.concatenate([
-        outline_path(leaf_outlines(tree._replace(boxes=boxes[~small]), OUTLINE_POINTS)),
-        outline_path(leaf_outlines(tree._replace(boxes=boxes[small]), 1)),
-    ])  # fmt: skip
 
 
 class SamplingView(QWidget):
@@ -265,7 +221,7 @@ class SamplingView(QWidget):
         rgba, lo, hi = self._leaf_colours(snap)
         self._tree_img.set_data(rgba)
         self._tree_img.set_visible(True)
-        self.leaf_edges.set_segments([leaf_edges(tree)])
+        self.leaf_edges.set_segments([leaf_edges(tree) if snap.edges is None else snap.edges])
         self._samples.set_offsets(snap.samples)
         if snap.wo_disk is None:
             self._wo_mark.set_data([], [])

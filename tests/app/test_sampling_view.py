@@ -168,7 +168,7 @@ def test_outlines_of_deep_leaves_are_their_ancestors_and_still_tile_the_square()
     """Leaves deeper than OUTLINE_LEVEL are outlined as their ancestor at that level: what is outlined is
     still a tiling of the square (areas sum to 1, no overlaps), with nothing deeper than that level; one
     polyline holds every outline, each closed and followed by a break."""
-    from app.views.quadtree import OUTLINE_LEVEL, leaf_edges, outline_boxes
+    from app.view_data import OUTLINE_LEVEL, leaf_edges, outline_boxes
     from core.sampling.adaptive.inspect import TreeView
 
     rng = np.random.default_rng(2)

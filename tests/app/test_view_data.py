@@ -14,6 +14,7 @@ from app.view_data import (
     hemisphere_grid,
     incidence_plane,
     leaf_colours,
+    leaf_edges,
     light_from_disk,
     lit_sphere,
     lobe,
@@ -304,6 +305,7 @@ def test_snapshot_colours_are_made_with_it(snapshots):
     _, snap = snapshots["phong", 30.0, "warp"]
     rgba, lo, hi = leaf_colours(snap.tree, snap.leaf_density())
     np.testing.assert_array_equal(snap.leaf_rgba, rgba)
+    np.testing.assert_array_equal(snap.edges, leaf_edges(snap.tree))
     assert snap.density_range == (lo, hi) and 0 < lo < hi
     n = rgba.shape[0]
     c = (np.arange(n) + 0.5) / n * 2.0 - 1.0
