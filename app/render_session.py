@@ -2,11 +2,11 @@
 
 :func:`render_events` prepares each strategy and renders its first pass (a small one) before the next strategy
 is prepared, so the first image of the first strategy never waits for the second's tables; then it
-interleaves their passes so both advance together. Each event is a plain dict the render panel draws. :func:`serve` is the main loop of the render process
-(started by :mod:`app.render_process`): it takes jobs and cancels from a pipe and sends the events of each
-job back through another, so that preparation (kernel compilation, sampler tables) and passes never hold the
-GUI process's interpreter lock. The process stays alive between renders: what it compiled and built is
-reused by the next render.
+interleaves their passes so both advance together. Each event is a plain dict the render panel draws.
+:func:`serve` is the main loop of the render process (started by :mod:`app.render_process`): it takes jobs
+and cancels from a pipe and sends the events of each job back through another, so that preparation (kernel
+compilation, sampler tables) and passes never hold the GUI process's interpreter lock. The process stays
+alive between renders: what it compiled and built is reused by the next render.
 
 Events: ``{"kind": "status", "text"}`` while preparing; ``{"kind": "frame", "strategy", "image", "spp",
 "seconds", "rays", "rmse", "relmse"}`` after every pass (errors only with a reference image);
@@ -302,8 +302,12 @@ def serve(commands: Connection, events: Connection) -> None:
     timeline.mark("process: renderer imported")
     from renderer.warmup import load_kernels
 
-    for name, _ in load_kernels(WARM_STRATEGIES, stop=lambda: not pending.empty()):
-        timeline.mark(f"process: kernels of '{name}' loaded (idle)")
+    try:
+        for name, _ in load_kernels(WARM_STRATEGIES, stop=lambda: not pending.empty()):
+            timeline.mark(f"process: kernels of '{name}' loaded (idle)")
+    except Exception:  # a bug there must not cost the renders: they load what they need themselves
+        traceback.print_exc(file=sys.stderr)
+        timeline.mark("process: kernel loading failed (see stderr)")
     while True:
         job = pending.get()
         job_id = int(job["id"])
