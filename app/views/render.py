@@ -42,7 +42,8 @@ FRAME_INTERVAL_MS = 250
 """Images, counters and the error plot are drawn together, at most every ``FRAME_INTERVAL_MS`` (the plot at
 most every ``PLOT_INTERVAL_MS``): the window is composed through OpenGL (its 3D views), so every repaint of any
 widget flushes the whole window, tens of ms in software GL on a loaded machine (measured with
-``bench/app_latency.py --stacks``: the GUI thread asleep on the GL's futex). One flush per turn, 4 a second."""
+``bench/app_latency.py --stacks``: the GUI thread asleep on the GL's futex). One flush per turn, 4 a second.
+A strategy's first image and the last ones are shown at once."""
 
 
 class RenderPanel(QWidget):
@@ -285,8 +286,9 @@ class RenderPanel(QWidget):
                 else:
                     self._finished()
         self._frames_due.update(latest)
-        if ended:
-            self._show_due_frames()  # the last image of each strategy, at once
+        first = any(len(self.curves.get(name, ())) == 1 for name in latest)
+        if ended or first:
+            self._show_due_frames()  # a strategy's first and last images at once (the user waits for them)
         elif latest and not self._frame_timer.isActive():
             self._frame_timer.start()
         if latest or ended:

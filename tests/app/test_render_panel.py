@@ -286,3 +286,27 @@ def test_a_destroyed_server_is_never_signalled_by_its_reader_threads(qtbot):
     threading.Thread(target=late).start()
     assert done.wait(5.0)
     assert list(server._inbox)  # kept (nobody drains it), never signalled
+
+
+def test_a_strategys_first_image_is_shown_at_once_later_ones_with_the_frame_timer(window):
+    """Frames are drawn at most every FRAME_INTERVAL_MS (one window flush for images, counters and plot),
+    but a strategy's first image is what the user waits for after Render: it is drawn as it arrives."""
+    panel = window.render_view
+    panel.job, panel.curves, panel.frames = 99, {"uniform": [], "cosine": []}, {}
+    try:
+
+        def frame(name, spp, value):
+            image = np.full((6, 8, 3), value, dtype=np.float32)
+            return {"kind": "frame", "job": 99, "strategy": name, "spp": spp, "seconds": 0.1 * spp,
+                    "rmse": float("nan"), "relmse": float("nan"), "rays": 100, "image": image}  # fmt: skip
+
+        panel._on_events([frame("uniform", 1, 0.25)])
+        assert panel.view_a.rgb8 is not None and panel.view_a.rgb8.shape == (6, 8, 3)
+        first = panel.view_a.rgb8.copy()
+        panel._on_events([frame("uniform", 2, 0.75)])  # not the first: waits for the timer
+        assert np.array_equal(panel.view_a.rgb8, first) and panel._frame_timer.isActive()
+        panel._on_events([frame("cosine", 1, 0.5)])  # cosine's first: at once, with uniform's due one
+        assert panel.view_b.rgb8 is not None and not np.array_equal(panel.view_a.rgb8, first)
+    finally:
+        panel._frame_timer.stop()
+        panel.job, panel.curves, panel.frames = None, {}, {}
