@@ -236,6 +236,8 @@ def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_fo
 
 
 def test_a_progressive_sampler_starts_coarse_and_swaps_in_the_full_table_when_asked():
+    """A coarse table at once, exact all the same; the full one built in the background once a refresh asks
+    for it, and swapped in by a refresh."""
     from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
 
     brdf = make_brdf("ggx", {"alpha": 0.1})
@@ -244,6 +246,10 @@ def test_a_progressive_sampler_starts_coarse_and_swaps_in_the_full_table_when_as
     assert len(sampler.table.thetas) == len(INITIAL_THETAS_DEG)
     coarse = sampler.sample_each(wo, seed=1)
     np.testing.assert_allclose(sampler.pdf(wo, coarse.wi), coarse.pdf, rtol=1e-9)
+    # the full build is queued by the first refresh (a renderer's first pass does not share the cores with it)
+    from core.sampling.adaptive import sampler as module
+
+    assert sampler.key not in module._BUILDING and not sampler.complete
     assert sampler.refresh(wait=True)
     assert sampler.complete and len(sampler.table.thetas) > len(INITIAL_THETAS_DEG)
     assert not sampler.refresh()
@@ -326,3 +332,23 @@ def test_chi2_full_sweep(model, mode, n_max):
     if mode == "exact":
         wo = np.array([_wo(t, 17.0) for t in thetas])
         assert np.all(sampler.acceptance(wo) >= 1.0 / n_max)
+
+
+def test_the_normalizers_fine_table_is_the_cubic_through_the_nearest_nodes():
+    """normalizer_table resamples the nodes' values by Lagrange cubics through the four nearest nodes: a cubic
+    in s is reproduced exactly (to rounding) anywhere, the nodes' own values at the nodes, with 1-3 nodes the
+    polynomial of their degree."""
+    from core.sampling.adaptive.layout import NORM_SAMPLES, THETA_END, norm_coordinate, normalizer_table
+
+    rng = np.random.default_rng(5)
+    for k in (1, 2, 3, 4, 7, 23):
+        thetas = np.sort(rng.uniform(0.0, THETA_END, k))
+        s = norm_coordinate(thetas)
+        degree = min(k - 1, 3)
+        coef = rng.normal(size=(degree + 1, 3))
+        values = np.stack([np.polyval(c, s) for c in coef.T], axis=1)
+        table, ds = normalizer_table(thetas, values)
+        grid = np.arange(NORM_SAMPLES) * ds
+        expect = np.stack([np.polyval(c, grid) for c in coef.T], axis=1)
+        assert table.shape == (NORM_SAMPLES, 3)
+        np.testing.assert_allclose(table, expect, rtol=1e-8, atol=1e-8 * np.abs(expect).max())

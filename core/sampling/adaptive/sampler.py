@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import asdict, fields, replace
 from typing import Any
 
@@ -48,8 +48,13 @@ from core.threads import thread_budget
 
 _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
 """Tables in memory by key (model, parameters, options, sources): one per material per process."""
-_BUILDING: dict[str, threading.Thread] = {}
-"""Full tables being built in the background for progressive samplers, by key."""
+_BUILDING: dict[str, Future] = {}
+"""Full tables queued or being built in the background for progressive samplers, by key."""
+_FAILED: set[str] = set()
+"""Keys whose background build failed (not queued again: the coarse table stays)."""
+_BUILDER: ThreadPoolExecutor | None = None
+"""The one background thread that builds full tables, one at a time in the order asked (each build runs its
+nodes on numba's threads already)."""
 _LOCK = threading.Lock()
 
 PARALLEL_MIN = 1 << 14
@@ -220,20 +225,27 @@ class AdaptiveSampler(Sampler):
         return entry
 
     def _coarse(self) -> tuple[AdaptiveTable, TableReport]:
-        """The initial layout's table now, the full one on a background thread (once per key)."""
+        """The initial layout's table now; the full one is queued at the first :meth:`refresh`."""
         coarse_key = self.key + ":coarse"
         with _LOCK:
-            if self.key not in _BUILDING:
-                thread = threading.Thread(
-                    target=self._build_in_background, name="adaptive-table", daemon=True
-                )
-                _BUILDING[self.key] = thread
-                thread.start()
             entry = _TABLES.get(coarse_key)
             if entry is None:
                 entry = build_table(self.brdf, replace(self.options, rounds=1))
                 _TABLES[coarse_key] = entry
         return entry
+
+    def _queue_full(self) -> Future | None:
+        """The background build of the full table (queued now if it is not there, queued or running)."""
+        global _BUILDER
+        with _LOCK:
+            if self.key in _TABLES or self.key in _FAILED:
+                return None
+            future = _BUILDING.get(self.key)
+            if future is None:
+                if _BUILDER is None:
+                    _BUILDER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="adaptive-table")
+                future = _BUILDING[self.key] = _BUILDER.submit(self._build_in_background)
+        return future
 
     def _build_in_background(self) -> None:
         try:
@@ -241,17 +253,24 @@ class AdaptiveSampler(Sampler):
             if self.cache is not None:
                 save_table(self.cache, self.key, *entry)
             _TABLES[self.key] = entry
+        except BaseException:
+            _FAILED.add(self.key)
+            raise
         finally:
             with _LOCK:
                 _BUILDING.pop(self.key, None)
 
     def refresh(self, wait: bool = False) -> bool:
         """Swap in the full table if it is ready (``wait``: block until it is); True when the table changed.
-        Call it between batches whose densities must agree (a renderer's passes)."""
-        if wait:
-            thread = _BUILDING.get(self.key)
-            if thread is not None:
-                thread.join()
+        Call it between batches whose densities must agree (a renderer's passes).
+
+        The full table of a progressive sampler is queued at the first call, not when the coarse one is made:
+        a renderer prepares every material (coarse tables) and renders a first pass before the full builds
+        take a core from it, and the builds run one at a time on one background thread."""
+        if self._current is not None and self._current is not _TABLES.get(self.key):
+            future = self._queue_full()
+            if wait and future is not None:
+                future.result()
         full = _TABLES.get(self.key)
         if full is not None and self._current is not full:
             self._current = full
