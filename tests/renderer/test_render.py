@@ -61,14 +61,9 @@ def test_progressive_passes_callback_and_cancel(scene_file: Path) -> None:
     assert job.run(spp=3).spp == 3
 
 
-def test_passes_of_any_size_use_each_sample_number_once(scene_file: Path) -> None:
-    """A progressive render numbers its samples by what the film holds, so passes of unequal size (a last
-    pass cut to the budget, a resumed render with another batch) never reuse a pixel's low-discrepancy
-    points: 3 + 1 + 4 samples in three passes are samples 0-2, 3 and 4-7."""
-    from core.scene import load_scene
-
-    job = prepare(load_scene(scene_file), width=32, height=32)
-    used = []
+def _spy_passes(job) -> list[tuple[int | None, int]]:  # type: ignore[no-untyped-def]
+    """Record ``(first_sample, spp)`` of every pass the job's tracer renders (and render it)."""
+    used: list[tuple[int | None, int]] = []
     real = job.tracer.render_pass
 
     def spy(pass_index, spp=1, first_sample=None):  # type: ignore[no-untyped-def]
@@ -76,6 +71,17 @@ def test_passes_of_any_size_use_each_sample_number_once(scene_file: Path) -> Non
         return real(pass_index, spp, first_sample)
 
     job.tracer.render_pass = spy  # type: ignore[method-assign]
+    return used
+
+
+def test_passes_of_any_size_use_each_sample_number_once(scene_file: Path) -> None:
+    """A progressive render numbers its samples by what the film holds, so passes of unequal size (a last
+    pass cut to the budget, a resumed render with another batch) never reuse a pixel's low-discrepancy
+    points: 3 + 1 + 4 samples in three passes are samples 0-2, 3 and 4-7."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=32, height=32)
+    used = _spy_passes(job)
     job.batch = 3
     job.run(spp=4)
     job.batch = 4
@@ -90,14 +96,7 @@ def test_a_small_first_pass_then_full_passes_numbered_on(scene_file: Path) -> No
     from core.scene import load_scene
 
     job = prepare(load_scene(scene_file), width=16, height=16)
-    used = []
-    real = job.tracer.render_pass
-
-    def spy(pass_index, spp=1, first_sample=None):  # type: ignore[no-untyped-def]
-        used.append((first_sample, spp))
-        return real(pass_index, spp, first_sample)
-
-    job.tracer.render_pass = spy  # type: ignore[method-assign]
+    used = _spy_passes(job)
     job.batch = 3
     assert [f.spp for f in job.passes(spp=7, first_spp=1)] == [1, 4, 7]
     assert used == [(0, 1), (1, 3), (4, 3)]
