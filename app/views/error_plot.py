@@ -29,6 +29,7 @@ class ErrorPlot(FigureView):
             parent,
             size=(7.0, 2.3),
             margins={"left": 0.09, "right": 0.98, "bottom": 0.2, "top": 0.88, "wspace": 0.28},
+            status_lines=2,  # the verdict's two lines, whether it is there or not: the canvas keeps its size
         )
         self.figure.clear()
         self.axes_by_metric = {m: self.figure.add_subplot(1, 2, i + 1) for i, (m, _) in enumerate(METRICS)}
@@ -36,9 +37,6 @@ class ErrorPlot(FigureView):
         self._lines: dict[tuple[str, str], object] | None = None
         self._limits_set: dict[str, bool] = {}
         self.verdict = ""
-        # The verdict's line keeps its height when the verdict appears half-way through a render: a taller
-        # label would shrink the canvas, and a canvas of a new size needs a full draw.
-        self.status.setMinimumHeight(2 * self.status.fontMetrics().lineSpacing())
         self.horizon: float | None = None
         """The render's expected length in seconds (equal time), or ``None``: the time axis reaches past it at
         once, so the render needs no full draw for the time axis after its first frame."""

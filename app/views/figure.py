@@ -8,13 +8,46 @@ from pathlib import Path
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from matplotlib.figure import Figure
-from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
+from PySide6.QtCore import QSize, Qt
+from PySide6.QtGui import QPainter, QStaticText
+from PySide6.QtWidgets import QSizePolicy, QVBoxLayout, QWidget
 
 from core.errors import OutputError
 
 
+class StatusLine(QWidget):
+    """A status text of ``lines`` lines (rich text allowed; wrapped, clipped beyond its height) that never
+    moves the layout around it. A ``QLabel`` asks its layout to lay out again on every new text, and the request
+    climbs to the window: an edit's new status under the polar slice laid out and repainted the whole tab
+    twice, two more window flushes (each composes the window in software GL: tens of ms). This one only
+    repaints itself."""
+
+    def __init__(self, lines: int = 1, parent: QWidget | None = None):
+        super().__init__(parent)
+        self._text = ""
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.setFixedHeight(lines * self.fontMetrics().lineSpacing() + 2)
+
+    def text(self) -> str:
+        return self._text
+
+    def setText(self, text: str) -> None:  # noqa: N802 (QLabel's name)
+        if text != self._text:
+            self._text = text
+            self.update()
+
+    def sizeHint(self) -> QSize:  # noqa: N802
+        return QSize(80, self.height())
+
+    def paintEvent(self, event) -> None:  # noqa: N802
+        text = QStaticText(self._text)
+        text.setTextFormat(Qt.TextFormat.AutoText)
+        text.setTextWidth(self.width())
+        QPainter(self).drawStaticText(0, 1, text)
+
+
 class FigureView(QWidget):
-    """A matplotlib figure in a widget, with a status line and export to PNG/SVG.
+    """A matplotlib figure in a widget, with a status line (``status_lines`` high) and export to PNG/SVG.
 
     Two ways to show a change: :meth:`redraw` draws the whole figure (axes, ticks, text: tens of ms), and
     :meth:`update_artists` redraws only the artists declared with :meth:`set_animated` over a saved copy of
@@ -24,7 +57,8 @@ class FigureView(QWidget):
     when they change (:meth:`update_overlay`), not on every update and without a full draw.
     """
 
-    def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None):
+    def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None,
+                 status_lines: int = 2):  # fmt: skip
         super().__init__(parent)
         # Fixed margins: a layout engine ("tight") re-measures every text on every draw, which made a redraw
         # during a slider drag cost hundreds of milliseconds.
@@ -32,8 +66,7 @@ class FigureView(QWidget):
         self.figure.subplots_adjust(**(margins or {"left": 0.16, "right": 0.96, "bottom": 0.15, "top": 0.9}))
         self.canvas = FigureCanvasQTAgg(self.figure)
         self.axes = self.figure.add_subplot(111, projection="polar" if polar else None)
-        self.status = QLabel("")
-        self.status.setWordWrap(True)
+        self.status = StatusLine(status_lines)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.canvas, 1)

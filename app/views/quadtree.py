@@ -80,7 +80,7 @@ class SamplingView(QWidget):
         # would resize the figure, and a resized figure is drawn in full instead of blitted
         self.stats.setMinimumHeight(7 * self.stats.fontMetrics().lineSpacing())
         self.stats.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
-        self.figure_view = FigureView(size=(8.0, 4.2))
+        self.figure_view = FigureView(size=(8.0, 4.2), status_lines=1)  # (its facts are in self.stats)
         fig = self.figure_view.figure
         fig.clear()
         self.ax_tree, self.ax_ratio = fig.subplots(1, 2)

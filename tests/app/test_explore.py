@@ -270,3 +270,39 @@ def test_views_on_a_hidden_tab_wait_until_it_is_shown(window, qtbot):
     qtbot.waitUntil(lambda: not np.array_equal(polar.values, before[1]), timeout=10_000)
     assert not np.allclose(lobe.mesh.points, before[0])
     assert not np.array_equal(sphere.image_rgb, before[2])
+
+
+def test_a_new_status_line_repaints_itself_and_lays_nothing_out(window, qtbot):
+    """The status under the polar slice changes with every edit; a QLabel there asked its layout to lay out
+    again, up to the window, and the whole tab was repainted twice more. The status line repaints itself only."""
+    from PySide6.QtCore import QEvent, QObject
+
+    from core.model import make_brdf
+
+    window.tabs.setCurrentWidget(window.explore)
+    polar = window.polar_view
+    wo = np.array([0.5, 0.0, np.sqrt(0.75)])
+    polar.show_slice(make_brdf("phong", {"n": 20.0}), wo)
+    qtbot.wait(50)
+
+    class Layouts(QObject):
+        count = 0
+
+        def eventFilter(self, obj, event):  # noqa: N802 (Qt name)
+            if event.type() == QEvent.Type.LayoutRequest:
+                self.count += 1
+            return False
+
+    layouts = Layouts()
+    watched = [polar, polar.parentWidget(), window.explore]
+    for w in watched:
+        w.installEventFilter(layouts)
+    before = polar.status.text()
+    try:
+        polar.show_slice(make_brdf("phong", {"n": 90.0}), wo)
+        qtbot.wait(50)
+    finally:
+        for w in watched:
+            w.removeEventFilter(layouts)
+    assert polar.status.text() != before and "peak" in polar.status.text()
+    assert layouts.count == 0
