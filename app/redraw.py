@@ -26,6 +26,9 @@ if TYPE_CHECKING:
     from app.main_window import MainWindow
 
 SLOW_JOB_DELAY_MS = 300
+FOLLOW_UP_SETTLE_S = 0.25
+"""The sampler view shows a material's coarse table while its full one is built (in the snapshot process),
+then asks again, each time waiting up to this long there for the full table."""
 
 
 class Redrawer(QObject):
@@ -40,6 +43,10 @@ class Redrawer(QObject):
         self._pending: set[str] = set()
         self._sampling_stale = True
         self._sampling_requested = 0.0
+        self._sampling_ident: tuple = ()
+        """What the last snapshot asked for was of (material, direction, view options)."""
+        self._shown_coarse: tuple | None = None
+        """The request whose coarse-table snapshot the sampler view shows (None: a full table's)."""
         self._timer = QTimer(window)
         self._timer.setSingleShot(True)
         self._timer.setInterval(0)
@@ -106,17 +113,22 @@ class Redrawer(QObject):
             return
         wo = np.array(doc.wo())
         # The sampler view's tree is made in another process: ask first so it runs while this thread draws.
-        if pending & {"brdf", "direction", "sampling", "tab"}:
+        if pending & {"brdf", "direction", "sampling", "tab", "follow-up"}:
             self._sampling_stale = True
         if self._sampling_stale and (self.sampling_always or w.tabs.currentWidget() is w.sampling_panel):
             self._sampling_stale = False
-            opts = w.sampling_view.options()
+            view_opts = w.sampling_view.options()
+            # A new material shows its coarse table's tree at once; a follow-up (only after a coarse snapshot,
+            # with nothing else changed) waits a moment for the full table (see FOLLOW_UP_SETTLE_S).
+            settle = FOLLOW_UP_SETTLE_S if pending == {"follow-up"} else 0.0
+            opts = {**view_opts, "progressive": True, "settle": settle}
             mat = doc.material()
             spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
             self._sampling_requested = time.perf_counter()
+            self._sampling_ident = (brdf.key(), doc.theta_deg, doc.phi_deg, tuple(sorted(view_opts.items())))
             self.sampling_lane.submit(Job(
                 snapshot_process.snapshot, (spec, doc.theta_deg, doc.phi_deg), opts,
-                key=(brdf.key(), doc.theta_deg, doc.phi_deg, tuple(sorted(opts.items()))),
+                key=(*self._sampling_ident, settle),
                 done=self._sampling_done, failed=w.sampling_view.show_message,
             ))  # fmt: skip
         if pending & {"brdf", "direction"}:
@@ -149,8 +161,15 @@ class Redrawer(QObject):
             )
 
     def _sampling_done(self, snapshot: Any) -> None:
-        self._timed("sampling_draw", self.window.sampling_view.show_snapshot, snapshot)
-        self.timings["sampling"] = time.perf_counter() - self._sampling_requested
+        table = snapshot.table
+        coarse = not table.get("complete", True)
+        # a follow-up that found the full table still building brings the same coarse picture: not drawn again
+        if not (coarse and self._shown_coarse == self._sampling_ident):
+            self._timed("sampling_draw", self.window.sampling_view.show_snapshot, snapshot)
+            self.timings["sampling"] = time.perf_counter() - self._sampling_requested
+        self._shown_coarse = self._sampling_ident if coarse else None
+        if coarse and table.get("full_pending", False):
+            self.schedule("follow-up")
 
     def _start_slow_jobs(self) -> None:
         w = self.window

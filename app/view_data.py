@@ -180,15 +180,16 @@ ADAPTIVE_SAMPLERS = {"exact": "adaptive", "warp": "adaptive_warp"}
 """The registered sampler of each mode of the adaptive sampler."""
 
 
-def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0):  # noqa: ANN201
+def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0, progressive: bool = False):  # noqa: ANN201
     """The adaptive sampler of ``brdf`` in ``mode`` (``"exact"`` or ``"warp"``); both modes read one table
-    per material and ``n_max`` (made on first use, kept in memory and on disk)."""
+    per material and ``n_max`` (made on first use, kept in memory and on disk). ``progressive``: a coarse
+    table at once when the full one is not made yet (see :class:`core.sampling.adaptive.AdaptiveSampler`)."""
     from core.errors import ParameterError
     from core.sampling import make_sampler
 
     if mode not in ADAPTIVE_SAMPLERS:
         raise ParameterError(f"the adaptive sampler's mode must be 'exact' or 'warp', got {mode!r}")
-    return make_sampler(ADAPTIVE_SAMPLERS[mode], brdf, n_max=n_max)
+    return make_sampler(ADAPTIVE_SAMPLERS[mode], brdf, n_max=n_max, progressive=progressive)
 
 
 def adaptive_line(brdf: BRDF) -> str:
@@ -403,6 +404,8 @@ def sampling_snapshot(
     n_samples: int = 2000,
     seed: int = 1,
     grid: int = 96,
+    progressive: bool = False,
+    settle: float = 0.0,
 ) -> SamplingSnapshot:
     """What the sampler view draws, computed off the GUI thread (no Qt: it runs in the snapshot process).
 
@@ -412,6 +415,12 @@ def sampling_snapshot(
     the pixel is ``h``, and ``wi = 2 (wo.h) h - wo``), so the two images compare point for point. ``I`` is the
     exact mode's normalizer ``I(wo)`` (a quadrature beyond the table's last node): the exact mode's map is 1
     wherever ``f > 0``.
+
+    ``progressive``: when the material's full table is not made yet, draw from its coarse table (made in a
+    fraction of the time; exact all the same) and start the full one in the background, waiting for it up to
+    ``settle`` seconds; ``table["complete"]`` says which one the snapshot shows (the app asks again until it
+    is the full one: a new parameter value shows its tree in a fraction of a second, not after the whole
+    table's build).
     """
     from core.errors import BrdfStudioError
     from core.sampling import make_sampler, sampler_names
@@ -419,7 +428,10 @@ def sampling_snapshot(
 
     t, p = math.radians(theta_deg), math.radians(phi_deg)
     wo = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-    sampler = adaptive_sampler(brdf, mode, n_max)
+    sampler = adaptive_sampler(brdf, mode, n_max, progressive)
+    if progressive:
+        sampler.preload()
+        sampler.refresh(wait=settle > 0.0, timeout=settle)
     tree = tree_view(sampler, wo)
     batch, trials = sampler.sample_with_trials(np.repeat(wo[None, :], int(n_samples), axis=0), seed)
     points = to_tree_disk(sampler, wo, batch.wi)
@@ -440,7 +452,8 @@ def sampling_snapshot(
                 other, drawn = sampler, batch  # the draw shown (same seed and count)
             else:
                 adaptive = ratio_sampler in ADAPTIVE_SAMPLERS.values()
-                other = make_sampler(ratio_sampler, brdf, **({"n_max": n_max} if adaptive else {}))
+                extra = {"n_max": n_max, "progressive": progressive} if adaptive else {}
+                other = make_sampler(ratio_sampler, brdf, **extra)
                 drawn = other.sample(wo, n_samples, seed)
             pdf = other.pdf(np.broadcast_to(wo, wi[up].shape), wi[up])
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -473,5 +486,5 @@ def sampling_snapshot(
         ratio=ratio,
         ratio_error=ratio_error,
         weight_rel_std=rel_std,
-        table=sampler.info(),
+        table={**sampler.info(), "complete": sampler.complete, "full_pending": sampler.full_pending},
     )

@@ -21,7 +21,9 @@
    from the sampler's in-memory cache (the app's case for undo/redo or a slider going back); ``--fresh``
    gives every edit a new value, so every edit makes a new table (the case of a slider drag: a whole table,
    every node's tree, made by ``core.sampling.adaptive.table``). The run has a table cache of its own, so
-   tables stored by an earlier run are not reused.
+   tables stored by an earlier run are not reused. A new material's first tree comes from its coarse table
+   (the full one follows from the background build: ``app.redraw``); ``tree`` times the first tree shown, and
+   the ``coarse`` column counts the edits whose first tree was a coarse table's.
 2. ``stall``: a 10 ms ``QTimer`` probe on the GUI thread while the render panel renders the demo scene
    (uniform against ``--strategy-b``, equal time), in three phases: ``start`` (from the click until both
    strategies have shown a frame: process start, preparation, compilation), ``render`` (until done) and
@@ -102,6 +104,8 @@ class ScreenClock:
         self.renders: list[float] = []
         self.paints: dict[str, list[float]] = {"tree": [], "polar": [], "sphere": []}
         self.shown: list[float] = []
+        self.shown_coarse: list[bool] = []
+        """Whether each snapshot shown was of a coarse table (a new material's first tree, see app.redraw)."""
         plotter = window.lobe_view.plotter
         self.has_flush = hasattr(plotter, "frameSwapped")
         if self.has_flush:  # a QOpenGLWidget: every flush of the window composes it and emits this
@@ -132,6 +136,7 @@ class ScreenClock:
 
         def show_snapshot(snap):
             self.shown.append(time.perf_counter())
+            self.shown_coarse.append(not snap.table.get("complete", True))
             return show(snap)
 
         view.show_snapshot = show_snapshot
@@ -139,6 +144,10 @@ class ScreenClock:
     @staticmethod
     def _first(times: list[float], after: float) -> float | None:
         return next((t for t in times if t >= after), None)
+
+    def first_tree_coarse(self, t0: float) -> bool:
+        """Whether the first snapshot shown after ``t0`` was of a coarse table."""
+        return next((c for t, c in zip(self.shown, self.shown_coarse, strict=True) if t >= t0), False)
 
     def on_screen(self, what: str, t0: float) -> float | None:
         """When ``what`` (lobe, tree, polar, sphere) first reached the screen after ``t0`` (None: not yet)."""
@@ -177,7 +186,8 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
     )
     print(f"edits: {mode}; ms from the edit until on screen")
     print(
-        f"{'model':<20} {'param':<8} {'lobe ms':>9} {'tree ms':>9} {'lobe+tree':>10} {'all views':>10} {'tree draw':>10}  (median / max)"
+        f"{'model':<20} {'param':<8} {'lobe ms':>9} {'tree ms':>9} {'lobe+tree':>10} {'all views':>10} {'tree draw':>10} "
+        f"{'coarse':>6}  (median / max; coarse: edits whose first tree was the coarse table's)"
     )
     views = ("lobe", "tree", "polar", "sphere")
     for name in models:
@@ -203,6 +213,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
         window.flush_slow_jobs()  # the albedo quadrature must not run during the timed edits
         run_until(window.jobs_idle, timeout=120.0)
         per_view: dict[str, list[float]] = {v: [] for v in (*views, "both", "all", "draw")}
+        coarse = 0
         for k in range(edits):
             t0 = time.perf_counter()
             doc.set_param(param.name, values[k])
@@ -219,6 +230,7 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
             ms["both"] = max(ms["lobe"], ms["tree"])
             ms["all"] = max(ms[v] for v in views)
             ms["draw"] = window.timings.get("sampling_draw", float("nan")) * 1e3  # on the GUI thread
+            coarse += clock.first_tree_coarse(t0)
             for v, x in ms.items():
                 per_view[v].append(x)
             rows.append({"model": name, "param": param.name, "value": values[k], "edit": k,
@@ -229,7 +241,8 @@ def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> 
         med = lambda x: f"{statistics.median(x):5.0f}/{max(x):<4.0f}"  # noqa: E731
         print(
             f"{name:<20} {param.name:<8} {med(per_view['lobe']):>9} {med(per_view['tree']):>9} "
-            f"{med(per_view['both']):>10} {med(per_view['all']):>10} {med(per_view['draw']):>10}"
+            f"{med(per_view['both']):>10} {med(per_view['all']):>10} {med(per_view['draw']):>10} "
+            f"{coarse:>3}/{len(per_view['both'])}"
         )
     print(f"load average after part 1: {os.getloadavg()[0]:.2f}")
     return rows

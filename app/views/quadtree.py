@@ -243,6 +243,8 @@ class SamplingView(QWidget):
             if table.get("from_cache")
             else f"built in {table['build_seconds'] * 1e3:.0f} ms"
         )
+        if not table.get("complete", True):
+            built += " (the coarse table: the full one is being built)"
         proposal = "density of trials K_L q / V" if snap.mode == "exact" else "rejection-free density q"
         lines = [
             f"Tree {tree.tree + 1} of {table['trees']}: {len(tree.boxes)} leaves, coloured by the {snap.mode} "

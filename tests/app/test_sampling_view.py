@@ -21,6 +21,9 @@ def _wait_snapshot(window, qtbot, predicate, timeout=COMPILE_TIMEOUT_MS):
         lambda: (
             window.jobs_idle("sampling")
             and window.sampling_view.snapshot is not None
+            and window.sampling_view.snapshot.table.get(
+                "complete", True
+            )  # not a coarse table's first picture
             and predicate(window.sampling_view.snapshot)
         ),
         timeout=timeout,
@@ -208,3 +211,49 @@ def test_outlines_of_deep_leaves_are_their_ancestors_and_still_tile_the_square()
     line = leaf_edges(view)
     assert int(np.sum(np.isnan(line[:, 0]))) == len(out)
     assert np.all(np.hypot(line[:, 0], line[:, 1])[~np.isnan(line[:, 0])] <= 1.0 + 1e-12)
+
+
+def test_a_new_material_shows_its_coarse_tree_at_once_then_the_full_tables(window, qtbot):
+    """A parameter value never seen before: the sampler view shows the coarse table's tree (made in a fraction
+    of the full build, exact all the same) and says so, then the full table's when its background build is
+    done; the same coarse picture is not drawn again while the app waits for it."""
+    import shutil
+
+    from app.view_data import adaptive_sampler
+    from core.cache import TableCache
+    from core.model import make_brdf
+
+    params = {"alpha": 0.0737}
+    # a table stored by an earlier run (the app's cache is the user's) would be loaded whole: remove it
+    key = adaptive_sampler(make_brdf("ggx", params), "exact", view_n_max := 2.0).key
+    shutil.rmtree(TableCache().folder / key[:32], ignore_errors=True)
+    window.sampling_view.n_max.setValue(view_n_max)
+    window.sampling_view.mode.setCurrentText("exact")  # (its table's key: the warp mode's has no bounds)
+    _use(window, "ggx", "ggx-fresh", params)
+    window.document.set_direction(40.0, 0.0)
+    window.tabs.setCurrentWidget(window.sampling_panel)
+    view = window.sampling_view
+    shown = []
+    show = view.show_snapshot
+
+    def show_and_record(snap):
+        show(snap)
+        shown.append((snap, view.stats.text()))
+
+    view.show_snapshot = show_and_record
+    # (the material editor's facts would build the same full table in this process meanwhile, and store it)
+    slow = window.redraw.slow_timer
+    slow.timeout.disconnect()
+    try:
+        full = _wait_snapshot(window, qtbot, lambda s: s.theta_deg == 40.0)
+    finally:
+        del view.show_snapshot
+        slow.timeout.connect(window.redraw._start_slow_jobs)
+    coarse = [snap for snap, _ in shown if not snap.table["complete"]]
+    assert coarse, "the first picture of a new material was not its coarse table's"
+    assert "the coarse table" in shown[0][1] and "the coarse table" not in shown[-1][1]
+    assert len(coarse) == 1  # a follow-up that still found the table building drew nothing
+    assert shown[-1][0] is full and full.table["complete"]
+    assert coarse[0].table["theta_nodes"] < full.table["theta_nodes"]
+    assert 1.0 / coarse[0].n_max <= coarse[0].acceptance <= 1.0
+    window.tabs.setCurrentIndex(0)

@@ -321,3 +321,20 @@ def test_snapshot_colours_are_made_with_it(snapshots):
     np.testing.assert_array_equal(got[1, 0], cmap(0.0, bytes=True))
     np.testing.assert_array_equal(got[1, 1], cmap(1.0, bytes=True))
     assert snap.ratio_rgba is not None and snap.ratio_rgba.shape == (*snap.ratio.shape, 4)
+
+
+def test_a_progressive_snapshot_shows_the_coarse_table_until_the_full_one_is_made(monkeypatch, tmp_path):
+    """The sampler view's first picture of a new material comes from its coarse table (exact all the same:
+    the exact mode's map is 1 wherever f > 0) with the full table on its way; asking again, waiting for it,
+    gives the full table's."""
+    from core.model import make_brdf
+
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
+    brdf = make_brdf("ggx", {"alpha": 0.0911})
+    first = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True)
+    assert not first.table["complete"] and first.table["full_pending"]
+    finite = np.isfinite(first.ratio)
+    np.testing.assert_allclose(first.ratio[finite & (first.ratio > 0)], 1.0, rtol=1e-6)
+    later = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True, settle=120.0)
+    assert later.table["complete"] and not later.table["full_pending"]
+    assert later.table["theta_nodes"] > first.table["theta_nodes"]

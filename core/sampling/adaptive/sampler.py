@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import threading
 from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import asdict, fields, replace
 from typing import Any
 
@@ -260,9 +261,9 @@ class AdaptiveSampler(Sampler):
             with _LOCK:
                 _BUILDING.pop(self.key, None)
 
-    def refresh(self, wait: bool = False) -> bool:
-        """Swap in the full table if it is ready (``wait``: block until it is); True when the table changed.
-        Call it between batches whose densities must agree (a renderer's passes).
+    def refresh(self, wait: bool = False, timeout: float | None = None) -> bool:
+        """Swap in the full table if it is ready (``wait``: block until it is, or ``timeout`` seconds); True
+        when the table changed. Call it between batches whose densities must agree (a renderer's passes).
 
         The full table of a progressive sampler is queued at the first call, not when the coarse one is made:
         a renderer prepares every material (coarse tables) and renders a first pass before the full builds
@@ -270,12 +271,21 @@ class AdaptiveSampler(Sampler):
         if self._current is not None and self._current is not _TABLES.get(self.key):
             future = self._queue_full()
             if wait and future is not None:
-                future.result()
+                try:
+                    future.result(timeout)
+                except FutureTimeout:
+                    pass
         full = _TABLES.get(self.key)
         if full is not None and self._current is not full:
             self._current = full
             return True
         return False
+
+    @property
+    def full_pending(self) -> bool:
+        """Whether a progressive sampler on its coarse table will find the full one at a later
+        :meth:`refresh` (it is queued, being built or ready; not when its build failed)."""
+        return not self.complete and (self.key in _BUILDING or self.key in _TABLES)
 
     @property
     def complete(self) -> bool:
