@@ -18,7 +18,7 @@ from PySide6.QtCore import QEvent, QObject, QTimer
 
 from app import snapshot_process
 from app.jobs import Job, Lane
-from app.view_data import adaptive_line, albedo_line, directional_albedo
+from app.view_data import albedo_line, directional_albedo
 from app.views.albedo import ALBEDO_THETAS_DEG
 from core.errors import BrdfStudioError
 
@@ -190,8 +190,10 @@ class Redrawer(QObject):
         self.albedo_lane.submit(
             Job(albedo, (brdf,), key=brdf.key(), done=albedo_done, failed=w.albedo_view.show_message)
         )
+        mat = self.document.material()
+        spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
         self.adaptive_lane.submit(Job(
-            adaptive_line, (brdf,), key=brdf.key(),
+            snapshot_process.table_facts, (spec,), key=brdf.key(),
             done=lambda line: w.material_editor.set_info("adaptive", line),
             failed=lambda message: w.material_editor.set_info("adaptive", message),
         ))  # fmt: skip

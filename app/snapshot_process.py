@@ -106,6 +106,24 @@ def _snapshot_here(spec: Spec, theta_deg: float, phi_deg: float, options: dict) 
     return sampling_snapshot(_brdf(spec), theta_deg, phi_deg, **options)
 
 
+def _facts_here(spec: Spec) -> str:
+    from app.view_data import adaptive_line
+
+    return adaptive_line(_brdf(spec))
+
+
+def table_facts(spec: Spec) -> str:
+    """:func:`app.view_data.adaptive_line` of the material ``spec`` (its adaptive table's size and build time),
+    made in the snapshot process: the table is built once there, for the sampler view and these facts, and
+    its build never holds the GUI's interpreter lock."""
+    for _ in range(2):
+        try:
+            return _pool().submit(_facts_here, spec).result()
+        except BrokenProcessPool:
+            shutdown()
+    raise BrdfStudioError("the sampler view's process stopped twice in a row; see the terminal for its error")
+
+
 def _ready() -> bool:
     return True
 

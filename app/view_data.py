@@ -193,9 +193,11 @@ def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0, progre
 
 
 def adaptive_line(brdf: BRDF) -> str:
-    """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it)."""
-    sampler = adaptive_sampler(brdf)
+    """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it, or waits
+    for the build a progressive snapshot started: the same table is not built twice)."""
+    sampler = adaptive_sampler(brdf, progressive=True)
     sampler.preload()
+    sampler.refresh(wait=True)
     info = sampler.info()
     return (
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
@@ -430,6 +432,9 @@ def sampling_snapshot(
     wo = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
     sampler = adaptive_sampler(brdf, mode, n_max, progressive)
     if progressive:
+        from core.sampling.adaptive.sampler import drop_queued_builds
+
+        drop_queued_builds(keep=sampler.key)  # a drag's earlier values: their full tables are not wanted now
         sampler.preload()
         sampler.refresh(wait=settle > 0.0, timeout=settle)
     tree = tree_view(sampler, wo)

@@ -352,3 +352,23 @@ def test_the_normalizers_fine_table_is_the_cubic_through_the_nearest_nodes():
         expect = np.stack([np.polyval(c, grid) for c in coef.T], axis=1)
         assert table.shape == (NORM_SAMPLES, 3)
         np.testing.assert_allclose(table, expect, rtol=1e-8, atol=1e-8 * np.abs(expect).max())
+
+
+def test_queued_full_builds_can_be_dropped_but_the_kept_ones():
+    """The sampler view during a slider drag wants only its latest material's full table: builds queued
+    behind the running one are dropped (that one finishes), the kept one is built, a dropped one is queued
+    again by a later refresh."""
+    from core.sampling.adaptive import sampler as module
+
+    running = make_sampler("adaptive", make_brdf("ward", {"sx": 0.05, "sy": 0.25}), progressive=True)
+    dropped = make_sampler("adaptive", make_brdf("phong", {"n": 31.0}), progressive=True)
+    kept = make_sampler("adaptive", make_brdf("phong", {"n": 47.0}), progressive=True)
+    for s in (running, dropped, kept):
+        s.preload()
+        s.refresh()
+    assert module.drop_queued_builds(keep=kept.key) == 1
+    assert not dropped.full_pending and kept.full_pending
+    assert kept.refresh(wait=True) and kept.complete
+    assert running.refresh(wait=True) and running.complete
+    assert not dropped.refresh() and not dropped.complete
+    assert dropped.refresh(wait=True) and dropped.complete  # queued again

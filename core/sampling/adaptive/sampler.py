@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import asdict, fields, replace
 from typing import Any
@@ -142,6 +142,19 @@ def _store(cache: Any) -> TableCache | None:
     if cache in (False, None):
         return None
     return TableCache(cache)
+
+
+def drop_queued_builds(keep: str = "") -> int:
+    """Cancel the background builds of full tables that have not started, but ``keep``'s; returns how many.
+    For a caller that wants only its latest material (the sampler view during a slider drag): a renderer
+    wants every material's."""
+    dropped = 0
+    with _LOCK:
+        for key, future in list(_BUILDING.items()):
+            if key != keep and future.cancel():
+                del _BUILDING[key]
+                dropped += 1
+    return dropped
 
 
 class AdaptiveSampler(Sampler):
@@ -273,7 +286,7 @@ class AdaptiveSampler(Sampler):
             if wait and future is not None:
                 try:
                     future.result(timeout)
-                except FutureTimeout:
+                except (FutureTimeout, CancelledError):
                     pass
         full = _TABLES.get(self.key)
         if full is not None and self._current is not full:
