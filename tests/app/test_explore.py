@@ -306,3 +306,31 @@ def test_a_new_status_line_repaints_itself_and_lays_nothing_out(window, qtbot):
             w.removeEventFilter(layouts)
     assert polar.status.text() != before and "peak" in polar.status.text()
     assert layouts.count == 0
+
+
+def test_the_material_facts_come_from_the_snapshot_process(window, qtbot):
+    """Once edits pause, the editor shows the albedo and the adaptive table's facts; the table is made in the
+    snapshot process (its build never holds the GUI's interpreter lock)."""
+    from app import snapshot_process
+
+    _select(window, "phong")
+    asked = []
+    real = snapshot_process.table_facts
+
+    def spy(spec):
+        asked.append(spec)
+        return real(spec)
+
+    snapshot_process.table_facts = spy
+    window.material_editor.set_info("adaptive", "")
+    try:
+        window.flush_slow_jobs()
+        window.refresh_now()
+        window.flush_slow_jobs()
+        qtbot.waitUntil(
+            lambda: asked and "Adaptive table:" in window.material_editor.info.text(), timeout=240_000
+        )
+    finally:
+        snapshot_process.table_facts = real
+    assert asked and asked[-1][0] == "phong"
+    assert "KiB" in window.material_editor.info.text()
