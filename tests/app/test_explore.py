@@ -324,11 +324,11 @@ def test_the_material_facts_come_from_the_snapshot_process(window, qtbot):
     snapshot_process.table_facts = spy
     window.material_editor.set_info("adaptive", "")
     try:
-        window.flush_slow_jobs()
+        window.schedule("brdf")  # as after an edit: the slow jobs start once edits pause
         window.refresh_now()
         window.flush_slow_jobs()
         qtbot.waitUntil(
-            lambda: asked and "Adaptive table:" in window.material_editor.info.text(), timeout=240_000
+            lambda: bool(asked) and "Adaptive table:" in window.material_editor.info.text(), timeout=240_000
         )
     finally:
         snapshot_process.table_facts = real
