@@ -9,6 +9,14 @@ from PySide6.QtCore import QPoint, Qt
 pytestmark = pytest.mark.gui
 
 
+@pytest.fixture(autouse=True)
+def _explore_tab(window):
+    """These views are drawn while their tab is shown (an edit on another tab leaves them stale until it is):
+    every test starts on the Explore tab, whatever tab an earlier test of the shared window left open."""
+    window.tabs.setCurrentWidget(window.explore)
+    window.refresh_now()
+
+
 def _select(window, model: str) -> None:
     doc = window.document
     if model not in doc.material_names():

@@ -71,37 +71,6 @@ def _eval(mid, wi, wo, p):
     return eval_model(mid, wi, wo, p)
 
 
-@njit(inline="always", nogil=True, cache=True)
-def _frame(symmetry, wx, wy, wz):
-    """``(mu, phi, cos, sin, sx, sy)``: ``-cos theta``, the azimuth the trees see (folded into the quadrant
-    when mirror-symmetric; not computed for an isotropic table, which does not need it), the rotation to the
-    tree frame and the mirror signs."""
-    rho = math.sqrt(wx * wx + wy * wy)
-    theta = -wz
-    sx = 1.0
-    sy = 1.0
-    if symmetry == MIRROR:
-        if wx < 0.0:
-            sx = -1.0
-        if wy < 0.0:
-            sy = -1.0
-        ax = abs(wx)
-        ay = abs(wy)
-        phi = math.atan2(ay, ax)
-        if rho > 0.0:
-            return theta, phi, ax / rho, ay / rho, sx, sy
-        return theta, 0.0, 1.0, 0.0, sx, sy
-    if symmetry == ISOTROPIC:
-        phi = 0.0
-    else:
-        phi = math.atan2(wy, wx)
-        if phi < 0.0:
-            phi += TWO_PI
-    if rho > 0.0:
-        return theta, phi, wx / rho, wy / rho, sx, sy
-    return theta, 0.0, 1.0, 0.0, sx, sy
-
-
 # The kernels take the table (a tuple of 17 arrays) and hand the functions they call per row only the arrays
 # they need: a table passed to a function inlined by numba is copied with a reference count taken and dropped
 # on every array (~50 ns a call), and to one that is not, copied by value (~120 ns); the tree lookup per row
@@ -137,6 +106,15 @@ def _azimuth(symmetry, c, s):
     if phi < 0.0:
         phi += TWO_PI
     return phi
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _frame(symmetry, wx, wy, wz):
+    """``(mu, phi, cos, sin, sx, sy)``: ``-cos theta``, the azimuth the trees see (folded into the quadrant
+    when mirror-symmetric; 0 for an isotropic table, which does not need it), the rotation to the tree frame
+    and the mirror signs (:func:`_fold` and :func:`_azimuth`; for :mod:`~core.sampling.adaptive.inspect`)."""
+    c, s, sx, sy = _fold(symmetry, wx, wy)
+    return -wz, _azimuth(symmetry, c, s), c, s, sx, sy
 
 
 @njit(inline="always", nogil=True, cache=True)
