@@ -242,6 +242,7 @@ class FileManager:
             if not folder:
                 return []
         stem = (self.document.current_material or "material").replace("/", "_")
+        self.window.redraw.draw_hidden_views()  # the plots of the current material, whatever tab is shown
         out = []
         try:
             for label, view in (

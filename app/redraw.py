@@ -138,16 +138,32 @@ class Redrawer(QObject):
         # Views on a hidden tab stay stale until it is shown (a tab change schedules a refresh): an edit made
         # on the Sampling tab does not pay for the lobe, the slice and the sphere nobody sees.
         if self._stale and self._explore_shown():
-            for view, draw, args in (
-                ("lobe", w.lobe_view.show_lobe, (brdf, wo)),
-                ("polar", w.polar_view.show_slice, (brdf, wo)),
-                ("sphere", w.sphere_view.show_material, (brdf, doc.light_dir)),
-            ):
-                if view in self._stale:
-                    self._stale.discard(view)
-                    self._timed(view, draw, *args)
+            self._draw_stale(brdf, wo)
         if "brdf" in pending:
             self.slow_timer.start()  # restarts: the quadrature waits until edits pause
+
+    def _draw_stale(self, brdf: Any, wo: np.ndarray) -> None:
+        w = self.window
+        for view, draw, args in (
+            ("lobe", w.lobe_view.show_lobe, (brdf, wo)),
+            ("polar", w.polar_view.show_slice, (brdf, wo)),
+            ("sphere", w.sphere_view.show_material, (brdf, self.document.light_dir)),
+        ):
+            if view in self._stale:
+                self._stale.discard(view)
+                self._timed(view, draw, *args)
+
+    def draw_hidden_views(self) -> None:
+        """Bring the Explore tab's views up to date even while hidden (an export reads them)."""
+        self.refresh_now()
+        doc = self.document
+        if not self._stale or doc.current_material is None:
+            return
+        try:
+            brdf = doc.brdf()
+        except BrdfStudioError:
+            return
+        self._draw_stale(brdf, np.array(doc.wo()))
 
     def _timed(self, name: str, fn: Any, *args: Any) -> None:
         t0 = time.perf_counter()

@@ -259,7 +259,7 @@ def test_polar_slice_and_sampler_view_update_by_blitting(window, qtbot):
             qtbot.waitUntil(lambda paints=paints: paints.count > 0, timeout=5000)
 
 
-def test_views_on_a_hidden_tab_wait_until_it_is_shown(window, qtbot):
+def test_views_on_a_hidden_tab_wait_until_it_is_shown(window, qtbot, tmp_path):
     """An edit made while another tab is current leaves the lobe, the slice and the sphere as they were (no
     work for views nobody sees); showing the Explore tab draws them, through the app's own timer."""
     _select(window, "phong")
@@ -274,7 +274,13 @@ def test_views_on_a_hidden_tab_wait_until_it_is_shown(window, qtbot):
     window.refresh_now()
     assert np.array_equal(lobe.mesh.points, before[0])
     assert np.array_equal(polar.values, before[1]) and np.array_equal(sphere.image_rgb, before[2])
-    window.tabs.setCurrentWidget(window.explore)  # schedules the redraw: lobe first, then the others
+    plots = window.export_plots(tmp_path, "png")  # an export brings the hidden plots up to date
+    assert len(plots) == 3 and not np.array_equal(polar.values, before[1])
+    before = (np.array(lobe.mesh.points), polar.values.copy(), sphere.image_rgb.copy())
+    doc.set_param(name, doc.material().params[name] * 2.0)
+    doc.end_merge()
+    window.refresh_now()
+    window.tabs.setCurrentWidget(window.explore)  # schedules the redraw
     qtbot.waitUntil(lambda: not np.array_equal(polar.values, before[1]), timeout=10_000)
     assert not np.allclose(lobe.mesh.points, before[0])
     assert not np.array_equal(sphere.image_rgb, before[2])
