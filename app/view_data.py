@@ -195,9 +195,11 @@ def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0, progre
 def adaptive_line(brdf: BRDF) -> str:
     """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it, or waits
     for the build a progressive snapshot started: the same table is not built twice)."""
-    sampler = adaptive_sampler(brdf, progressive=True)
+    from core.sampling.adaptive.sampler import wait_for_build
+
+    sampler = adaptive_sampler(brdf)
+    wait_for_build(sampler.key)
     sampler.preload()
-    sampler.refresh(wait=True)
     info = sampler.info()
     return (
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "

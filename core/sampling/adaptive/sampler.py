@@ -144,6 +144,17 @@ def _store(cache: Any) -> TableCache | None:
     return TableCache(cache)
 
 
+def wait_for_build(key: str) -> None:
+    """Wait for a background build of the full table ``key`` if one is queued or running (so that a caller
+    about to make the same table does not make it a second time)."""
+    future = _BUILDING.get(key)
+    if future is not None:
+        try:
+            future.result()
+        except CancelledError:
+            pass
+
+
 def drop_queued_builds(keep: str = "") -> int:
     """Cancel the background builds of full tables that have not started, but ``keep``'s; returns how many.
     For a caller that wants only its latest material (the sampler view during a slider drag): a renderer
