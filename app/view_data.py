@@ -248,14 +248,14 @@ class SamplingSnapshot:
     """Relative standard deviation of the weight ``f cos / pdf`` (luminance) over ``ratio_sampler``'s draw."""
     table: dict
     """The adaptive table's facts (:meth:`~core.sampling.adaptive.AdaptiveSampler.info`)."""
-    leaf_rgba: np.ndarray | None = None
+    leaf_rgba: np.ndarray
     """``(TREE_RASTER, TREE_RASTER, 4)`` uint8: the leaves coloured by :meth:`leaf_density`
     (:func:`leaf_colours`), made with the snapshot so that the GUI thread only shows it."""
-    density_range: tuple[float, float] = (0.0, 0.0)
+    density_range: tuple[float, float]
     """The densities at the ends of ``leaf_rgba``'s colour scale."""
-    ratio_rgba: np.ndarray | None = None
-    """``ratio`` coloured as the view shows it (:func:`ratio_colours`)."""
-    edges: np.ndarray | None = None
+    ratio_rgba: np.ndarray | None
+    """``ratio`` coloured as the view shows it (:func:`ratio_colours`); None with ``ratio``."""
+    edges: np.ndarray
     """The polyline that outlines the tree's leaves (:func:`leaf_edges`)."""
 
     @property

@@ -16,14 +16,10 @@ from app.view_data import (
     SAMPLING_PROJECTIONS,
     TREE_RASTER,
     SamplingSnapshot,
-    leaf_colours,
-    leaf_edges,
-    ratio_colours,
 )
 from app.views.figure import FigureView
 from core.sampling import sampler_names
 
-RASTER = TREE_RASTER
 DISK_RADIUS = {
     "orthographic": "|X| = sin theta_i",
     "equal_area": "|X| = sqrt(1 - cos theta_i)",
@@ -144,7 +140,7 @@ class SamplingView(QWidget):
         ax.set_xlim(-1.02, 1.02)
         ax.set_ylim(-1.02, 1.02)
         self._tree_img = ax.imshow(
-            np.zeros((RASTER, RASTER, 4), dtype=np.uint8),
+            np.zeros((TREE_RASTER, TREE_RASTER, 4), dtype=np.uint8),
             extent=(-1, 1, -1, 1),
             origin="lower",
             interpolation="nearest",
@@ -205,23 +201,15 @@ class SamplingView(QWidget):
         artist.set_text(text)
         artist.set_visible(bool(text))
 
-    @staticmethod
-    def _leaf_colours(snap: SamplingSnapshot) -> tuple[np.ndarray, float, float]:
-        """The tree's image as RGBA (coloured here, not by matplotlib: that skips its masking and
-        normalization on every redraw), made with the snapshot when it was (off the GUI thread)."""
-        if snap.leaf_rgba is not None:
-            return snap.leaf_rgba, *snap.density_range
-        return leaf_colours(snap.tree, snap.leaf_density(), RASTER)
-
     def show_snapshot(self, snap: SamplingSnapshot) -> None:
         if not getattr(self, "_artists", False):
             self._make_artists()
         self.snapshot = snap
         tree = snap.tree
-        rgba, lo, hi = self._leaf_colours(snap)
+        rgba, (lo, hi) = snap.leaf_rgba, snap.density_range
         self._tree_img.set_data(rgba)
         self._tree_img.set_visible(True)
-        self.leaf_edges.set_segments([leaf_edges(tree) if snap.edges is None else snap.edges])
+        self.leaf_edges.set_segments([snap.edges])
         self._samples.set_offsets(snap.samples)
         if snap.wo_disk is None:
             self._wo_mark.set_data([], [])
@@ -267,7 +255,7 @@ class SamplingView(QWidget):
         name = snap.ratio_sampler
         if snap.ratio is not None:
             ratio = snap.ratio
-            self._ratio_img.set_data(ratio_colours(ratio) if snap.ratio_rgba is None else snap.ratio_rgba)
+            self._ratio_img.set_data(snap.ratio_rgba)
             self._ratio_img.set_visible(True)
             self._set_message(self._ratio_msg, "")
             finite = ratio[np.isfinite(ratio) & (ratio > 0)]
