@@ -534,11 +534,17 @@ def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
     h = 0.5 ** level[i]
     for k in range(9):
         stv[i, 0, k] = st[i, k]
-        a, b = _point(x0[i], y0[i], h, k)
-        x, y, z, w = square_point(a, b, projection)
-        for v in range(1, views.shape[0]):
-            stv[i, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
+        _point_at_views(mid, p, projection, views, x0[i], y0[i], h, k, stv, i)
     return 9 * (views.shape[0] - 1)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _point_at_views(mid, p, projection, views, x0, y0, h, k, stv, i):
+    """Stencil point ``k`` of the node at ``(x0, y0)`` (side ``h``) evaluated at views 1.. into ``stv[i]``."""
+    a, b = _point(x0, y0, h, k)
+    x, y, z, w = square_point(a, b, projection)
+    for v in range(1, views.shape[0]):
+        stv[i, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
 
 
 @njit(nogil=True, cache=True)
@@ -558,10 +564,7 @@ def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level,
             for v in range(1, views.shape[0]):
                 stv[c, v, k] = stv[parent, v, src]
         else:
-            a, b = _point(x0[c], y0[c], h, k)
-            x, y, z, w = square_point(a, b, projection)
-            for v in range(1, views.shape[0]):
-                stv[c, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
+            _point_at_views(mid, p, projection, views, x0[c], y0[c], h, k, stv, c)
     return 5 * (views.shape[0] - 1)
 
 
