@@ -374,3 +374,26 @@ def test_queued_full_builds_can_be_dropped_but_the_kept_ones():
     assert running.refresh(wait=True) and running.complete
     assert not dropped.refresh() and not dropped.complete
     assert dropped.refresh(wait=True) and dropped.complete  # queued again
+
+
+def test_a_failed_background_build_keeps_the_coarse_table_and_is_not_queued_again(monkeypatch):
+    """A full build that fails in the background is reported to a caller that waits for it, leaves the sampler
+    on its coarse table (still exact), and is not tried again at every later refresh (a renderer's pass)."""
+    from core.sampling.adaptive import sampler as module
+
+    sampler = make_sampler("adaptive", make_brdf("phong", {"n": 53.0}), progressive=True)
+    sampler.preload()
+    real = module.build_table
+
+    def failing(brdf, options, *args, **kwargs):
+        raise MemoryError("out of memory in the full build")
+
+    monkeypatch.setattr(module, "build_table", failing)
+    with pytest.raises(MemoryError, match="full build"):
+        sampler.refresh(wait=True)
+    monkeypatch.setattr(module, "build_table", real)
+    assert not sampler.full_pending and not sampler.complete
+    assert not sampler.refresh() and sampler.key not in module._BUILDING
+    wo = np.repeat(_wo(40.0)[None, :], 500, axis=0)
+    batch = sampler.sample_each(wo, seed=3)
+    assert np.all(np.isfinite(batch.pdf)) and np.all(batch.pdf > 0)
