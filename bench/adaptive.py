@@ -37,7 +37,8 @@ defaults. ``--models`` keeps the cases of the named models; ``--option K=V`` set
 Prints the three tables with the targets beside them and writes ``adaptive_build.csv`` (one row per case
 and mode), ``adaptive_throughput.csv``, ``adaptive_error.csv``, ``adaptive_albedo.csv`` (per theta_o) and
 ``adaptive.png`` under ``--out`` (default ``results/bench``). ``--quick`` (a smoke test, under a minute):
-Phong and the anisotropic Ward case, 20 views of 500 samples, one run.
+Phong and the anisotropic Ward case, 20 views of 500 samples, one run. ``--build-only``: section 1's one-core
+builds alone, printed (the build's CPU seconds against the target; no files).
 """
 
 from __future__ import annotations
@@ -357,6 +358,29 @@ def run_case(case: Case, runs: int, views: int, samples: int, albedo_samples: in
     )  # fmt: skip
 
 
+def run_builds(cases_: list[Case], runs: int, options: dict[str, Any] | None = None) -> None:
+    """Section 1 alone (``--build-only``): each mode's one-core build from empty caches, best of ``runs``, the
+    target judged on CPU seconds; no sampler's own build, no throughput, no files."""
+    print(f"kernels loaded or compiled (not counted): {warm_up():.1f} s", flush=True)
+    print(f"Build of each mode's whole table, one core, empty caches, best of {runs} (target "
+          f"{BUILD_TARGET_ISOTROPIC_S:g} s CPU isotropic; load {os.getloadavg()[0]:.1f} at the start)")  # fmt: skip
+    rows = []
+    for case in cases_:
+        measured = measure_builds(case.brdf, runs, options or {})
+        for mode, (times, cpus, _, report) in measured.items():
+            exact = mode == "exact"
+            rows.append([
+                case.label, mode, f"{min(times):.3f}", f"{min(cpus):.3f}", " ".join(f"{c:.3f}" for c in cpus),
+                _g(case.build_target_s or math.nan), _met(min(cpus), case.build_target_s), str(report.trees),
+                f"{report.leaves / max(report.trees, 1):.0f}", str(report.evaluations),
+                _g(report.acceptance_min) if exact else "-", _g(report.norm_error_max) if exact else "-",
+            ])  # fmt: skip
+    header = ["case", "mode", "s", "cpu s", "cpu s runs", "target", "met", "trees", "leaves/tree", "evaluations",
+              "acc min", "norm err"]  # fmt: skip
+    print(format_table(header, rows))
+    print(f"load {os.getloadavg()[0]:.1f} at the end")
+
+
 def warm_up() -> float:
     """Load (or compile) every kernel the measurements call, on small tables and batches: seconds."""
     t0 = time.perf_counter()
@@ -640,6 +664,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="few models, small counts, one run (a smoke test)")
     ap.add_argument("--runs", type=int, help="timed runs, the best kept (default 3; 1 with --quick)")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench", help="folder for CSV and PNG")
+    ap.add_argument("--build-only", action="store_true",
+                    help="section 1 only: each mode's one-core build (no throughput, no files)")  # fmt: skip
     ap.add_argument("--option", action="append", default=[], metavar="K=V",
                     help="an adaptive table option for both modes, e.g. warp_chi2=0.2 (repeatable)")  # fmt: skip
     a = ap.parse_args(argv)
@@ -661,6 +687,9 @@ def main(argv: list[str] | None = None) -> int:
     if runs < 1:
         ap.error(f"--runs must be positive, got {runs}")
     views, samples, albedo_samples = (20, 500, 5000) if a.quick else (VIEWS, SAMPLES, ALBEDO_SAMPLES)
+    if a.build_only:
+        run_builds(cases(models, a.quick), runs, options)
+        return 0
     run(cases(models, a.quick), runs, views, samples, albedo_samples, a.out, options)
     return 0
 
