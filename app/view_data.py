@@ -434,9 +434,9 @@ def sampling_snapshot(
     wo = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
     sampler = adaptive_sampler(brdf, mode, n_max, progressive)
     if progressive:
-        from core.sampling.adaptive.sampler import drop_queued_builds
+        from core.sampling.adaptive.sampler import drop_builds
 
-        drop_queued_builds(keep=sampler.key)  # a drag's earlier values: their full tables are not wanted now
+        drop_builds(keep=sampler.key)  # a drag's earlier values: their full tables are not wanted now
         sampler.preload()
         sampler.refresh(wait=settle > 0.0, timeout=settle)
     tree = tree_view(sampler, wo)

@@ -8,6 +8,7 @@ cases of their parametrization (core.chi2). The slow sweep (``-m slow``) covers 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -354,26 +355,80 @@ def test_the_normalizers_fine_table_is_the_cubic_through_the_nearest_nodes():
         np.testing.assert_allclose(table, expect, rtol=1e-8, atol=1e-8 * np.abs(expect).max())
 
 
-def test_queued_full_builds_can_be_dropped_but_the_kept_ones():
-    """The sampler view during a slider drag wants only its latest material's full table: builds queued
-    behind the running one are dropped (that one finishes), the kept one is built, a dropped one is queued
-    again by a later refresh."""
+def test_background_builds_can_be_dropped_but_the_kept_one():
+    """The sampler view during a slider drag wants only its latest material's full table: the running build
+    of an earlier value stops (it would hold the cores the next value's coarse table needs) and is not a
+    failure, the queued ones are dropped, the kept one is built, and a dropped one is queued again by a later
+    refresh."""
     from core.sampling.adaptive import sampler as module
 
     running = make_sampler("adaptive", make_brdf("ward", {"sx": 0.05, "sy": 0.25}), progressive=True)
     dropped = make_sampler("adaptive", make_brdf("phong", {"n": 31.0}), progressive=True)
     kept = make_sampler("adaptive", make_brdf("phong", {"n": 47.0}), progressive=True)
-    for s in (running, dropped, kept):
+    running.preload()
+    running.refresh()
+    stopping = module._BUILDING[running.key]
+    while not stopping.running():  # Ward's full table takes seconds: it is being built when dropped
+        time.sleep(0.001)
+    for s in (dropped, kept):
         s.preload()
         s.refresh()
-    assert module.drop_queued_builds(keep=kept.key) == 1
-    assert not dropped.full_pending and kept.full_pending
+    assert module.drop_builds(keep=kept.key) == 2
+    assert not running.full_pending and not dropped.full_pending and kept.full_pending
+    assert stopping.result() is None  # stopped, not failed
+    assert running.key not in module._TABLES and running.key not in module._FAILED
     module.wait_for_build(kept.key)  # (the table facts wait so rather than build it a second time)
     assert kept.key in module._TABLES and kept.key not in module._BUILDING
     assert kept.refresh() and kept.complete
-    assert running.refresh(wait=True) and running.complete
     assert not dropped.refresh() and not dropped.complete
     assert dropped.refresh(wait=True) and dropped.complete  # queued again
+    assert running.refresh(wait=True) and running.complete
+
+
+def test_a_cancelled_build_stops_at_once():
+    """``build_table`` with its ``cancel`` event set raises ``BuildCancelled`` before any tree (and a build
+    whose event is set while it runs stops at its next tree: the test above)."""
+    import threading
+
+    from core.sampling.adaptive.table import BuildCancelled, TableOptions, build_table
+
+    cancel = threading.Event()
+    cancel.set()
+    with pytest.raises(BuildCancelled):
+        build_table(make_brdf("phong", {"n": 29.0}), TableOptions(), cancel=cancel)
+
+
+def test_background_builds_run_at_the_niceness_asked_for(monkeypatch):
+    """``lower_build_priority``: the builder thread (and the threads a build starts from it) run at that
+    niceness, so that an interactive process's own work gets the cores first."""
+    import os
+    import threading
+
+    from core.sampling.adaptive import sampler as module
+
+    seen = []
+
+    def recording(brdf, options, *args, **kwargs):
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        helper = threading.Thread(
+            target=lambda: seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        )
+        helper.start()
+        helper.join()
+        raise module.BuildCancelled  # (no table wanted: nothing is stored)
+
+    before = os.getpriority(os.PRIO_PROCESS, 0)
+    sampler = make_sampler("adaptive", make_brdf("phong", {"n": 37.0}), progressive=True)
+    sampler.preload()  # the coarse table, on this thread
+    monkeypatch.setattr(module, "build_table", recording)
+    monkeypatch.setattr(module, "_BUILDER_NICENESS", before + 3)
+    sampler.refresh(wait=True)
+    assert seen == [before + 3, before + 3]
+    assert os.getpriority(os.PRIO_PROCESS, 0) == before  # the caller's own priority is untouched
+    try:  # give the shared builder thread its priority back for the other tests (needs the privilege)
+        module._BUILDER.submit(os.setpriority, os.PRIO_PROCESS, 0, before).result()
+    except PermissionError:
+        pass
 
 
 def test_a_failed_background_build_keeps_the_coarse_table_and_is_not_queued_again(monkeypatch):

@@ -14,9 +14,11 @@ in the process, and stored on disk (:mod:`core.cache`).
 from __future__ import annotations
 
 import math
+import os
 import threading
 from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures import wait as futures_wait
 from dataclasses import asdict, fields, replace
 from typing import Any
 
@@ -36,6 +38,7 @@ from core.sampling.adaptive.draw import (
 )
 from core.sampling.adaptive.table import (
     AdaptiveTable,
+    BuildCancelled,
     TableOptions,
     TableReport,
     build_table,
@@ -51,11 +54,15 @@ _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
 """Tables in memory by key (model, parameters, options, sources): one per material per process."""
 _BUILDING: dict[str, Future] = {}
 """Full tables queued or being built in the background for progressive samplers, by key."""
+_CANCEL: dict[str, threading.Event] = {}
+"""Per key in ``_BUILDING``: set to stop that build (:func:`drop_builds`)."""
 _FAILED: set[str] = set()
 """Keys whose background build failed (not queued again: the coarse table stays)."""
 _BUILDER: ThreadPoolExecutor | None = None
 """The one background thread that builds full tables, one at a time in the order asked (each build runs its
 nodes on numba's threads already)."""
+_BUILDER_NICENESS = 0
+"""The background builds' niceness (:func:`lower_build_priority`)."""
 _LOCK = threading.Lock()
 
 PARALLEL_MIN = 1 << 14
@@ -144,28 +151,45 @@ def _store(cache: Any) -> TableCache | None:
     return TableCache(cache)
 
 
-def wait_for_build(key: str) -> None:
+def wait_for_build(key: str, timeout: float | None = None) -> bool:
     """Wait for a background build of the full table ``key`` if one is queued or running (so that a caller
-    about to make the same table does not make it a second time)."""
+    about to make the same table does not make it a second time), at most ``timeout`` seconds; True when
+    none is queued or running any more. A failed build's error is raised."""
     future = _BUILDING.get(key)
     if future is not None:
         try:
-            future.result()
+            future.result(timeout)
         except CancelledError:
             pass
+        except FutureTimeout:
+            return False
+    return True
 
 
-def drop_queued_builds(keep: str = "") -> int:
-    """Cancel the background builds of full tables that have not started, but ``keep``'s; returns how many.
-    For a caller that wants only its latest material (the sampler view during a slider drag): a renderer
-    wants every material's."""
+def drop_builds(keep: str = "") -> int:
+    """Cancel every background build of a full table but ``keep``'s: the queued ones at once, the running one
+    at its next tree (:class:`~core.sampling.adaptive.table.BuildCancelled`); returns how many. For a caller
+    that wants only its latest material (the sampler view during a slider drag, whose previous value's build
+    would otherwise hold the cores the next value's coarse table needs): a renderer wants every material's. A
+    dropped table is queued again by a later :meth:`AdaptiveSampler.refresh`."""
     dropped = 0
     with _LOCK:
         for key, future in list(_BUILDING.items()):
-            if key != keep and future.cancel():
-                del _BUILDING[key]
-                dropped += 1
+            if key == keep:
+                continue
+            _CANCEL.pop(key).set()
+            future.cancel()
+            del _BUILDING[key]  # a later refresh queues a new build (behind the stopping one)
+            dropped += 1
     return dropped
+
+
+def lower_build_priority(niceness: int) -> None:
+    """Run the background builds at this niceness (Linux: per thread, inherited by the threads a build
+    starts), so that a process's foreground work (the sampler view's coarse table of a new value) gets the
+    cores first. For a process whose foreground is interactive; a renderer keeps the default."""
+    global _BUILDER_NICENESS
+    _BUILDER_NICENESS = int(niceness)
 
 
 class AdaptiveSampler(Sampler):
@@ -269,21 +293,27 @@ class AdaptiveSampler(Sampler):
             if future is None:
                 if _BUILDER is None:
                     _BUILDER = ThreadPoolExecutor(max_workers=1, thread_name_prefix="adaptive-table")
-                future = _BUILDING[self.key] = _BUILDER.submit(self._build_in_background)
+                cancel = _CANCEL[self.key] = threading.Event()
+                future = _BUILDING[self.key] = _BUILDER.submit(self._build_in_background, cancel)
         return future
 
-    def _build_in_background(self) -> None:
+    def _build_in_background(self, cancel: threading.Event) -> None:
+        _apply_niceness()
         try:
-            entry = build_table(self.brdf, self.options)
+            entry = build_table(self.brdf, self.options, cancel=cancel)
             if self.cache is not None:
                 save_table(self.cache, self.key, *entry)
             _TABLES[self.key] = entry
+        except BuildCancelled:
+            pass  # dropped (drop_builds): not a failure, a later refresh queues it again
         except BaseException:
             _FAILED.add(self.key)
             raise
         finally:
             with _LOCK:
-                _BUILDING.pop(self.key, None)
+                if _CANCEL.get(self.key) is cancel:  # not dropped and queued again meanwhile
+                    del _BUILDING[self.key]
+                    del _CANCEL[self.key]
 
     def refresh(self, wait: bool = False, timeout: float | None = None) -> bool:
         """Swap in the full table if it is ready (``wait``: block until it is, or ``timeout`` seconds); True
@@ -439,9 +469,21 @@ class AdaptiveSampler(Sampler):
 
 def clear_memory_cache() -> None:
     """Forget the in-memory tables (tests, benchmarks); background builds are waited for first."""
-    for thread in list(_BUILDING.values()):
-        thread.join()
+    futures_wait(list(_BUILDING.values()))
     _TABLES.clear()
+
+
+def _apply_niceness() -> None:
+    """Lower this (the builder) thread's priority to ``_BUILDER_NICENESS`` if it is higher (raising it back
+    would need privileges)."""
+    if _BUILDER_NICENESS <= 0 or not hasattr(os, "setpriority"):
+        return
+    tid = threading.get_native_id()
+    try:
+        if os.getpriority(os.PRIO_PROCESS, tid) < _BUILDER_NICENESS:
+            os.setpriority(os.PRIO_PROCESS, tid, _BUILDER_NICENESS)
+    except OSError:
+        pass  # not permitted here: the builds run at the process's priority
 
 
 def _pool() -> ThreadPoolExecutor:

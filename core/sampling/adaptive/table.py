@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import inspect
 import math
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
@@ -362,9 +363,20 @@ def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, 
 
 
 # ------------------------------------------------------------------------------------------ the table
-def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -> tuple[AdaptiveTable,
-                                                                                      TableReport]:  # fmt: skip
-    """Lay out the nodes, build their trees (on ``threads`` threads, default all cores) and pack them."""
+class BuildCancelled(Exception):
+    """A build stopped because its ``cancel`` event was set (nobody wants the table any more)."""
+
+
+def _check(cancel: threading.Event | None) -> None:
+    if cancel is not None and cancel.is_set():
+        raise BuildCancelled
+
+
+def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
+                cancel: threading.Event | None = None) -> tuple[AdaptiveTable, TableReport]:  # fmt: skip
+    """Lay out the nodes, build their trees (on ``threads`` threads, default all cores) and pack them.
+    ``cancel``: when set, the build stops at its next node or quadrature (``BuildCancelled``), within one
+    tree's time: a slider drag's superseded table gives its cores back to the next value's."""
     t0 = time.perf_counter()
     symmetry = symmetry_of(brdf)
     phis = phi_nodes(symmetry, options.phi_count)
@@ -387,7 +399,7 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
     with ThreadPoolExecutor(max_workers=workers) as pool:
         if options.bounds:  # the normalizer first: the trees' bounds are on g / c, c as the draws read it
             norm_thetas, norm_values, norm_err, report.evaluations = _normalizer(
-                brdf, options, symmetry, phis, thetas, projection, follow, pool
+                brdf, options, symmetry, phis, thetas, projection, follow, pool, cancel
             )
             norm = _norm_table(symmetry, norm_thetas, norm_values)
         else:
@@ -402,9 +414,11 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
                     key = (float(theta), float(edges[k]), float(edges[k + 1]), j)
                     if key not in nodes:
                         wanted.append(key)
+            _check(cancel)
             jobs = {
                 key: pool.submit(
-                    _build_node,
+                    _node_unless_cancelled,
+                    cancel,
                     brdf,
                     options,
                     symmetry,
@@ -458,6 +472,11 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None) -
     return table, report
 
 
+def _node_unless_cancelled(cancel: threading.Event | None, *args: Any) -> _Node:
+    _check(cancel)
+    return _build_node(*args)
+
+
 def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
     """The azimuths the normalizer is tabulated at: the azimuth nodes and the cells' edges between them,
     equally spaced (``2 J - 1`` over the mirror's quadrant, ends included; ``2 J`` around the circle): through
@@ -469,6 +488,11 @@ def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
     if symmetry == MIRROR:
         return np.linspace(0.0, HALF_PI, 2 * j - 1)
     return np.arange(2 * j) * (math.pi / j)
+
+
+def _integral_unless_cancelled(cancel: threading.Event | None, *args: Any) -> tuple[float, int]:
+    _check(cancel)
+    return _view_integral(*args)
 
 
 def _view_integral(brdf: BRDF, options: TableOptions, theta: float, phi: float, projection: int,
@@ -483,7 +507,8 @@ def _view_integral(brdf: BRDF, options: TableOptions, theta: float, phi: float, 
 
 
 def _normalizer(brdf: BRDF, options: TableOptions, symmetry: int, phis: np.ndarray, tree_thetas: np.ndarray,
-                projection: int, follow: int, pool: ThreadPoolExecutor) -> tuple[
+                projection: int, follow: int, pool: ThreadPoolExecutor, cancel: threading.Event | None = None,
+                ) -> tuple[
                     np.ndarray, np.ndarray, np.ndarray, int]:  # fmt: skip
     """The exact mode's normalizer, on polar angles of its own: from the trees' nodes, an interval is halved
     while the interpolation error at either end is estimated above ``norm_tol``; each angle's values are
@@ -498,8 +523,9 @@ def _normalizer(brdf: BRDF, options: TableOptions, symmetry: int, phis: np.ndarr
     evals = 0
     while True:
         new = [float(t) for t in thetas if float(t) not in values]
-        jobs = {(t, k): pool.submit(_view_integral, brdf, options, t, float(ph), projection, follow)
-                for t in new for k, ph in enumerate(azimuths)}  # fmt: skip
+        _check(cancel)
+        jobs = {(t, k): pool.submit(_integral_unless_cancelled, cancel, brdf, options, t, float(ph), projection,
+                                    follow) for t in new for k, ph in enumerate(azimuths)}  # fmt: skip
         for t in new:
             row = np.empty(len(azimuths))
             for k in range(len(azimuths)):
