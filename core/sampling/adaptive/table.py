@@ -13,6 +13,7 @@ import inspect
 import math
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -45,7 +46,9 @@ from core.sampling.adaptive.tree import (
     ANISOTROPIC_BOUND_SAFETY,
     BuildSettings,
     TreeArrays,
-    build_tree,
+    TreeShape,
+    bound_tree,
+    shape_tree,
     view_integral,
 )
 from core.threads import thread_budget
@@ -321,10 +324,14 @@ def _normalized(w: np.ndarray) -> np.ndarray:
 @dataclass
 class _Node:
     tree: TreeArrays
+    """Without bounds until :func:`_bound_node` (the exact mode's) replaces it."""
     projection: int
     follow: int
     edge: np.ndarray
     seconds: float
+    shaped: TreeShape | None = None
+    """What the exact mode's bounds continue from; dropped once they are made."""
+    bounded: bool = False
 
 
 HALF_VECTOR_LIMIT = math.radians(80.0)
@@ -334,11 +341,21 @@ HALF_VECTOR_LIMIT = math.radians(80.0)
 short at the front); the ``wi`` disk has no such front."""
 
 
-def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
-                phi: float, phi_cell: tuple[float, float], projection: int, follow: int,
-                norm: tuple[np.ndarray, np.ndarray]) -> _Node:  # fmt: skip
-    """One node's tree (``projection`` ORTHOGRAPHIC for a Lambertian material)."""
-    t0 = time.perf_counter()
+class _NodeSetup(NamedTuple):
+    """What a node's tree is built from (both steps of :func:`_shape_node` and :func:`_bound_node`)."""
+
+    projection: int
+    follow: int
+    views: np.ndarray
+    weights: np.ndarray
+    edge: np.ndarray
+    angles: np.ndarray
+    cell: np.ndarray
+    """``theta_lo, theta_hi, phi_lo, phi_hi, follow``."""
+
+
+def _node_setup(symmetry: int, theta: float, cell: tuple[float, float], phi: float, phi_cell: tuple[float, float],
+                projection: int, follow: int) -> _NodeSetup:  # fmt: skip
     if symmetry == ISOTROPIC:
         phis: tuple[float, ...] = (0.0,)
     else:
@@ -346,20 +363,43 @@ def _build_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, 
     if projection == HALF_VECTOR and cell[1] > HALF_VECTOR_LIMIT:
         projection, follow = EQUAL_AREA, 1
     views, weights, edge, angles = _views(cell[0], theta, cell[1], phis, symmetry, bool(follow))
-    mid = brdf.model.id
     if symmetry == ISOTROPIC:
         cell_arr = np.array([cell[0], cell[1], 0.0, 0.0, 1.0])
     else:
         cell_arr = np.array([cell[0], cell[1], phi_cell[0], phi_cell[1], float(follow)])
+    return _NodeSetup(projection, follow, views, weights, edge, angles, cell_arr)
+
+
+def _shape_node(brdf: BRDF, options: TableOptions, symmetry: int, theta: float, cell: tuple[float, float],
+                phi: float, phi_cell: tuple[float, float], projection: int, follow: int) -> _Node:  # fmt: skip
+    """One node's tree without bounds (``projection`` ORTHOGRAPHIC for a Lambertian material): the
+    rejection-free mode's, and the layout's criteria but the acceptance."""
+    t0 = time.perf_counter()
+    setup = _node_setup(symmetry, theta, cell, phi, phi_cell, projection, follow)
+    tree, shaped = shape_tree(brdf.model.id, brdf.params, setup.projection, setup.views, setup.weights,
+                              options.settings())  # fmt: skip
+    return _Node(tree, setup.projection, setup.follow, setup.edge, time.perf_counter() - t0,
+                 shaped if options.bounds else None)  # fmt: skip
+
+
+def _bound_node(node: _Node, brdf: BRDF, options: TableOptions, symmetry: int, theta: float,
+                cell: tuple[float, float], phi: float, phi_cell: tuple[float, float], projection: int, follow: int,
+                norm: tuple[np.ndarray, np.ndarray]) -> _Node:  # fmt: skip
+    """The exact mode's tree of a node from its tree without bounds (the same arguments as it was made with),
+    once the layout no longer changes its cell: the bounds are made only for trees the table keeps (a
+    third to a half of the trees the layout's rounds build are replaced when a neighbour's interval is
+    halved)."""
+    t0 = time.perf_counter()
+    assert node.shaped is not None
+    setup = _node_setup(symmetry, theta, cell, phi, phi_cell, projection, follow)
     settings = options.settings()
-    if not options.bounds:
-        settings = settings._replace(bound_safety=0.0)
-    elif symmetry != ISOTROPIC:
+    if symmetry != ISOTROPIC:
         settings = settings._replace(bound_safety=ANISOTROPIC_BOUND_SAFETY)
-    tree = build_tree(
-        mid, brdf.params, projection, views, weights, cell_arr, settings, angles, norm[0], norm[1]
-    )
-    return _Node(tree, projection, follow, edge, time.perf_counter() - t0)
+    tree = bound_tree(node.shaped, brdf.model.id, brdf.params, setup.projection, setup.views, setup.weights,
+                      setup.cell, settings, setup.angles, norm[0], norm[1])  # fmt: skip
+    tree = tree._replace(evaluations=tree.evaluations + node.tree.evaluations)
+    return _Node(tree, node.projection, node.follow, node.edge, node.seconds + time.perf_counter() - t0,
+                 None, True)  # fmt: skip
 
 
 # ------------------------------------------------------------------------------------------ the table
@@ -405,6 +445,11 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
         else:
             norm = (np.zeros((4, 1)), 1.0, 0)
         norm_args = (norm[0], np.array([float(symmetry), norm[1], float(norm[2])]))
+
+        def node_args(key: tuple[float, float, float, int]) -> tuple[Any, ...]:
+            return (brdf, options, symmetry, key[0], (key[1], key[2]), float(phis[key[3]]),
+                    (float(phi_edges[key[3]]), float(phi_edges[key[3] + 1])), projection, follow)  # fmt: skip
+
         while True:
             report.rounds += 1
             edges = cell_edges(thetas, 0.0, THETA_END)
@@ -416,31 +461,32 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
                         wanted.append(key)
             _check(cancel)
             jobs = {
-                key: pool.submit(
-                    _node_unless_cancelled,
-                    cancel,
-                    brdf,
-                    options,
-                    symmetry,
-                    key[0],
-                    (key[1], key[2]),
-                    float(phis[key[3]]),
-                    (float(phi_edges[key[3]]), float(phi_edges[key[3] + 1])),
-                    projection,
-                    follow,
-                    norm_args,
-                )  # fmt: skip
-                for key in wanted
+                key: pool.submit(_unless_cancelled, cancel, _shape_node, *node_args(key)) for key in wanted
             }
             for key, job in jobs.items():
                 nodes[key] = job.result()
-            grid = [
-                [nodes[(float(theta), float(edges[k]), float(edges[k + 1]), j)] for j in range(len(phis))]
+            keys = [
+                [(float(theta), float(edges[k]), float(edges[k + 1]), j) for j in range(len(phis))]
                 for k, theta in enumerate(thetas)
             ]
-            halve = _intervals_to_halve(thetas, grid, symmetry, options, target)
+            halve = _intervals_to_halve(thetas, [[nodes[key] for key in row] for row in keys], symmetry, options,
+                                        target)  # fmt: skip
             halve &= np.diff(thetas) > 2.0 * min_spacing
-            if not np.any(halve) or len(thetas) >= options.max_thetas or report.rounds >= options.rounds:
+            last = len(thetas) >= options.max_thetas or report.rounds >= options.rounds
+            if options.bounds and (last or not np.any(halve)):
+                # the layout is settled but for the acceptance, which only bounds show: bound the trees it
+                # keeps, and halve where they fall short of it
+                _check(cancel)
+                unbounded = [key for row in keys for key in row if not nodes[key].bounded]
+                jobs = {key: pool.submit(_unless_cancelled, cancel, _bound_node, nodes[key], *node_args(key),
+                                         norm_args) for key in unbounded}  # fmt: skip
+                for key, job in jobs.items():
+                    nodes[key] = job.result()
+                halve = _intervals_to_halve(thetas, [[nodes[key] for key in row] for row in keys], symmetry,
+                                            options, target)  # fmt: skip
+                halve &= np.diff(thetas) > 2.0 * min_spacing
+            grid = [[nodes[key] for key in row] for row in keys]
+            if not np.any(halve) or last:
                 break
             new = 0.5 * (thetas[:-1] + thetas[1:])[halve]
             new = new[: options.max_thetas - len(thetas)]
@@ -472,9 +518,9 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
     return table, report
 
 
-def _node_unless_cancelled(cancel: threading.Event | None, *args: Any) -> _Node:
+def _unless_cancelled(cancel: threading.Event | None, step: Callable[..., _Node], *args: Any) -> _Node:
     _check(cancel)
-    return _build_node(*args)
+    return step(*args)
 
 
 def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
@@ -565,7 +611,7 @@ def _intervals_to_halve(thetas: np.ndarray, grid: list[list[_Node]], symmetry: i
     chi2_limit = options.warp_chi2 if symmetry == ISOTROPIC else options.warp_chi2_anisotropic
     for i in range(k):
         row = grid[i]
-        weak = any(n.tree.envelope > 0 and 1.0 / n.tree.envelope < target for n in row)
+        weak = any(n.bounded and n.tree.envelope > 0 and 1.0 / n.tree.envelope < target for n in row)
         rough_lo = rough_hi = False
         for n in row:
             views_lo, views_hi = _edge_views(n, len(row) > 1)

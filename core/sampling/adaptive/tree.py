@@ -24,6 +24,11 @@ cell (its edges and the points between).
    with the largest excess ``V_L - I_L / c`` are split and bounded again. The seed asks it of every leaf
    (``n_max I_L / V_L >= 1``); the mean number of trials only needs it of the sum, which takes fewer leaves.
 
+The steps run in two calls: :func:`shape` (step 1, every leaf's stencils at every view, and the refinement
+for the cell's mixture: the rejection-free mode's whole tree) and :func:`add_bounds` (steps 2 and 3, the
+exact mode's), which continues from the first's :class:`TreeShape`. The table lays its nodes out with the
+first and adds the bounds only to the trees it keeps (:func:`core.sampling.adaptive.table.build_table`).
+
 A tree's own integrals are Simpson sums over its leaves; the normalizer's values, to ``quad_tol``, come from
 :func:`view_integral` (step 1's tree for one view, then :func:`quadrature`), at polar angles of their own.
 
@@ -429,12 +434,8 @@ def _mirror_point(view, projection):
 
 
 @njit(nogil=True, cache=True)
-def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n, rscales, step):
-    """Ridge points ``(r, 5)``: ``(a, b, view, scale, step)`` of the mirror direction of each of the
-    ``ridge_views`` (a finer set than the stencils' views: a lobe narrower than their spacing is still met),
-    and of the node view's peak moved with it; ``scale`` is ``1 / c`` at the ridge view (:func:`inv_norm`),
-    ``step`` the distance between neighbouring ridge points on the square."""
-    # the peak of g at the node view, among the stencils' points
+def _peak(n, child, x0, y0, level, st):
+    """The square point of the largest ``g`` at the node view among the leaves' stencil points."""
     best = -1.0
     pa = 0.5
     pb = 0.5
@@ -446,6 +447,15 @@ def _ridge(projection, views, ridge_views, child, x0, y0, level, st, n, rscales,
             if st[i, k] > best:
                 best = st[i, k]
                 pa, pb = _point(x0[i], y0[i], h, k)
+    return pa, pb
+
+
+@njit(nogil=True, cache=True)
+def _ridge(projection, views, ridge_views, pa, pb, rscales, step):
+    """Ridge points ``(r, 5)``: ``(a, b, view, scale, step)`` of the mirror direction of each of the
+    ``ridge_views`` (a finer set than the stencils' views: a lobe narrower than their spacing is still met),
+    and of the node view's peak ``(pa, pb)`` (:func:`_peak`) moved with it; ``scale`` is ``1 / c`` at the
+    ridge view (:func:`inv_norm`), ``step`` the distance between neighbouring ridge points on the square."""
     ma0, mb0 = _mirror_point(views[0], projection)
     da = pa - ma0
     db = pb - mb0
@@ -494,18 +504,16 @@ def _view_row(theta, phi, follow, out):
 
 
 @njit(nogil=True, cache=True)
-def make_ridge(cell, projection, view0, child, x0, y0, level, norm, norm_meta, safety):
+def make_ridge(cell, projection, view0, width, norm, norm_meta, safety):
     """The views along which the lobe's ridge is followed (polar angles across the cell, times 5 azimuths
     when anisotropic), ``1 / c`` at each and the step between their mirror points on the square. The polar
     steps are at least :data:`RIDGE_STEPS` and halved while the mirror point moves more than a quarter of
-    the lobe's width between them (the side of the leaf holding the node's mirror point once the tree is
-    grown): a peak between two ridge points is then no higher than theirs, give or take the bound's safety
+    the lobe's ``width`` between them (the side of the leaf holding the node's mirror point once the tree is
+    grown, :func:`_lobe_width`): a peak between two ridge points is then no higher than theirs, give or take the bound's safety
     factor. (Cook-Torrance m = 0.005's rare violations between the nodes were the same with 17 steps and
     with more: they are off the ridge, see ``docs/adaptive.md`` section 4.)"""
     follow = cell[4] > 0.5
     n_phi = 5 if cell[3] > cell[2] else 1
-    ma, mb = _mirror_point(view0, projection)
-    width = 0.5 ** level[_leaf_holding(child, x0, y0, level, ma, mb)]
     row = np.empty(6)
     _view_row(cell[0], cell[2], follow, row)
     a0, b0 = _mirror_point(row, projection)
@@ -569,13 +577,9 @@ def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level,
 
 
 @njit(nogil=True, cache=True)
-def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, st, stv, m, safety, bscales,
-          rscales, step):  # fmt: skip
-    """Step 2: every leaf's stencils at every view, the views' integrals, and every leaf's bound ``m``.
-
-    Returns ``(scales, ridge, rho, evaluations)``: ``scales[v] = 1 / I_v`` (the mixture's normalization;
-    the bounds are on ``g_v / c_v``, ``bscales`` raised in place where ``1 / I_v`` is larger), ``rho`` the
-    factor on ``1 / c`` between the views."""
+def view_stencils(mid, p, projection, views, n, child, x0, y0, level, st, stv):
+    """Step 2: every leaf's stencils at every view and the views' integrals. Returns ``(scales,
+    evaluations)``, ``scales[v] = 1 / I_v`` (the mixture's normalization)."""
     evals = 0
     nv = views.shape[0]
     integral = np.zeros(nv)
@@ -585,9 +589,22 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
             for v in range(nv):
                 integral[v] += _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
     scales = np.zeros(nv)
-    rho = 1.0
     for v in range(nv):
         scales[v] = 1.0 / integral[v] if integral[v] > 0.0 else 0.0
+    return scales, evals
+
+
+@njit(nogil=True, cache=True)
+def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, level, stv, m, safety, scales, bscales,
+          rscales, step, pa, pb):  # fmt: skip
+    """Step 3: every leaf's bound ``m`` (its stencils at every view already made, :func:`view_stencils`).
+
+    Returns ``(ridge, rho, evaluations)``: the bounds are on ``g_v / c_v``, ``bscales`` raised in place where
+    ``1 / I_v`` is larger; ``rho`` the factor on ``1 / c`` between the views (``rscales`` multiplied by it in
+    place)."""
+    nv = views.shape[0]
+    rho = 1.0
+    for v in range(nv):
         # at the stencils, the larger of 1 / c and the stencils' own 1 / I_v: where a view's lobe falls between
         # the stencils' points, its own integral is too small and its ratios there err high, as they should
         # (with 1 / c alone, Cook-Torrance m = 0.005's bounds failed at 2e-4 of its trials)
@@ -599,13 +616,14 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
     # makes it large, and the bounds between the views then err high by as much, as before 1 / c was used)
     for r in range(rscales.shape[0]):
         rscales[r] *= rho
-    ridge = _ridge(projection, views, ridge_views, child, x0, y0, level, st, n, rscales, step)
+    ridge = _ridge(projection, views, ridge_views, pa, pb, rscales, step)
+    evals = 0
     for i in range(n):
         if child[i] == -1:
             m[i], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0,
                                   level, stv, safety)  # fmt: skip
             evals += e
-    return scales, ridge, rho, evals
+    return ridge, rho, evals
 
 
 @njit(nogil=True, cache=True)
@@ -959,50 +977,86 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, scales, weigh
 
 
 @njit(nogil=True, cache=True)
-def build(
-    mid,
-    p,
-    projection,
-    views,
-    weights,
-    cell,
-    n_max,
-    warp_tol,
-    base_level,
-    max_level,
-    capacity,
-    safety,
-    angles,
-    norm,
-    norm_meta,
-):
-    """The three steps for one node; returns the arrays of :class:`TreeArrays` (see there). ``angles``: the
-    ``(theta, phi)`` of the views; ``norm, norm_meta``: the exact mode's normalizer (:func:`inv_norm`; unread
-    when ``safety`` is 0)."""
-    bscales = np.zeros(views.shape[0])
-    if safety > 0.0:
-        for v in range(views.shape[0]):
-            bscales[v] = inv_norm(norm, norm_meta, angles[v, 0], angles[v, 1])
+def _lobe_width(projection, view0, child, x0, y0, level):
+    """The side of the leaf holding the node view's mirror point (:func:`make_ridge`)."""
+    ma, mb = _mirror_point(view0, projection)
+    return 0.5 ** level[_leaf_holding(child, x0, y0, level, ma, mb)]
+
+
+@njit(nogil=True, cache=True)
+def _finish(n, child, x0, y0, level, st, stv, m, scales, weights):
+    """The node view's Simpson integral on the leaves (the normalizer has its own) and :func:`summarize`
+    (which numbers the leaves in ``child``)."""
+    fine = np.zeros(n)
+    fine_err = np.zeros(n)
+    for i in range(n):
+        if child[i] == -1:
+            h = 0.5 ** level[i]
+            fine[i] = _rule(st[i], x0[i], y0[i], h)
+            fine_err[i] = abs(fine[i] - _trapezoids(st[i], h * h))
+    return summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, scales, weights)
+
+
+@njit(nogil=True, cache=True)
+def shape(mid, p, projection, views, weights, warp_tol, base_level, max_level, capacity):
+    """Steps 1, 2 and 2b for one node: the rejection-free density's tree. Returns the arrays of
+    :class:`TreeArrays` (no bounds: every ``K_L`` is 1), then what step 3 continues from (:class:`TreeShape`)."""
+    nv = views.shape[0]
     child = np.empty(capacity, dtype=np.int32)
     x0 = np.empty(capacity)
     y0 = np.empty(capacity)
     level = np.empty(capacity, dtype=np.int32)
     st = np.zeros((capacity, 9))
-    stv = np.zeros((capacity, views.shape[0], 9))
-    m = np.zeros(capacity)
-    n, integral0, evals = grow(mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0,
-                               level, st)  # fmt: skip
-    ridge_v, rscales, step = make_ridge(
-        cell, projection, views[0], child, x0, y0, level, norm, norm_meta, safety
+    stv = np.zeros((capacity, nv, 9))
+    n, _, evals = grow(
+        mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0, level, st
     )
-    scales, ridge, rho, e = bound(mid, p, projection, views, ridge_v, weights, n, child, x0, y0, level, st, stv, m,
-                             safety, bscales, rscales, step)  # fmt: skip
+    # what the ridge is made from, taken from the grown tree (before step 2b splits it for the mixture)
+    pa, pb = _peak(n, child, x0, y0, level, st)
+    width = _lobe_width(projection, views[0], child, x0, y0, level)
+    scales, e = view_stencils(mid, p, projection, views, n, child, x0, y0, level, st, stv)
     evals += e
-    n, e = refine_warp(mid, p, projection, views, scales, bscales, weights, ridge, ridge_v, warp_tol, max_level, n,
-                       child, x0, y0, level, st, stv, m, safety)  # fmt: skip
+    m = np.ones(capacity)
+    no_ridge = np.zeros((0, 5))
+    n, e = refine_warp(mid, p, projection, views, scales, np.zeros(nv), weights, no_ridge, np.zeros((0, 6)), warp_tol,
+                       max_level, n, child, x0, y0, level, st, stv, m, 0.0)  # fmt: skip
     evals += e
+    kept = child[:n].copy()
+    corners, bounds, integrals, errors, chi2, envelope = _finish(n, child, x0, y0, level, st, stv, m, scales,
+                                                                 weights)  # fmt: skip
+    return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals, errors,
+            chi2, envelope, evals, kept, st[:n].copy(), stv[:n].copy(), scales, pa, pb, width)  # fmt: skip
+
+
+@njit(nogil=True, cache=True)
+def add_bounds(mid, p, projection, views, weights, cell, n_max, max_level, capacity, safety, angles, norm, norm_meta,
+               child_s, x0_s, y0_s, level_s, st_s, stv_s, scales, pa, pb, width):  # fmt: skip
+    """Step 3 for one node, continuing from its :func:`shape` (``child_s .. width``): the bounds, the
+    acceptance's refinement and the probes. ``angles``: the ``(theta, phi)`` of the views; ``norm,
+    norm_meta``: the exact mode's normalizer (:func:`inv_norm`). Returns the arrays of :class:`TreeArrays`."""
+    n = child_s.shape[0]
+    nv = views.shape[0]
+    child = np.empty(capacity, dtype=np.int32)
+    x0 = np.empty(capacity)
+    y0 = np.empty(capacity)
+    level = np.empty(capacity, dtype=np.int32)
+    st = np.zeros((capacity, 9))
+    stv = np.zeros((capacity, nv, 9))
+    child[:n] = child_s
+    x0[:n] = x0_s
+    y0[:n] = y0_s
+    level[:n] = level_s
+    st[:n] = st_s
+    stv[:n] = stv_s
+    m = np.zeros(capacity)
+    bscales = np.zeros(nv)
+    for v in range(nv):
+        bscales[v] = inv_norm(norm, norm_meta, angles[v, 0], angles[v, 1])
+    ridge_v, rscales, step = make_ridge(cell, projection, views[0], width, norm, norm_meta, safety)
+    ridge, rho, evals = bound(mid, p, projection, views, ridge_v, weights, n, child, x0, y0, level, stv, m, safety,
+                              scales, bscales, rscales, step, pa, pb)  # fmt: skip
     probed = np.zeros(capacity, dtype=np.bool_)
-    rounds = 5 if safety > 0.0 else 0  # no bounds: no acceptance to refine for, nothing to probe
+    rounds = 5
     for r in range(rounds):  # the acceptance, then the probes; a raised bound may call for more leaves
         n, envelope, e = refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_v, n_max, max_level, n,
                                 child, x0, y0, level, st, stv, m, safety)  # fmt: skip
@@ -1014,43 +1068,63 @@ def build(
         evals += e
         if raised == 0:
             break
-    fine = np.zeros(capacity)
-    fine_err = np.zeros(capacity)
-    for i in range(n):  # the node view's integral, Simpson's rule on the leaves (the normalizer has its own)
-        if child[i] == -1:
-            h = 0.5 ** level[i]
-            fine[i] = _rule(st[i], x0[i], y0[i], h)
-            fine_err[i] = abs(fine[i] - _trapezoids(st[i], h * h))
-    corners, bounds, integrals, errors, chi2, envelope = summarize(n, child, x0, y0, level, st, stv, m, fine,
-                                                                   fine_err, scales, weights)  # fmt: skip
+    corners, bounds, integrals, errors, chi2, envelope = _finish(n, child, x0, y0, level, st, stv, m, scales,
+                                                                 weights)  # fmt: skip
     return (child[:n].copy(), x0[:n].copy(), y0[:n].copy(), level[:n].copy(), corners, bounds, integrals,
             errors, chi2, envelope, evals)  # fmt: skip
 
 
-def build_tree(
-    mid: int,
-    p: np.ndarray,
-    projection: int,
-    views: np.ndarray,
-    weights: np.ndarray,
-    cell: np.ndarray,
-    settings: BuildSettings,
-    angles: np.ndarray,
-    norm: np.ndarray,
-    norm_meta: np.ndarray,
-) -> TreeArrays:
-    """One node's tree (``views[0]`` is the node; the others span its cell, with the mixture's ``weights``;
-    ``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``; ``angles``: each view's ``(theta, phi)``; ``norm,
-    norm_meta``: the exact mode's normalizer, whose ``g / c`` the bounds bound (:func:`inv_norm`))."""
-    out = build(
+class TreeShape(NamedTuple):
+    """What step 3 continues from: a node's tree after steps 1, 2 and 2b (``n`` nodes, ``v`` views)."""
+
+    child: np.ndarray
+    """``(n,)`` int32: a node's first child, or -1 for a leaf (not yet numbered)."""
+    x0: np.ndarray
+    y0: np.ndarray
+    level: np.ndarray
+    st: np.ndarray
+    """``(n, 9)``: the node view's stencils."""
+    stv: np.ndarray
+    """``(n, v, 9)``: every view's stencils (those of inner nodes as they were when split)."""
+    scales: np.ndarray
+    """``(v,)``: ``1 / I_v`` of the mixture."""
+    peak: tuple[float, float]
+    """The node view's largest ``g`` among the grown tree's stencil points (:func:`_ridge`)."""
+    width: float
+    """The lobe's width for the ridge's steps (:func:`make_ridge`)."""
+
+
+def shape_tree(mid: int, p: np.ndarray, projection: int, views: np.ndarray, weights: np.ndarray,
+               settings: BuildSettings) -> tuple[TreeArrays, TreeShape]:  # fmt: skip
+    """One node's tree without bounds (``views[0]`` is the node; the others span its cell, with the mixture's
+    ``weights``): the rejection-free mode's tree, and what :func:`bound_tree` continues from."""
+    out = shape(
         int(mid), np.ascontiguousarray(p, dtype=np.float64), int(projection),
         np.ascontiguousarray(views, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
-        np.ascontiguousarray(cell, dtype=np.float64),
-        float(settings.n_max), float(settings.warp_tol),
-        int(settings.base_level), int(settings.max_level), int(settings.capacity),
-        float(settings.bound_safety),
-        np.ascontiguousarray(angles, dtype=np.float64),
+        float(settings.warp_tol), int(settings.base_level), int(settings.max_level), int(settings.capacity),
+    )  # fmt: skip
+    tree = TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
+    kept, st, stv, scales, pa, pb, width = out[11:]
+    return tree, TreeShape(
+        kept, tree.x0, tree.y0, tree.level, st, stv, scales, (float(pa), float(pb)), float(width)
+    )
+
+
+def bound_tree(shaped: TreeShape, mid: int, p: np.ndarray, projection: int, views: np.ndarray,
+               weights: np.ndarray, cell: np.ndarray, settings: BuildSettings, angles: np.ndarray, norm: np.ndarray,
+               norm_meta: np.ndarray) -> TreeArrays:  # fmt: skip
+    """The exact mode's tree from a node's :func:`shape_tree` (the same ``views`` and ``weights``; ``cell =
+    theta_lo, theta_hi, phi_lo, phi_hi, follow``; ``angles``: each view's ``(theta, phi)``; ``norm,
+    norm_meta``: the exact mode's normalizer, whose ``g / c`` the bounds bound, :func:`inv_norm`). Its
+    evaluations are step 3's only."""
+    out = add_bounds(
+        int(mid), np.ascontiguousarray(p, dtype=np.float64), int(projection),
+        np.ascontiguousarray(views, dtype=np.float64), np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(cell, dtype=np.float64), float(settings.n_max), int(settings.max_level),
+        int(settings.capacity), float(settings.bound_safety), np.ascontiguousarray(angles, dtype=np.float64),
         np.ascontiguousarray(norm, dtype=np.float64), np.ascontiguousarray(norm_meta, dtype=np.float64),
+        shaped.child, shaped.x0, shaped.y0, shaped.level, shaped.st, shaped.stv, shaped.scales,
+        shaped.peak[0], shaped.peak[1], shaped.width,
     )  # fmt: skip
     return TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
 
