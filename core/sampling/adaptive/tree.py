@@ -131,16 +131,44 @@ def _stencil(mid, p, projection, view, x0, y0, h, out):
         out[k] = g_at(mid, p, a, b, projection, view)
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _shared_point(q, k):
+    """``(sibling, k')``: stencil point ``k`` of child ``q`` is point ``k'`` of the earlier child ``sibling``
+    (the middles of the edges inside the parent, each shared by two children), or ``(-1, -1)``."""
+    if q == 1 and k == 3:
+        return 0, 5
+    if q == 2 and k == 1:
+        return 0, 7
+    if q == 3 and k == 1:
+        return 1, 7
+    if q == 3 and k == 3:
+        return 2, 5
+    return -1, -1
+
+
+NEW_POINTS = (5, 4, 4, 3)
+"""Stencil points child ``q`` evaluates: its corners are its parent's points, and the middles of the edges
+inside the parent are its earlier siblings' (16 new points a split, not 20)."""
+
+SPLIT_EVALUATIONS = 16
+
+
 @njit(nogil=True, cache=True)
-def _child_stencil(mid, p, projection, view, parent, q, x0, y0, h, out):
-    """The stencil of child ``q`` from its parent's (corners) and five new evaluations (the odd points)."""
+def _child_stencil(mid, p, projection, view, st, parent, first, q, x0, y0, h):
+    """The stencil of child ``q`` (node ``first + q``) from its parent's corners, its earlier siblings'
+    shared points (:func:`_shared_point`) and new evaluations."""
     qi = q % 2
     qj = q // 2
+    out = st[first + q]
     for k in range(9):
         i = k % 3
         j = k // 3
         if i % 2 == 0 and j % 2 == 0:
-            out[k] = parent[(qj + j // 2) * 3 + qi + i // 2]
+            out[k] = st[parent, (qj + j // 2) * 3 + qi + i // 2]
+            continue
+        sib, ks = _shared_point(q, k)
+        if sib >= 0:
+            out[k] = st[first + sib, ks]
         else:
             a, b = _point(x0, y0, h, k)
             out[k] = g_at(mid, p, a, b, projection, view)
@@ -213,7 +241,7 @@ def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
         y0[c] = y0[i] + h * (q // 2)
         level[c] = level[i] + 1
         child[c] = -1
-        _child_stencil(mid, p, projection, view, st[i], q, x0[c], y0[c], h, st[c])
+        _child_stencil(mid, p, projection, view, st, i, n, q, x0[c], y0[c], h)
     return n + 4
 
 
@@ -233,7 +261,7 @@ def _split_worst(mid, p, projection, view, errs, excess, max_level, n, child, x0
         if child[i] != -1 or level[i] >= max_level:
             continue
         n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
-        evals += 20
+        evals += SPLIT_EVALUATIONS
         removed += errs[i]
         split += 1
     return n, split, evals
@@ -277,7 +305,7 @@ def _chase_peak(mid, p, projection, view, max_level, n, child, x0, y0, level, st
         if q >= 0.5 * g or level[i] >= max_level or n + 4 > cap:
             break
         n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
-        evals += 20
+        evals += SPLIT_EVALUATIONS
     return n, evals
 
 
@@ -298,7 +326,7 @@ def grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y
     while i < n:  # the uniform levels, breadth first
         if level[i] < base_level and n + 4 <= cap:
             n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
-            evals += 20
+            evals += SPLIT_EVALUATIONS
         i += 1
     integral = 0.0
     for i in range(n):
@@ -558,8 +586,9 @@ def _point_at_views(mid, p, projection, views, x0, y0, h, k, stv, i):
 @njit(nogil=True, cache=True)
 def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level, st, stv):
     """Child ``c`` (quarter ``q`` of ``parent``)'s stencils at every view: its corners are stencil points of
-    its parent's (as in :func:`_child_stencil`), so five points are evaluated, not nine. Returns the
-    evaluations made."""
+    its parent's and the middles of the edges inside the parent its earlier siblings' (as in
+    :func:`_child_stencil`; the siblings are made in order), so 3 to 5 points are evaluated, not nine.
+    Returns the evaluations made."""
     qi = q % 2
     qj = q // 2
     h = 0.5 ** level[c]
@@ -571,21 +600,35 @@ def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level,
             src = (qj + j // 2) * 3 + qi + i // 2
             for v in range(1, views.shape[0]):
                 stv[c, v, k] = stv[parent, v, src]
+            continue
+        sib, ks = _shared_point(q, k)
+        if sib >= 0:
+            for v in range(1, views.shape[0]):
+                stv[c, v, k] = stv[c - q + sib, v, ks]
         else:
             _point_at_views(mid, p, projection, views, x0[c], y0[c], h, k, stv, c)
-    return 5 * (views.shape[0] - 1)
+    return NEW_POINTS[q] * (views.shape[0] - 1)
 
 
 @njit(nogil=True, cache=True)
 def view_stencils(mid, p, projection, views, n, child, x0, y0, level, st, stv):
-    """Step 2: every leaf's stencils at every view and the views' integrals. Returns ``(scales,
-    evaluations)``, ``scales[v] = 1 / I_v`` (the mixture's normalization)."""
-    evals = 0
+    """Step 2: every node's stencils at every view and the views' integrals. Returns ``(scales,
+    evaluations)``, ``scales[v] = 1 / I_v`` (the mixture's normalization).
+
+    Made from the root down as the tree was split (nodes are created after their parents): a child has its
+    parent's and its siblings' shared points (:func:`_child_view_stencils`), 16 new points a split where
+    every leaf on its own took 9 (41 % fewer evaluations; the same values, at the same points)."""
     nv = views.shape[0]
+    evals = _view_stencils(mid, p, projection, views, 0, x0, y0, level, st, stv)
+    for i in range(n):
+        if child[i] >= 0:
+            for q in range(4):
+                evals += _child_view_stencils(
+                    mid, p, projection, views, i, q, child[i] + q, x0, y0, level, st, stv
+                )
     integral = np.zeros(nv)
     for i in range(n):
         if child[i] == -1:
-            evals += _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv)
             for v in range(nv):
                 integral[v] += _rule(stv[i, v], x0[i], y0[i], 0.5 ** level[i])
     scales = np.zeros(nv)
@@ -738,7 +781,7 @@ def refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_vie
         for i in range(end):
             if child[i] == -1 and excess[i] >= limit and n + 4 <= cap:
                 n = _split(mid, p, projection, views[0], i, n, child, x0, y0, level, st)
-                evals += 20
+                evals += SPLIT_EVALUATIONS
                 for c in range(n - 4, n):
                     evals += _child_view_stencils(mid, p, projection, views, i, c - (n - 4), c, x0, y0, level, st,
                                                   stv)  # fmt: skip
@@ -848,7 +891,7 @@ def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_l
         s += _rule(st[c], x0[c], y0[c], 0.5 * h)
     child[i] = -1
     divisor = _richardson_divisor(x0[i], y0[i], h)
-    return s + (s - coarse) / divisor, abs(s - coarse) / divisor, 20
+    return s + (s - coarse) / divisor, abs(s - coarse) / divisor, SPLIT_EVALUATIONS
 
 
 @njit(nogil=True, cache=True)
@@ -891,7 +934,7 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
             if removed >= excess or errs[i] <= 0.0 or n + 4 > cap or level[i] >= max_level:
                 break
             n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
-            evals += 20
+            evals += SPLIT_EVALUATIONS
             removed += errs[i]
             k += 1
         if k == 0:
