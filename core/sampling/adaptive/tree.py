@@ -818,18 +818,50 @@ def _has_front(stv_i):
     return False
 
 
+INV_NORM_GRID = 257
+"""Polar angles (and, across an azimuth range, 17 azimuths) at which :func:`_inv_norm_top` reads ``1 / c``
+over a cell: finer than the normalizer's table near the horizon, where its rows are densest in theta."""
+
+INV_NORM_MARGIN = 1.25
+"""Factor on the largest ``1 / c`` read on that grid: the cubic between its points rises far less."""
+
+
+@njit(nogil=True, cache=True)
+def _inv_norm_top(norm, norm_meta, cell):
+    """An upper bound of ``1 / c`` (:func:`inv_norm`) over the cell ``theta_lo, theta_hi, phi_lo, phi_hi``:
+    the largest value on a grid finer than the normalizer's table, times :data:`INV_NORM_MARGIN`."""
+    n_phi = 17 if cell[3] > cell[2] else 1
+    top = 0.0
+    for t in range(INV_NORM_GRID):
+        theta = cell[0] + (cell[1] - cell[0]) * t / (INV_NORM_GRID - 1)
+        for j in range(n_phi):
+            phi = cell[2] + (cell[3] - cell[2]) * j / max(n_phi - 1, 1)
+            top = max(top, inv_norm(norm, norm_meta, theta, phi))
+    return top * INV_NORM_MARGIN
+
+
 @njit(nogil=True, cache=True)
 def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed, safety,
           norm, norm_meta, rho):  # fmt: skip
     """Step 3b: every leaf's bound checked at ``PROBES`` random points, each at a random view of the cell
     (``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``): between the stencils' points and between the
     views, where no rule covers it. A bound found short is raised to ``PROBE_MARGIN`` times the ratio seen
-    (against ``rho g / c`` at the probe's view, :func:`inv_norm`, ``rho`` from :func:`bound`). Returns the number of bounds raised and the evaluations made."""
+    (against ``rho g / c`` at the probe's view, :func:`inv_norm`, ``rho`` from :func:`bound`; ``1 / c`` is
+    read only where the cell's largest could raise the bound). Returns the number of bounds raised and the
+    evaluations made."""
     raised = 0
     evals = 0
     mix = np.empty(9)
     view = np.empty(6)
     view[5] = 1.0
+    azimuths = cell[3] > cell[2]
+    follow = cell[4] > 0.5
+    if not azimuths:  # one azimuth, 0: the view's turn is none (as _view_row makes it at phi = 0)
+        view[1] = 0.0
+        view[3] = 1.0
+        view[4] = 0.0
+    # a probe whose ratio cannot reach the bound even at the cell's largest 1 / c needs no 1 / c of its own
+    top = rho * _inv_norm_top(norm, norm_meta, cell)
     for i in range(n):
         if child[i] != -1 or probed[i]:
             continue
@@ -852,10 +884,15 @@ def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, le
             state, u4 = next_u01(state)
             theta = cell[0] + u3 * (cell[1] - cell[0])
             phi = cell[2] + u4 * (cell[3] - cell[2])
-            _view_row(theta, phi, cell[4] > 0.5, view)
+            if azimuths:
+                _view_row(theta, phi, follow, view)
+            else:
+                view[0] = math.sin(theta)
+                view[2] = math.cos(theta)
             qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
             g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
-            worst = max(worst, g * rho * inv_norm(norm, norm_meta, theta, phi) / qq)
+            if g * top / qq * safety > m[i]:
+                worst = max(worst, g * rho * inv_norm(norm, norm_meta, theta, phi) / qq)
             evals += 1
         if worst * safety > m[i]:
             m[i] = worst * PROBE_MARGIN
