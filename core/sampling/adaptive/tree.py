@@ -915,9 +915,10 @@ def _richardson_divisor(x0, y0, h):
 
 
 @njit(nogil=True, cache=True)
-def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_level):
-    """The rule on leaf ``i``'s four children (made in slots ``n .. n + 3`` and dropped again): returns the
-    extrapolated integral, its estimated error and the evaluations made."""
+def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_level, trial):
+    """The rule on leaf ``i``'s four children (made in slots ``n .. n + 3`` and dropped again, their stencils
+    kept in ``trial[i]`` for a split for good, :func:`_split_tried`): returns the extrapolated integral, its
+    estimated error and the evaluations made."""
     h = 0.5 ** level[i]
     coarse = _rule(st[i], x0[i], y0[i], h)
     if level[i] >= max_level or n + 4 > child.shape[0]:
@@ -926,9 +927,25 @@ def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_l
     s = 0.0
     for c in range(n, end):
         s += _rule(st[c], x0[c], y0[c], 0.5 * h)
+        trial[i, c - n] = st[c]
     child[i] = -1
     divisor = _richardson_divisor(x0[i], y0[i], h)
     return s + (s - coarse) / divisor, abs(s - coarse) / divisor, SPLIT_EVALUATIONS
+
+
+@njit(nogil=True, cache=True)
+def _split_tried(i, n, child, x0, y0, level, st, trial):
+    """:func:`_split` of a leaf split on trial before: its children's stencils are those the trial made."""
+    h = 0.5 ** (level[i] + 1)
+    child[i] = n
+    for q in range(4):
+        c = n + q
+        x0[c] = x0[i] + h * (q % 2)
+        y0[c] = y0[i] + h * (q // 2)
+        level[c] = level[i] + 1
+        child[c] = -1
+        st[c] = trial[i, q]
+    return n + 4
 
 
 @njit(nogil=True, cache=True)
@@ -938,12 +955,14 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
 
     Every leaf is split on trial: the rule on its four children against its own estimates the error (a
     Richardson step) and gives a better integral (``fine``, error ``fine_err``). While the errors add up to
-    more than ``quad_tol * I``, the cells with the largest errors are split for good and tried in turn: the
-    fewest cells that reach the tolerance. Returns ``(nodes, evaluations)``."""
+    more than ``quad_tol * I``, the cells with the largest errors are split for good (into the children their
+    trial made: no evaluation) and tried in turn: the fewest cells that reach the tolerance. Returns
+    ``(nodes, evaluations)``."""
     cap = child.shape[0]
     evals = 0
     known = np.zeros(cap, dtype=np.bool_)
     errs = np.zeros(cap)
+    trial = np.empty((cap, 4, 9))
     for _ in range(48):
         total = 0.0
         err = 0.0
@@ -952,7 +971,7 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
                 continue
             if not known[i]:
                 fine[i], fine_err[i], e = _trial_split(mid, p, projection, view, i, n, child, x0, y0, level,
-                                                       st, max_level)  # fmt: skip
+                                                       st, max_level, trial)  # fmt: skip
                 evals += e
                 known[i] = True
             total += fine[i]
@@ -970,8 +989,7 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
             i = order[r]
             if removed >= excess or errs[i] <= 0.0 or n + 4 > cap or level[i] >= max_level:
                 break
-            n = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
-            evals += SPLIT_EVALUATIONS
+            n = _split_tried(i, n, child, x0, y0, level, st, trial)  # every leaf here was split on trial
             removed += errs[i]
             k += 1
         if k == 0:
@@ -979,7 +997,7 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
     for i in range(n):  # leaves split in the last round
         if child[i] == -1 and not known[i]:
             fine[i], fine_err[i], e = _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st,
-                                                   max_level)  # fmt: skip
+                                                   max_level, trial)  # fmt: skip
             evals += e
     return n, evals
 
