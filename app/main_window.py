@@ -206,6 +206,10 @@ class MainWindow(QMainWindow):
         self.redraw.flush_slow_jobs()
 
     def jobs_idle(self, *lanes: str) -> bool:
+        """No background job running or waiting in ``lanes`` (default all), the sampler view's next follow-up
+        counted as one of the ``sampling`` lane's."""
+        if (not lanes or "sampling" in lanes) and self.redraw.follow_up_pending:
+            return False
         return self.jobs.idle(*lanes)
 
     @property

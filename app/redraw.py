@@ -26,9 +26,10 @@ if TYPE_CHECKING:
     from app.main_window import MainWindow
 
 SLOW_JOB_DELAY_MS = 300
-FOLLOW_UP_SETTLE_S = 0.25
-"""The sampler view shows a material's coarse table while its full one is built (in the snapshot process),
-then asks again, each time waiting up to this long there for the full table."""
+FOLLOW_UP_MS = 250
+"""The sampler view shows a new material's first fit (or coarse table) while its full table is built in the
+snapshot process, and asks again every this many ms for the full table's picture. It does not wait there:
+the process does one request at a time, and a drag's next value would queue behind the wait."""
 
 
 class Redrawer(QObject):
@@ -45,8 +46,6 @@ class Redrawer(QObject):
         self._sampling_requested = 0.0
         self._sampling_ident: tuple = ()
         """What the last snapshot asked for was of (material, direction, view options)."""
-        self._shown_coarse: tuple | None = None
-        """The request whose coarse-table snapshot the sampler view shows (None: a full table's)."""
         self._timer = QTimer(window)
         self._timer.setSingleShot(True)
         self._timer.setInterval(0)
@@ -58,6 +57,10 @@ class Redrawer(QObject):
         self.slow_timer.setSingleShot(True)
         self.slow_timer.setInterval(SLOW_JOB_DELAY_MS)
         self.slow_timer.timeout.connect(self._start_slow_jobs)
+        self.follow_up_timer = QTimer(window)
+        self.follow_up_timer.setSingleShot(True)
+        self.follow_up_timer.setInterval(FOLLOW_UP_MS)
+        self.follow_up_timer.timeout.connect(lambda: self.schedule("follow-up"))
         jobs = window.jobs
         self.sampling_lane = jobs.lane("sampling", self._sampling_started)
         self.albedo_lane = jobs.lane("albedo")
@@ -79,6 +82,7 @@ class Redrawer(QObject):
         self._timer.start()
 
     def stop(self) -> None:
+        self.follow_up_timer.stop()
         self._timer.stop()
         self.slow_timer.stop()
 
@@ -118,17 +122,25 @@ class Redrawer(QObject):
         if self._sampling_stale and (self.sampling_always or w.tabs.currentWidget() is w.sampling_panel):
             self._sampling_stale = False
             view_opts = w.sampling_view.options()
-            # A new material shows its coarse table's tree at once; a follow-up (only after a coarse snapshot,
-            # with nothing else changed) waits a moment for the full table (see FOLLOW_UP_SETTLE_S).
-            settle = FOLLOW_UP_SETTLE_S if pending == {"follow-up"} else 0.0
-            opts = {**view_opts, "progressive": True, "settle": settle}
+            # A new material shows a first tree at once; a follow-up (only after such a snapshot, with nothing
+            # else changed) asks for the full table's picture only (see FOLLOW_UP_MS).
+            follow_up = pending == {"follow-up"}
+            if not follow_up:  # a new material or direction: the process's waits for older ones give up
+                self.follow_up_timer.stop()
+                snapshot_process.interrupt()
+            opts = {
+                **view_opts,
+                "progressive": True,
+                "only_complete": follow_up,
+                "asked_at": snapshot_process.generation(),
+            }
             mat = doc.material()
             spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
             self._sampling_requested = time.perf_counter()
             self._sampling_ident = (brdf.key(), doc.theta_deg, doc.phi_deg, tuple(sorted(view_opts.items())))
             self.sampling_lane.submit(Job(
                 snapshot_process.snapshot, (spec, doc.theta_deg, doc.phi_deg), opts,
-                key=(*self._sampling_ident, settle),
+                key=(*self._sampling_ident, follow_up),
                 done=self._sampling_done, failed=w.sampling_view.show_message,
             ))  # fmt: skip
         if pending & {"brdf", "direction"}:
@@ -176,16 +188,20 @@ class Redrawer(QObject):
                 "Making the adaptive sampler's table (the first time for a model also compiles its kernels) ..."
             )
 
+    @property
+    def follow_up_pending(self) -> bool:
+        """Whether the sampler view will ask again for the full table's picture."""
+        return self.follow_up_timer.isActive()
+
     def _sampling_done(self, snapshot: Any) -> None:
+        if snapshot is None:  # a follow-up: the full table is not made yet
+            self.follow_up_timer.start()
+            return
+        self._timed("sampling_draw", self.window.sampling_view.show_snapshot, snapshot)
+        self.timings["sampling"] = time.perf_counter() - self._sampling_requested
         table = snapshot.table
-        coarse = not table.get("complete", True)
-        # a follow-up that found the full table still building brings the same coarse picture: not drawn again
-        if not (coarse and self._shown_coarse == self._sampling_ident):
-            self._timed("sampling_draw", self.window.sampling_view.show_snapshot, snapshot)
-            self.timings["sampling"] = time.perf_counter() - self._sampling_requested
-        self._shown_coarse = self._sampling_ident if coarse else None
-        if coarse and table.get("full_pending", False):
-            self.schedule("follow-up")
+        if not table.get("complete", True) and table.get("full_pending", False):
+            self.follow_up_timer.start()
 
     def _start_slow_jobs(self) -> None:
         w = self.window
@@ -206,12 +222,28 @@ class Redrawer(QObject):
         self.albedo_lane.submit(
             Job(albedo, (brdf,), key=brdf.key(), done=albedo_done, failed=w.albedo_view.show_message)
         )
+        self._ask_table_facts()
+
+    def _ask_table_facts(self) -> None:
+        """The adaptive table's facts for the editor, from the snapshot process; asked again a moment later
+        when its wait for the table gave way to the sampler view's newer request."""
+        w = self.window
+        try:
+            brdf = self.document.brdf()
+        except (BrdfStudioError, KeyError):
+            return
         mat = self.document.material()
         spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
+
+        def done(line: str | None) -> None:
+            if line is None:
+                QTimer.singleShot(SLOW_JOB_DELAY_MS, self, self._ask_table_facts)
+            else:
+                w.material_editor.set_info("adaptive", line)
+
         self.adaptive_lane.submit(Job(
-            snapshot_process.table_facts, (spec,), key=brdf.key(),
-            done=lambda line: w.material_editor.set_info("adaptive", line),
-            failed=lambda message: w.material_editor.set_info("adaptive", message),
+            snapshot_process.table_facts, (spec, snapshot_process.generation()), key=brdf.key(),
+            done=done, failed=lambda message: w.material_editor.set_info("adaptive", message),
         ))  # fmt: skip
 
     def flush_slow_jobs(self) -> None:

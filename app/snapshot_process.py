@@ -13,6 +13,14 @@ share). It receives a *spec* of the material (model name and parameter values, o
 not the BRDF object: measured tables are large, and the child rebuilds and keeps the few BRDFs it was asked
 about. Errors raised in it (:class:`core.errors.BrdfStudioError`) come back as themselves; if the process
 dies, the next request starts a new one (once per request); if the app dies, the process ends by itself.
+
+The process does one request at a time. The table's facts wait in it for a background build of the full
+table (the app's sampler view does not: it asks again a moment later). A new value of a slider drag must
+not queue behind such a wait: :func:`interrupt` (called by the app when it asks for a new material or
+direction) bumps a counter shared with the process, and a wait begun under an older count gives up at once. The
+process also runs the background builds at a lower priority (:data:`BUILD_NICENESS`) and stops the build
+of a value the view no longer shows (:func:`core.sampling.adaptive.sampler.drop_builds`), so that the new
+value's coarse table gets the cores.
 """
 
 from __future__ import annotations
@@ -37,6 +45,11 @@ _BRDFS: dict[Spec, Any] = {}
 """In the child: the BRDFs asked about, by spec (a few; their samplers' trees are cached by the library)."""
 _KEEP = 8
 PARENT_POLL_S = 0.5
+BUILD_NICENESS = 10
+"""The niceness of the full tables' background builds in the process (the coarse table the view waits
+for, and the GUI, come first)."""
+_GENERATION: Any = None
+"""A ``multiprocessing.Value`` shared with the process: the count of :func:`interrupt` calls."""
 
 
 def spec_of(model: str, measured: str | None, params: dict) -> Spec:
@@ -46,16 +59,46 @@ def spec_of(model: str, measured: str | None, params: dict) -> Spec:
 
 
 def _pool() -> ProcessPoolExecutor:
-    global _POOL
+    global _POOL, _GENERATION
     with _LOCK:
         if _POOL is None:
+            context = multiprocessing.get_context("spawn")
+            _GENERATION = context.Value("q", 0, lock=False)
             _POOL = ProcessPoolExecutor(
                 max_workers=1,
-                mp_context=multiprocessing.get_context("spawn"),
-                initializer=_watch_parent,
-                initargs=(os.getpid(),),
+                mp_context=context,
+                initializer=_start_child,
+                initargs=(os.getpid(), _GENERATION),
             )
         return _POOL
+
+
+def generation() -> int:
+    """The current count of :func:`interrupt` calls: a request made now carries it."""
+    _pool()
+    return int(_GENERATION.value)
+
+
+def interrupt() -> None:
+    """Make the process's waits begun by earlier requests give up: a newer request is on its way."""
+    _pool()
+    _GENERATION.value += 1  # (only the GUI thread writes it)
+
+
+def _start_child(parent: int, shared: Any) -> None:
+    global _GENERATION
+    _GENERATION = shared
+    from core.sampling.adaptive.sampler import lower_build_priority
+
+    lower_build_priority(BUILD_NICENESS)
+    _watch_parent(parent)
+
+
+def _superseded(asked_at: int | None) -> Any:
+    """In the child: ``stop`` for a wait of a request made at count ``asked_at`` (None: never stops)."""
+    if asked_at is None:
+        return None
+    return lambda: _GENERATION.value != asked_at
 
 
 def shutdown() -> None:
@@ -100,25 +143,30 @@ def _brdf(spec: Spec) -> Any:
     return hit
 
 
-def _snapshot_here(spec: Spec, theta_deg: float, phi_deg: float, options: dict) -> dict:
-    from app.view_data import sampling_snapshot
+def _snapshot_here(spec: Spec, theta_deg: float, phi_deg: float, options: dict, asked_at: int | None) -> Any:
+    from app.view_data import NoSnapshot, sampling_snapshot
 
-    return sampling_snapshot(_brdf(spec), theta_deg, phi_deg, **options)
+    try:
+        return sampling_snapshot(_brdf(spec), theta_deg, phi_deg, stop=_superseded(asked_at), **options)
+    except NoSnapshot:
+        return None
 
 
-def _facts_here(spec: Spec) -> str:
+def _facts_here(spec: Spec, asked_at: int | None) -> str | None:
     from app.view_data import adaptive_line
 
-    return adaptive_line(_brdf(spec))
+    return adaptive_line(_brdf(spec), stop=_superseded(asked_at))
 
 
-def table_facts(spec: Spec) -> str:
+def table_facts(spec: Spec, asked_at: int | None = None) -> str | None:
     """:func:`app.view_data.adaptive_line` of the material ``spec`` (its adaptive table's size and build time),
     made in the snapshot process: the table is built once there, for the sampler view and these facts, and
-    its build never holds the GUI's interpreter lock."""
+    its build never holds the GUI's interpreter lock. ``asked_at``: the :func:`generation` when the app
+    asked; a wait for the table's build gives up when a later :func:`interrupt` came, and None is
+    returned (ask again later)."""
     for _ in range(2):
         try:
-            return _pool().submit(_facts_here, spec).result()
+            return _pool().submit(_facts_here, spec, asked_at).result()
         except BrokenProcessPool:
             shutdown()
     raise BrdfStudioError("the sampler view's process stopped twice in a row; see the terminal for its error")
@@ -133,12 +181,16 @@ def prewarm() -> None:
     _pool().submit(_ready)
 
 
-def snapshot(spec: Spec, theta_deg: float, phi_deg: float, **options: Any) -> dict:
+def snapshot(
+    spec: Spec, theta_deg: float, phi_deg: float, asked_at: int | None = None, **options: Any
+) -> Any:
     """:func:`app.view_data.sampling_snapshot` of the material ``spec``, computed in the snapshot process.
-    Blocks the calling (worker) thread until the result arrives, without holding the interpreter lock."""
+    Blocks the calling (worker) thread until the result arrives, without holding the interpreter lock.
+    ``asked_at``: see :func:`table_facts`. None when no picture was made (:class:`app.view_data.NoSnapshot`:
+    a newer request is on its way, or ``only_complete`` and the full table is not made yet)."""
     for _ in range(2):
         try:
-            return _pool().submit(_snapshot_here, spec, theta_deg, phi_deg, options).result()
+            return _pool().submit(_snapshot_here, spec, theta_deg, phi_deg, options, asked_at).result()
         except BrokenProcessPool:
             shutdown()  # it died (killed, out of memory): the next attempt starts a new one
     raise BrdfStudioError("the sampler view's process stopped twice in a row; see the terminal for its error")

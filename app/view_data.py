@@ -8,6 +8,7 @@ is also the reflected lobe for light arriving from ``wo`` when the model is reci
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -16,6 +17,8 @@ import numpy as np
 from core.model import BRDF, luminance
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from core.sampling.adaptive.inspect import TreeView
 
 
@@ -192,13 +195,44 @@ def adaptive_sampler(brdf: BRDF, mode: str = "exact", n_max: float = 2.0, progre
     return make_sampler(ADAPTIVE_SAMPLERS[mode], brdf, n_max=n_max, progressive=progressive)
 
 
-def adaptive_line(brdf: BRDF) -> str:
-    """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it, or waits
-    for the build a progressive snapshot started: the same table is not built twice)."""
+class NoSnapshot(Exception):
+    """A snapshot not made: its request was overtaken by a newer one while it waited, or it asked only for the
+    full table's picture and that table is not made yet."""
+
+
+WAIT_SLICE_S = 0.005
+"""How often a wait for a background build looks whether it should give up (``stop``)."""
+
+
+def _wait_for_build(key: str, timeout: float | None, stop: Callable[[], bool] | None) -> bool:
+    """Wait for the background build of table ``key`` (see
+    :func:`core.sampling.adaptive.sampler.wait_for_build`) at most ``timeout`` seconds (None: no limit), in
+    slices, giving up as soon as ``stop()`` is true; True when no build of it is queued or running."""
     from core.sampling.adaptive.sampler import wait_for_build
 
+    if stop is None:
+        return wait_for_build(key, timeout)
+    end = math.inf if timeout is None else time.monotonic() + timeout
+    while True:
+        left = end - time.monotonic()
+        if wait_for_build(key, max(0.0, min(WAIT_SLICE_S, left))):
+            return True
+        if left <= WAIT_SLICE_S or stop():
+            return False
+
+
+def adaptive_line(brdf: BRDF, stop: Callable[[], bool] | None = None) -> str | None:
+    """One line of text: the adaptive sampler's table memory and build time for ``brdf`` (builds it, or waits
+    for the build a progressive snapshot started: the same table is not built twice). ``stop``: give up the
+    wait when it says so (a newer request for the snapshot process is waiting), returning None; with a
+    ``stop``, the table is built in the background (a newer request may drop that build), never here."""
     sampler = adaptive_sampler(brdf)
-    wait_for_build(sampler.key)
+    if stop is None:
+        _wait_for_build(sampler.key, None, None)
+    else:
+        while not sampler.queue_build():
+            if stop() or not _wait_for_build(sampler.key, None, stop):
+                return None
     sampler.preload()
     info = sampler.info()
     return (
@@ -410,6 +444,8 @@ def sampling_snapshot(
     grid: int = 96,
     progressive: bool = False,
     settle: float = 0.0,
+    stop: Callable[[], bool] | None = None,
+    only_complete: bool = False,
 ) -> SamplingSnapshot:
     """What the sampler view draws, computed off the GUI thread (no Qt: it runs in the snapshot process).
 
@@ -420,11 +456,17 @@ def sampling_snapshot(
     exact mode's normalizer ``I(wo)`` (a quadrature beyond the table's last node): the exact mode's map is 1
     wherever ``f > 0``.
 
-    ``progressive``: when the material's full table is not made yet, draw from its coarse table (made in a
-    fraction of the time; exact all the same) and start the full one in the background, waiting for it up to
-    ``settle`` seconds; ``table["complete"]`` says which one the snapshot shows (the app asks again until it
-    is the full one: a new parameter value shows its tree in a fraction of a second, not after the whole
-    table's build).
+    ``progressive``: when the material's full table is not made yet, draw from its coarse table (the initial
+    layout only: a fraction of the time, exact all the same) or, in the exact mode when not even that is
+    made, from the rejection-free mode's coarse table (no bounds, no normalizer: ~10-50 ms, where the exact
+    coarse table takes 30-300 ms; ``table["interim"]``, and ``mode`` is then ``"warp"``);
+    ``table["complete"]`` says whether it is the full one, ``table["full_pending"]`` whether asking again
+    will bring it. The full table is built in the background only when asked for again: with ``settle``
+    (wait for it up to that many seconds) or ``only_complete`` (raise :class:`NoSnapshot` unless it is made:
+    the app's follow-ups, which ask again a moment later rather than wait in the process, where a wait would
+    hold up a drag's next value). So a slider's new value shows its tree at once, and no build of a value
+    the drag has left takes the cores the next value's picture needs. ``stop``: stop waiting when it says
+    so (a newer request is waiting for the process): :class:`NoSnapshot` too, no picture nobody wants.
     """
     from core.errors import BrdfStudioError
     from core.sampling import make_sampler, sampler_names
@@ -432,13 +474,25 @@ def sampling_snapshot(
 
     t, p = math.radians(theta_deg), math.radians(phi_deg)
     wo = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
-    sampler = adaptive_sampler(brdf, mode, n_max, progressive)
+    sampler = wanted = adaptive_sampler(brdf, mode, n_max, progressive)
+    interim = False
     if progressive:
         from core.sampling.adaptive.sampler import drop_builds
 
         drop_builds(keep=sampler.key)  # a drag's earlier values: their full tables are not wanted now
-        sampler.preload()
-        sampler.refresh(wait=settle > 0.0, timeout=settle)
+        # The full table is built (in the background) only when asked for again: with a settle, or by the
+        # app's follow-up a moment later; during a drag, no build of a value already left takes the cores the
+        # next value's picture needs.
+        if settle > 0.0 and not sampler.queue_build():
+            _wait_for_build(sampler.key, settle, stop)
+        if (stop is not None and stop()) or (only_complete and not sampler.queue_build()):
+            raise NoSnapshot
+        if mode == "exact" and not sampler.available():
+            interim, mode = True, "warp"
+            if ratio_sampler == ADAPTIVE_SAMPLERS["exact"]:
+                ratio_sampler = ADAPTIVE_SAMPLERS["warp"]
+            sampler = adaptive_sampler(brdf, mode, n_max, progressive=True)  # its coarse table only
+        sampler.preload()  # (a new sampler: the full table when it is made, else the coarse one)
     tree = tree_view(sampler, wo)
     batch, trials = sampler.sample_with_trials(np.repeat(wo[None, :], int(n_samples), axis=0), seed)
     points = to_tree_disk(sampler, wo, batch.wi)
@@ -493,5 +547,10 @@ def sampling_snapshot(
         ratio=ratio,
         ratio_error=ratio_error,
         weight_rel_std=rel_std,
-        table={**sampler.info(), "complete": sampler.complete, "full_pending": sampler.full_pending},
+        table={
+            **sampler.info(),
+            "complete": not interim and sampler.complete,
+            "full_pending": progressive and (interim or not sampler.complete) and not wanted.build_failed,
+            "interim": interim,
+        },
     )

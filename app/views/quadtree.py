@@ -231,7 +231,12 @@ class SamplingView(QWidget):
             if table.get("from_cache")
             else f"built in {table['build_seconds'] * 1e3:.0f} ms"
         )
-        if not table.get("complete", True):
+        if table.get("interim"):
+            built += (
+                " (a first fit: the rejection-free mode's coarse table, shown while the exact mode's table is"
+                " built)"
+            )
+        elif not table.get("complete", True):
             built += " (the coarse table: the full one is being built)"
         proposal = "density of trials K_L q / V" if snap.mode == "exact" else "rejection-free density q"
         lines = [
@@ -239,7 +244,9 @@ class SamplingView(QWidget):
             f"mode's {proposal} per unit square area (log, {lo:.3g} .. {hi:.3g}; blank below). Table: "
             f"{table['leaves']} leaves, {table['memory_bytes'] / 1024:.1f} KiB, {built}.",
         ]
-        if snap.cosine_fallback:
+        if table.get("interim"):
+            lines.append("Exact mode at wo: its table is being built.")
+        elif snap.cosine_fallback:
             lines.append(
                 "Beyond the table's last node: the exact mode draws the cosine density here "
                 "(the warp mode still uses this tree)."

@@ -331,9 +331,9 @@ def test_the_material_facts_come_from_the_snapshot_process(window, qtbot):
     asked = []
     real = snapshot_process.table_facts
 
-    def spy(spec):
+    def spy(spec, *args):
         asked.append(spec)
-        return real(spec)
+        return real(spec, *args)
 
     snapshot_process.table_facts = spy
     window.material_editor.set_info("adaptive", "")

@@ -213,10 +213,11 @@ def test_outlines_of_deep_leaves_are_their_ancestors_and_still_tile_the_square()
     assert np.all(np.hypot(line[:, 0], line[:, 1])[~np.isnan(line[:, 0])] <= 1.0 + 1e-12)
 
 
-def test_a_new_material_shows_its_coarse_tree_at_once_then_the_full_tables(window, qtbot):
-    """A parameter value never seen before: the sampler view shows the coarse table's tree (made in a fraction
-    of the full build, exact all the same) and says so, then the full table's when its background build is
-    done; the same coarse picture is not drawn again while the app waits for it."""
+def test_a_new_material_shows_a_first_fit_at_once_then_the_full_table(window, qtbot):
+    """A parameter value never seen before, exact mode: the sampler view shows the rejection-free mode's
+    coarse tree at once (the fastest tree of the new value: no bounds, no normalizer) and says so, then the
+    exact mode's full table when its background build is done; the same first picture is not drawn again
+    while the app waits for it."""
     import shutil
 
     from app.view_data import adaptive_sampler
@@ -249,11 +250,13 @@ def test_a_new_material_shows_its_coarse_tree_at_once_then_the_full_tables(windo
     finally:
         del view.show_snapshot
         slow.timeout.connect(window.redraw._start_slow_jobs)
-    coarse = [snap for snap, _ in shown if not snap.table["complete"]]
-    assert coarse, "the first picture of a new material was not its coarse table's"
-    assert "the coarse table" in shown[0][1] and "the coarse table" not in shown[-1][1]
-    assert len(coarse) == 1  # a follow-up that still found the table building drew nothing
-    assert shown[-1][0] is full and full.table["complete"]
-    assert coarse[0].table["theta_nodes"] < full.table["theta_nodes"]
-    assert 1.0 / coarse[0].n_max <= coarse[0].acceptance <= 1.0
+    first = [snap for snap, _ in shown if not snap.table["complete"]]
+    assert first, "the first picture of a new material was not a first fit"
+    assert "a first fit" in shown[0][1] and "a first fit" not in shown[-1][1]
+    assert "its table is being built" in shown[0][1]
+    assert len(first) == 1  # a follow-up that still found the table building drew nothing
+    assert first[0].table["interim"] and first[0].mode == "warp"
+    assert shown[-1][0] is full and full.table["complete"] and full.mode == "exact"
+    assert first[0].table["theta_nodes"] < full.table["theta_nodes"]
+    assert 1.0 / full.n_max <= full.acceptance <= 1.0
     window.tabs.setCurrentIndex(0)

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +48,31 @@ def test_colours_read_from_a_project_file_as_lists_work():
     snap = snapshot_process.snapshot(spec, 30.0, 0.0, **OPTIONS)
     local = sampling_snapshot(get_model("lambert").bind({"kd": (0.2, 0.5, 0.1)}), 30.0, 0.0, **OPTIONS)
     assert snap.tree.normalizer == pytest.approx(local.tree.normalizer)
+
+
+def test_a_newer_request_makes_the_waits_of_older_ones_give_up(monkeypatch, tmp_path):
+    """A slider drag's new value must not queue behind a wait for an earlier value's full table: the table's
+    facts and a follow-up snapshot wait for the background build, and give up (None: the facts are asked
+    again, the follow-up's picture is not wanted) as soon as the app interrupts them."""
+    monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path))  # the new process's tables: none stored yet
+    spec = snapshot_process.spec_of("ward", None, {"sx": 0.05, "sy": 0.25})  # its full table takes seconds
+    first = snapshot_process.snapshot(spec, 40.0, 0.0, progressive=True, **OPTIONS)
+    assert not first.table["complete"]  # a first picture; the full table is built when asked for again
+    with ThreadPoolExecutor(1) as pool:
+        facts = pool.submit(snapshot_process.table_facts, spec, snapshot_process.generation())
+        follow_up = pool.submit(
+            snapshot_process.snapshot, spec, 40.0, 0.0, snapshot_process.generation(),
+            progressive=True, settle=600.0, **OPTIONS,
+        )  # fmt: skip
+        time.sleep(0.1)
+        snapshot_process.interrupt()
+        assert facts.result(timeout=300) is None
+        assert follow_up.result(timeout=300) is None  # no picture: a newer request is on its way
+    # asked without a count, both wait for the table
+    assert snapshot_process.table_facts(spec).startswith("Adaptive table:")
+    assert snapshot_process.snapshot(spec, 40.0, 0.0, progressive=True, settle=600.0, **OPTIONS).table[
+        "complete"
+    ]
 
 
 def test_an_error_in_the_process_comes_back_as_itself():

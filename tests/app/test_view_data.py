@@ -323,18 +323,32 @@ def test_snapshot_colours_are_made_with_it(snapshots):
     assert snap.ratio_rgba is not None and snap.ratio_rgba.shape == (*snap.ratio.shape, 4)
 
 
-def test_a_progressive_snapshot_shows_the_coarse_table_until_the_full_one_is_made(monkeypatch, tmp_path):
-    """The sampler view's first picture of a new material comes from its coarse table (exact all the same:
-    the exact mode's map is 1 wherever f > 0) with the full table on its way; asking again, waiting for it,
-    gives the full table's."""
+def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(monkeypatch, tmp_path):
+    """The sampler view's first picture of a new material (exact mode) comes from the rejection-free mode's
+    coarse table (no bounds, no normalizer: the fastest tree of the new value), marked as interim, with the
+    exact table on its way; asking again, waiting for it, gives the full exact table's (whose ratio map is 1
+    wherever f > 0). When the exact mode's coarse table is made already (a render made it), that is shown
+    first instead (exact all the same)."""
     from core.model import make_brdf
+    from core.sampling import make_sampler
 
     monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
     brdf = make_brdf("ggx", {"alpha": 0.0911})
     first = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True)
-    assert not first.table["complete"] and first.table["full_pending"]
-    finite = np.isfinite(first.ratio)
-    np.testing.assert_allclose(first.ratio[finite & (first.ratio > 0)], 1.0, rtol=1e-6)
+    assert first.table["interim"] and not first.table["complete"] and first.table["full_pending"]
+    assert first.mode == "warp" and first.ratio_sampler == "adaptive_warp" and len(first.samples) > 0
+    assert first.table["theta_nodes"] == 7  # the initial layout: the coarse table
     later = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True, settle=120.0)
-    assert later.table["complete"] and not later.table["full_pending"]
-    assert later.table["theta_nodes"] > first.table["theta_nodes"]
+    assert later.table["complete"] and not later.table["full_pending"] and not later.table["interim"]
+    assert later.mode == "exact" and later.ratio_sampler == "adaptive"
+    finite = np.isfinite(later.ratio)
+    np.testing.assert_allclose(later.ratio[finite & (later.ratio > 0)], 1.0, rtol=1e-6)
+
+    other = make_brdf("ggx", {"alpha": 0.1213})
+    make_sampler("adaptive", other, progressive=True).preload()  # its coarse table, as a render's
+    coarse = sampling_snapshot(other, 40.0, 0.0, n_samples=300, grid=32, progressive=True)
+    assert not coarse.table["interim"] and not coarse.table["complete"] and coarse.mode == "exact"
+    finite = np.isfinite(coarse.ratio)
+    np.testing.assert_allclose(coarse.ratio[finite & (coarse.ratio > 0)], 1.0, rtol=1e-6)
+    full = sampling_snapshot(other, 40.0, 0.0, n_samples=300, grid=32, progressive=True, settle=120.0)
+    assert full.table["complete"] and full.table["theta_nodes"] > coarse.table["theta_nodes"]

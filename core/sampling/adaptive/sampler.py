@@ -342,6 +342,11 @@ class AdaptiveSampler(Sampler):
         return not self.complete and (self.key in _BUILDING or self.key in _TABLES)
 
     @property
+    def build_failed(self) -> bool:
+        """Whether the background build of the full table failed (it is not queued again)."""
+        return self.key in _FAILED
+
+    @property
     def complete(self) -> bool:
         """Whether the sampler draws from the material's full table (not a progressive coarse one)."""
         return self._entry() is _TABLES.get(self.key)
@@ -349,6 +354,39 @@ class AdaptiveSampler(Sampler):
     def preload(self) -> int:
         """Make (or load) the material's table now; returns the number of trees."""
         return len(self.table.root)
+
+    def _stored(self) -> bool:
+        """Whether the full table is in memory, or on disk (then loaded into memory now)."""
+        if self.key in _TABLES:
+            return True
+        if self.cache is None:
+            return False
+        with _LOCK:
+            if self.key not in _TABLES:
+                entry = load_table(self.cache, self.key)
+                if entry is None:
+                    return False
+                _TABLES[self.key] = entry
+        return True
+
+    def available(self) -> bool:
+        """Whether a table can be had without building one: the full table in memory or on disk, or a
+        progressive sampler's coarse table in memory."""
+        return (
+            self._current is not None
+            or self._stored()
+            or (self.progressive and self.key + ":coarse" in _TABLES)
+        )
+
+    def queue_build(self) -> bool:
+        """Put the full table on its way without waiting: True when it is ready (in memory, or loaded from
+        disk now), else its build is queued on the background thread (unless queued or running already)
+        and False. A table whose background build failed is left to the caller (True: :meth:`preload`
+        builds it here, raising the error)."""
+        if self._stored() or self.key in _FAILED:
+            return True
+        self._queue_full()
+        return False
 
     # ------------------------------------------------------------------------------------------ the interface
     def sample(self, wo: np.ndarray, n: int, seed: int = 0) -> SampleBatch:
