@@ -78,6 +78,7 @@ class EnvironmentMap:
             self._col_cdf /= self._col_cdf[:, -1:]
         # each row's CDF shifted by its row index: one searchsorted finds the column for every sample
         self._col_cdf_flat = (self._col_cdf + np.arange(self.h)[:, None]).ravel()
+        self._guide = guide_table(self._row_cdf, self._col_cdf_flat, self.h, self.w)
         self._total = total
         # mean radiance over the sphere (solid-angle weighted), for choosing between light types
         solid = np.sin(theta_c)[:, None] * (2 * np.pi / self.w) * (np.pi / self.h)
@@ -105,6 +106,7 @@ class EnvironmentMap:
             np.ascontiguousarray(u, dtype=np.float64),
             self._row_cdf,
             self._col_cdf_flat,
+            self._guide,
             self._pixel_pmf,
             self.image,
             self.rotation,
@@ -119,14 +121,29 @@ ENV_NONE, ENV_CONSTANT, ENV_MAP = 0, 1, 2
 
 def env_args(env):  # type: ignore[no-untyped-def]
     """The arrays the compiled wavefront reads for a sky (``None``, constant or map): ``(kind, radiance (3,),
-    row_cdf, col_cdf_flat, pixel_pmf, image, rotation)``, with 1-element placeholders where a kind has none."""
-    one = np.zeros(1)
+    row_cdf, col_cdf_flat, guide, pixel_pmf, image, rotation)``, with 1-element placeholders where a kind has
+    none."""
+    one, no_guide = np.zeros(1), np.zeros(1, dtype=np.int32)
     if env is None:
-        return ENV_NONE, np.zeros(3), one, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+        return ENV_NONE, np.zeros(3), one, one, no_guide, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
     if isinstance(env, ConstantEnvironment):
-        return ENV_CONSTANT, env.radiance, one, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
-    return (ENV_MAP, np.zeros(3), env._row_cdf, env._col_cdf_flat, env._pixel_pmf, env.image,
+        return ENV_CONSTANT, env.radiance, one, one, no_guide, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+    return (ENV_MAP, np.zeros(3), env._row_cdf, env._col_cdf_flat, env._guide, env._pixel_pmf, env.image,
             float(env.rotation))  # fmt: skip
+
+
+def guide_table(row_cdf: np.ndarray, col_cdf_flat: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Where the searches of the sky's CDFs start (int32, ``h + h * w`` entries): entry ``j < h`` is the
+    row whose CDF first exceeds ``j / h``; entry ``h + r * w + j`` the position in ``col_cdf_flat`` of row
+    ``r``'s first column whose CDF exceeds ``j / w``. A uniform ``u`` then starts at entry ``int(u * h)``
+    (or ``int(u * w)``) and :func:`guided_upper_bound` walks on average about one element from there."""
+    guide = np.empty(h + h * w, dtype=np.int32)
+    guide[:h] = np.searchsorted(row_cdf, np.arange(h) / h, side="right")
+    steps = np.arange(w) / w
+    for r in range(h):
+        segment = col_cdf_flat[r * w : (r + 1) * w]
+        guide[h + r * w : h + (r + 1) * w] = r * w + np.searchsorted(segment, r + steps, side="right")
+    return guide
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -142,6 +159,20 @@ def upper_bound(a, lo, n, v):
     if n == 1 and a[base] <= v:
         base += 1
     return base
+
+
+@njit(inline="always", nogil=True, cache=True)
+def guided_upper_bound(a, lo, n, v, start):
+    """:func:`upper_bound` (``lo`` plus the number of elements ``<= v`` in the sorted ``a[lo:lo + n]``) by a
+    walk from ``start``, a guess in ``[lo, lo + n]``: down while the element before is above ``v``, then up
+    while the element is at most ``v``. Exact whatever the guess; as fast as the guess is close (a guide
+    table's, :func:`guide_table`: about one step instead of a binary search's ``log2 n`` dependent loads)."""
+    i = min(max(start, lo), lo + n)
+    while i > lo and a[i - 1] > v:
+        i -= 1
+    while i < lo + n and a[i] <= v:
+        i += 1
+    return i
 
 
 # The two functions below run once per ray in the wavefront's loops: each has a single return (an inlined
@@ -175,8 +206,9 @@ def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, pmf, image, rotation):
-    """A direction from the sky's light sampling: ``(dx, dy, dz, r, g, b, pdf)`` (pdf per solid angle)."""
+def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, guide, pmf, image, rotation):
+    """A direction from the sky's light sampling: ``(dx, dy, dz, r, g, b, pdf)`` (pdf per solid angle); the
+    CDF searches start from the ``guide`` table's entries (:func:`guide_table`)."""
     dx, dy, dz, r, g, b, pdf = 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
     if kind == ENV_CONSTANT:
         z = 1.0 - 2.0 * u0
@@ -186,9 +218,10 @@ def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, pmf, i
         r, g, b, pdf = radiance[0], radiance[1], radiance[2], INV_FOUR_PI
     elif kind == ENV_MAP:
         h, w = pmf.shape
-        row = min(upper_bound(row_cdf, 0, h, u0), h - 1)
+        row = min(guided_upper_bound(row_cdf, 0, h, u0, guide[min(int(u0 * h), h - 1)]), h - 1)
         # row r's column CDF is stored shifted by r: search that row's segment only
-        col = min(upper_bound(col_cdf_flat, row * w, w, row + u1) - row * w, w - 1)
+        start = guide[h + row * w + min(int(u1 * w), w - 1)]
+        col = min(guided_upper_bound(col_cdf_flat, row * w, w, row + u1, start) - row * w, w - 1)
         theta = (row + u2) / h * math.pi
         phi = (col + u3) / w * TWO_PI + rotation
         s = math.sin(theta)
@@ -212,7 +245,7 @@ def _env_lookup(d, pmf, image, rotation):
 
 
 @njit(nogil=True, cache=True)
-def _env_sample(u, row_cdf, col_cdf_flat, pmf, image, rotation):
+def _env_sample(u, row_cdf, col_cdf_flat, guide, pmf, image, rotation):
     n = u.shape[0]
     d = np.empty((n, 3))
     le = np.empty((n, 3))
@@ -220,8 +253,9 @@ def _env_sample(u, row_cdf, col_cdf_flat, pmf, image, rotation):
     none = np.zeros(3)
     for i in range(n):
         d[i, 0], d[i, 1], d[i, 2], le[i, 0], le[i, 1], le[i, 2], pdf[i] = env_sample_one(
-            ENV_MAP, u[i, 0], u[i, 1], u[i, 2], u[i, 3], none, row_cdf, col_cdf_flat, pmf, image, rotation
-        )
+            ENV_MAP, u[i, 0], u[i, 1], u[i, 2], u[i, 3], none, row_cdf, col_cdf_flat, guide, pmf, image,
+            rotation,
+        )  # fmt: skip
     return d, le, pdf
 
 

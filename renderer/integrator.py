@@ -373,7 +373,7 @@ class PathTracer:
                   cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
         self.stats.paths += n
-        env_kind, env_rad, env_row, env_col, env_pmf, env_img, env_rot = self._env
+        env_kind, env_rad, env_row, env_col, env_guide, env_pmf, env_img, env_rot = self._env
         power = self.mis == "power"
         n_mat = len(w.materials_by_index)
         offsets = np.zeros(n_mat + 1, dtype=np.int64)
@@ -399,7 +399,7 @@ class PathTracer:
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
-                env_kind, env_rad, env_row, env_col, env_pmf, env_img, env_rot,
+                env_kind, env_rad, env_row, env_col, env_guide, env_pmf, env_img, env_rot,
                 B.s_mat, B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
                 B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
             )  # fmt: skip

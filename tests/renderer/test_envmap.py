@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from renderer.envmap import EnvironmentMap, upper_bound
+from renderer.envmap import EnvironmentMap, guide_table, guided_upper_bound, upper_bound
 
 
 @njit(cache=False)
@@ -14,6 +14,14 @@ def _upper_bounds(a, lo, n, v):  # type: ignore[no-untyped-def]
     out = np.empty(v.shape[0], np.int64)
     for i in range(v.shape[0]):
         out[i] = upper_bound(a, lo, n, v[i])
+    return out
+
+
+@njit(cache=False)
+def _guided(a, lo, n, v, start):  # type: ignore[no-untyped-def]
+    out = np.empty(v.shape[0], np.int64)
+    for i in range(v.shape[0]):
+        out[i] = guided_upper_bound(a, lo, n, v[i], start[i])
     return out
 
 
@@ -54,6 +62,38 @@ def test_upper_bound_is_searchsorted_right(rng: np.random.Generator, n: int) -> 
     v = np.concatenate([rng.random(500) * 1.2 - 0.1, a, [-1.0, 2.0]])
     expected = lo + np.searchsorted(a[lo : lo + n], v, side="right")
     assert np.array_equal(_upper_bounds(a, lo, n, v), expected)
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 7, 64, 1000])
+def test_guided_search_is_searchsorted_right_from_any_start(rng: np.random.Generator, n: int) -> None:
+    """The walk from a guess returns np.searchsorted(side="right") of the segment whatever the guess (inside,
+    at either end or outside the segment), with ties and repeated elements."""
+    a = np.sort(np.round(rng.random(n + 10), 2))
+    lo = 4
+    v = np.concatenate([rng.random(500) * 1.2 - 0.1, a, [-1.0, 2.0]])
+    start = rng.integers(-3, n + 15, len(v))
+    expected = lo + np.searchsorted(a[lo : lo + n], v, side="right")
+    assert np.array_equal(_guided(a, lo, n, v, start), expected)
+
+
+def test_sky_samples_pick_the_pixels_of_a_binary_search(rng: np.random.Generator) -> None:
+    """With the guide table the sky's samples pick the pixel the inverse CDFs give (a row by the row CDF,
+    then a column by that row's CDF): the guide only changes where the searches start."""
+    env = _map(rng)
+    u = np.concatenate([rng.random((20000, 4)), [[0.0, 0.0, 0.5, 0.5], [1 - 2**-53, 1 - 2**-53, 0.5, 0.5]]])
+    d, _, _ = env.sample(u)
+    row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), env.h - 1)
+    col = np.array(
+        [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)]
+    )
+    col = np.minimum(col, env.w - 1)
+    theta = np.arccos(np.clip(d[:, 1], -1, 1))
+    phi = (np.arctan2(d[:, 2], d[:, 0]) - env.rotation) % (2 * np.pi)
+    # the sample lies in its pixel (u2, u3 = 0.5: the pixel's centre for the two fixed rows)
+    assert np.array_equal(np.minimum((theta / np.pi * env.h).astype(int), env.h - 1), row)
+    assert np.array_equal(np.minimum((phi / (2 * np.pi) * env.w).astype(int), env.w - 1), col)
+    guide = guide_table(env._row_cdf, env._col_cdf_flat, env.h, env.w)
+    assert np.array_equal(guide, env._guide) and guide.dtype == np.int32
 
 
 @pytest.mark.parametrize("rotate_deg", [-400.0, -90.0, 0.0, 179.0, 725.0])
