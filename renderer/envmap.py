@@ -79,6 +79,7 @@ class EnvironmentMap:
         # each row's CDF shifted by its row index: one searchsorted finds the column for every sample
         self._col_cdf_flat = (self._col_cdf + np.arange(self.h)[:, None]).ravel()
         self._guide = guide_table(self._row_cdf, self._col_cdf_flat, self.h, self.w)
+        self._edges = pixel_edges(self.h, self.w, self.rotation)
         self._total = total
         # mean radiance over the sphere (solid-angle weighted), for choosing between light types
         solid = np.sin(theta_c)[:, None] * (2 * np.pi / self.w) * (np.pi / self.h)
@@ -91,7 +92,7 @@ class EnvironmentMap:
     def lookup(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Radiance ``(n, 3)`` and pdf per solid angle ``(n,)`` of world directions ``d (n, 3)``."""
         return _env_lookup(
-            np.ascontiguousarray(d, dtype=np.float64), self._pixel_pmf, self.image, self.rotation
+            np.ascontiguousarray(d, dtype=np.float64), self._pixel_pmf, self.image, self.rotation, self._edges
         )
 
     def eval(self, d: np.ndarray) -> np.ndarray:
@@ -121,15 +122,15 @@ ENV_NONE, ENV_CONSTANT, ENV_MAP = 0, 1, 2
 
 def env_args(env):  # type: ignore[no-untyped-def]
     """The arrays the compiled wavefront reads for a sky (``None``, constant or map): ``(kind, radiance (3,),
-    row_cdf, col_cdf_flat, guide, pixel_pmf, image, rotation)``, with 1-element placeholders where a kind has
-    none."""
+    row_cdf, col_cdf_flat, guide, edges, pixel_pmf, image, rotation)``, with 1-element placeholders where a
+    kind has none."""
     one, no_guide = np.zeros(1), np.zeros(1, dtype=np.int32)
     if env is None:
-        return ENV_NONE, np.zeros(3), one, one, no_guide, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+        return ENV_NONE, np.zeros(3), one, one, no_guide, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
     if isinstance(env, ConstantEnvironment):
-        return ENV_CONSTANT, env.radiance, one, one, no_guide, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
-    return (ENV_MAP, np.zeros(3), env._row_cdf, env._col_cdf_flat, env._guide, env._pixel_pmf, env.image,
-            float(env.rotation))  # fmt: skip
+        return ENV_CONSTANT, env.radiance, one, one, no_guide, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0
+    return (ENV_MAP, np.zeros(3), env._row_cdf, env._col_cdf_flat, env._guide, env._edges, env._pixel_pmf,
+            env.image, float(env.rotation))  # fmt: skip
 
 
 def guide_table(row_cdf: np.ndarray, col_cdf_flat: np.ndarray, h: int, w: int) -> np.ndarray:
@@ -181,23 +182,94 @@ def guided_upper_bound(a, lo, n, v, start):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation):
+def _acos_guess(x):
+    """``acos(x)`` to ~2e-8 (Abramowitz & Stegun 4.4.46): only a starting point for :func:`env_eval_one`'s
+    exact row search."""
+    ax = abs(x)
+    p = -0.0012624911
+    p = p * ax + 0.0066700901
+    p = p * ax - 0.0170881256
+    p = p * ax + 0.0308918810
+    p = p * ax - 0.0501743046
+    p = p * ax + 0.0889789874
+    p = p * ax - 0.2145988016
+    p = p * ax + 1.5707963050
+    r = math.sqrt(max(0.0, 1.0 - ax)) * p
+    return r if x >= 0.0 else math.pi - r
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _atan2_guess(y, x):
+    """``atan2(y, x)`` to ~1e-5 (a polynomial in the octant's ratio): only a starting point for
+    :func:`env_eval_one`'s exact column search."""
+    ax, ay = abs(x), abs(y)
+    mx = max(ax, ay)
+    a = min(ax, ay) / mx if mx > 0.0 else 0.0
+    s = a * a
+    r = (
+        (((-0.0117212 * s + 0.05265332) * s - 0.11643287) * s + 0.19354346) * s - 0.33262347
+    ) * s + 0.99997726
+    r *= a
+    if ay > ax:
+        r = 0.5 * math.pi - r
+    if x < 0.0:
+        r = math.pi - r
+    if y < 0.0:
+        r = -r
+    return r
+
+
+def pixel_edges(h: int, w: int, rotation: float) -> np.ndarray:
+    """The map's pixel edges for :func:`env_eval_one`: ``cos(k pi / h)`` for the ``h + 1`` row edges
+    (``theta = k pi / h``), then the cosines and the sines of the ``w`` column edges' azimuths (``phi =
+    rotation + 2 pi j / w``)."""
+    beta = rotation + TWO_PI * np.arange(w) / w
+    return np.concatenate([np.cos(np.arange(h + 1) * math.pi / h), np.cos(beta), np.sin(beta)])
+
+
+@njit(inline="always", nogil=True, cache=True)
+def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation, edges):
     """Radiance ``(r, g, b)`` from world direction ``d`` and the sky's light-sampling pdf per solid angle.
-    ``rotation`` in ``[0, 2 pi)`` (:func:`env_args`)."""
+    ``rotation`` in ``[0, 2 pi)`` (:func:`env_args`), ``edges`` from :func:`pixel_edges`.
+
+    The pixel is the one of ``theta = acos(d_y)`` and ``phi = atan2(d_z, d_x) - rotation`` without either
+    function: a polynomial guess of each, then a walk to the row whose edges' cosines bracket ``d_y`` and
+    to the column whose edge directions bracket ``(d_x, d_z)`` (the sign of a cross product). The walk is
+    exact from any guess, so the pixel is the one the angles give (but within rounding of an edge); the two
+    library calls cost 60 % of the lookup (38 of 61 ns)."""
     r, g, b, pdf = 0.0, 0.0, 0.0, 0.0
     if kind == ENV_CONSTANT:
         r, g, b, pdf = radiance[0], radiance[1], radiance[2], INV_FOUR_PI
     elif kind == ENV_MAP:
         h, w = pmf.shape
         cos_t = min(1.0, max(-1.0, dy))
-        theta = math.acos(cos_t)
-        phi = math.atan2(dz, dx) - rotation  # in [-3 pi, pi]
+        # the row: the number of edges k in 1 .. h - 1 with cos_t <= cos(k pi / h)
+        row = max(0, min(int(_acos_guess(cos_t) / math.pi * h), h - 1))
+        while row > 0 and cos_t > edges[row]:
+            row -= 1
+        while row < h - 1 and cos_t <= edges[row + 1]:
+            row += 1
+        if dx == 0.0 and dz == 0.0:  # a pole: the azimuth atan2 gives (0 or pi, by the zeros' signs)
+            phi = math.atan2(dz, dx) - rotation
+        else:
+            phi = _atan2_guess(dz, dx) - rotation  # in [-3 pi, pi]
         if phi < 0.0:
             phi += TWO_PI
         if phi < 0.0:
             phi += TWO_PI
-        row = min(int(theta / math.pi * h), h - 1)
-        col = min(int(phi / TWO_PI * w), w - 1)
+        col = max(0, min(int(phi / TWO_PI * w), w - 1))
+        if dx != 0.0 or dz != 0.0:
+            # the column j with d at or past edge j and before edge j + 1 (cyclic; one step or two)
+            cx, cz = h + 1, h + 1 + w
+            for _ in range(w):
+                if edges[cx + col] * dz - edges[cz + col] * dx < 0.0:
+                    col = col - 1 if col > 0 else w - 1
+                    continue
+                nxt = col + 1 if col < w - 1 else 0
+                if w > 1 and edges[cx + nxt] * dz - edges[cz + nxt] * dx >= 0.0:
+                    col = nxt
+                    continue
+                break
         sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
         if sin_t > 1e-12:
             pdf = pmf[row, col] * (w * h) * INV_2PI2 / sin_t
@@ -233,14 +305,14 @@ def env_sample_one(kind, u0, u1, u2, u3, radiance, row_cdf, col_cdf_flat, guide,
 
 
 @njit(nogil=True, cache=True)
-def _env_lookup(d, pmf, image, rotation):
+def _env_lookup(d, pmf, image, rotation, edges):
     n = d.shape[0]
     le = np.empty((n, 3))
     pdf = np.empty(n)
     none = np.zeros(3)
     for i in range(n):
         le[i, 0], le[i, 1], le[i, 2], pdf[i] = env_eval_one(ENV_MAP, d[i, 0], d[i, 1], d[i, 2], none, pmf,
-                                                            image, rotation)  # fmt: skip
+                                                            image, rotation, edges)  # fmt: skip
     return le, pdf
 
 

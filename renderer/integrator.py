@@ -373,7 +373,7 @@ class PathTracer:
                   cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
         self.stats.paths += n
-        env_kind, env_rad, env_row, env_col, env_guide, env_pmf, env_img, env_rot = self._env
+        env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot = self._env
         power = self.mis == "power"
         n_mat = len(w.materials_by_index)
         offsets = np.zeros(n_mat + 1, dtype=np.int64)
@@ -387,7 +387,7 @@ class PathTracer:
                 hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, rows, B.mat,
                 depth == self.max_depth, power, self.p_env, self.p_area, self.ris > 0,
                 w.tri_normal, w.tri_material, w.tri_emission, w.tri_emissive, w.tri_two_sided,
-                w.emit_pmf_per_area, env_kind, env_rad, env_pmf, env_img, env_rot,
+                w.emit_pmf_per_area, env_kind, env_rad, env_pmf, env_img, env_rot, env_edges,
             )  # fmt: skip
             n_s = int(sort_by_material(B.mat[:n], n_mat, B.order, offsets))
             if n_s == 0:

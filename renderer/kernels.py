@@ -152,7 +152,7 @@ def camera_stage(
 def hit_stage(
     a, b, d, prim, t, beta, path, prev_pdf, radiance, row_offset, mat_out, at_last_bounce, power, p_env, p_area,
     ris, tri_normal, tri_material, tri_emission, tri_emissive, tri_two_sided, emit_pmf_per_area,
-    env_kind, env_radiance, env_pmf, env_image, env_rotation,
+    env_kind, env_radiance, env_pmf, env_image, env_rotation, env_edges,
 ):  # fmt: skip
     """Rays ``[a, b)`` after the closest-hit query: sky and emitted light (MIS-weighted against the BRDF
     sample that made the ray, whose density is ``prev_pdf``; 0 for camera rays), added to ``radiance`` row
@@ -167,7 +167,7 @@ def hit_stage(
             if env_kind == 0:
                 continue
             r, g, bl, pdf_env = env_eval_one(env_kind, d[i, 0], d[i, 1], d[i, 2], env_radiance, env_pmf,
-                                             env_image, env_rotation)  # fmt: skip
+                                             env_image, env_rotation, env_edges)  # fmt: skip
             w = 1.0
             if prev_pdf[i] > 0.0:
                 w = 0.0 if ris else _mis(prev_pdf[i], p_env * pdf_env, power)

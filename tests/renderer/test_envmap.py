@@ -96,6 +96,45 @@ def test_sky_samples_pick_the_pixels_of_a_binary_search(rng: np.random.Generator
     assert np.array_equal(guide, env._guide) and guide.dtype == np.int32
 
 
+def _pixel_by_angles(env: EnvironmentMap, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pixel of each direction by its angles (acos and atan2, as the lookup was first written)."""
+    theta = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
+    phi = np.arctan2(d[:, 2], d[:, 0]) - env.rotation
+    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+    row = np.minimum((theta / np.pi * env.h).astype(int), env.h - 1)
+    col = np.minimum((phi / (2 * np.pi) * env.w).astype(int), env.w - 1)
+    return row, col
+
+
+@pytest.mark.parametrize(("h", "w"), [(1, 1), (1, 2), (3, 5), (16, 32), (64, 128), (7, 1000)])
+@pytest.mark.parametrize("rotate_deg", [0.0, 33.0, 359.9])
+def test_lookup_finds_the_pixel_of_the_angles(
+    rng: np.random.Generator, h: int, w: int, rotate_deg: float
+) -> None:
+    """The lookup's pixel (found by guesses and a walk over the pixel edges, no acos or atan2) is the pixel of
+    the direction's angles, for random directions, the poles, directions along the axes and directions just
+    past every row and column edge (where the guesses are off); the radiance and the pdf are that pixel's."""
+    img = rng.random((h, w, 3)) + 0.05
+    env = EnvironmentMap(img, rotate_deg=rotate_deg)
+    d = rng.normal(size=(20000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    edge = env.rotation + 2 * np.pi * (np.arange(w) + 1e-6) / w  # just past each column's first edge
+    near = np.stack([np.cos(edge) * 0.6, np.full(w, 0.8), np.sin(edge) * 0.6], axis=1)
+    theta = np.pi * (np.arange(h) + 1e-7) / h  # just below each row's first edge
+    near_row = np.stack([np.sin(theta) * np.cos(0.3), np.cos(theta), np.sin(theta) * np.sin(0.3)], axis=1)
+    axes = np.array([[0, 1, 0], [0, -1, 0], [1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1], [0.6, 0.8, 0]])
+    d = np.concatenate([d, near, near_row, axes.astype(float)])
+    row, col = _pixel_by_angles(env, d)
+    le, pdf = env.lookup(d)
+    assert np.array_equal(le, env.image[row, col])
+    sin_t = np.sqrt(np.maximum(0.0, 1.0 - np.clip(d[:, 1], -1, 1) ** 2))
+    expected = np.where(
+        sin_t > 1e-12, env._pixel_pmf[row, col] * (w * h) / (2 * np.pi**2) / np.maximum(sin_t, 1e-300), 0.0
+    )
+    assert np.allclose(pdf, expected, rtol=1e-12, atol=0.0)
+
+
 @pytest.mark.parametrize("rotate_deg", [-400.0, -90.0, 0.0, 179.0, 725.0])
 def test_any_rotation_samples_its_own_pdf(rng: np.random.Generator, rotate_deg: float) -> None:
     """Rotations outside [0, 360) are reduced once; samples still carry pdf(d) and the radiance lookup, and
