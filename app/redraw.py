@@ -18,7 +18,7 @@ from PySide6.QtCore import QEvent, QObject, QTimer
 
 from app import snapshot_process
 from app.jobs import Job, Lane
-from app.view_data import albedo_line, directional_albedo
+from app.view_data import albedo_line
 from app.views.albedo import ALBEDO_THETAS_DEG
 from core.errors import BrdfStudioError
 
@@ -119,6 +119,8 @@ class Redrawer(QObject):
         # The sampler view's tree is made in another process: ask first so it runs while this thread draws.
         if pending & {"brdf", "direction", "sampling", "tab", "follow-up"}:
             self._sampling_stale = True
+        if "brdf" in pending:  # the snapshot process's slow facts of the previous value are not wanted now
+            snapshot_process.interrupt()
         if self._sampling_stale and (self.sampling_always or w.tabs.currentWidget() is w.sampling_panel):
             self._sampling_stale = False
             view_opts = w.sampling_view.options()
@@ -204,47 +206,39 @@ class Redrawer(QObject):
             self.follow_up_timer.start()
 
     def _start_slow_jobs(self) -> None:
+        self._ask_slow("albedo")
+        self._ask_slow("adaptive")
+
+    def _ask_slow(self, kind: str) -> None:
+        """A slow fact of the current material, from the snapshot process: the albedo curve (``albedo``) or
+        the adaptive table's facts (``adaptive``). Asked again a moment later when it gave way to a newer
+        request there (None)."""
         w = self.window
         try:
             brdf = self.document.brdf()
         except (BrdfStudioError, KeyError):
             return
         name = self.document.current_material or ""
-
-        def albedo_done(result: tuple[tuple[float, ...], np.ndarray]) -> None:
-            thetas, values = result
-            w.albedo_view.show_albedo(thetas, values, name)
-            w.material_editor.set_info("albedo", albedo_line(thetas, values))
-
-        def albedo(brdf_: Any) -> tuple[tuple[float, ...], np.ndarray]:
-            return ALBEDO_THETAS_DEG, directional_albedo(brdf_, list(ALBEDO_THETAS_DEG))
-
-        self.albedo_lane.submit(
-            Job(albedo, (brdf,), key=brdf.key(), done=albedo_done, failed=w.albedo_view.show_message)
-        )
-        self._ask_table_facts()
-
-    def _ask_table_facts(self) -> None:
-        """The adaptive table's facts for the editor, from the snapshot process; asked again a moment later
-        when its wait for the table gave way to the sampler view's newer request."""
-        w = self.window
-        try:
-            brdf = self.document.brdf()
-        except (BrdfStudioError, KeyError):
-            return
         mat = self.document.material()
         spec = snapshot_process.spec_of(mat.model or "", mat.measured, mat.params)
+        asked_at = snapshot_process.generation()
+        if kind == "albedo":
+            lane, fn, args = self.albedo_lane, snapshot_process.albedo, (spec, ALBEDO_THETAS_DEG, asked_at)
+            failed = w.albedo_view.show_message
+        else:
+            lane, fn, args = self.adaptive_lane, snapshot_process.table_facts, (spec, asked_at)
+            failed = lambda message: w.material_editor.set_info("adaptive", message)  # noqa: E731
 
-        def done(line: str | None) -> None:
-            if line is None:
-                QTimer.singleShot(SLOW_JOB_DELAY_MS, self, self._ask_table_facts)
+        def done(result: Any) -> None:
+            if result is None:
+                QTimer.singleShot(SLOW_JOB_DELAY_MS, self, lambda: self._ask_slow(kind))
+            elif kind == "albedo":
+                w.albedo_view.show_albedo(ALBEDO_THETAS_DEG, result, name)
+                w.material_editor.set_info("albedo", albedo_line(ALBEDO_THETAS_DEG, result))
             else:
-                w.material_editor.set_info("adaptive", line)
+                w.material_editor.set_info("adaptive", result)
 
-        self.adaptive_lane.submit(Job(
-            snapshot_process.table_facts, (spec, snapshot_process.generation()), key=brdf.key(),
-            done=done, failed=lambda message: w.material_editor.set_info("adaptive", message),
-        ))  # fmt: skip
+        lane.submit(Job(fn, args, key=brdf.key(), done=done, failed=failed))
 
     def flush_slow_jobs(self) -> None:
         """Start the delayed jobs now (tests)."""

@@ -171,12 +171,18 @@ ALBEDO_RTOL = 1e-3
 """Relative accuracy asked of the albedo quadrature in the UI (the library's default is stricter and slower)."""
 
 
-def directional_albedo(brdf: BRDF, thetas_deg: list[float], phi_deg: float = 0.0) -> np.ndarray:
-    """Directional albedo ``(n, 3)`` at the polar angles ``thetas_deg`` (degrees), by ``core.analysis``."""
-    from core.analysis import albedo_table
+def directional_albedo(brdf: BRDF, thetas_deg: list[float], phi_deg: float = 0.0,
+                       stop: Callable[[], bool] | None = None) -> np.ndarray | None:  # fmt: skip
+    """Directional albedo ``(n, 3)`` at the polar angles ``thetas_deg`` (degrees), by ``core.analysis``;
+    None when ``stop()`` said so between two angles (a newer request is waiting)."""
+    from core.analysis import albedo
 
-    results = albedo_table(brdf, [float(t) for t in thetas_deg], phi_deg=phi_deg, rtol=ALBEDO_RTOL)
-    return np.array([r.value for r in results], dtype=np.float64).reshape(len(results), 3)
+    values = np.empty((len(thetas_deg), 3))
+    for i, t in enumerate(thetas_deg):
+        if stop is not None and stop():
+            return None
+        values[i] = albedo(brdf, float(t), phi_deg=phi_deg, rtol=ALBEDO_RTOL).value
+    return values
 
 
 ADAPTIVE_SAMPLERS = {"exact": "adaptive", "warp": "adaptive_warp"}

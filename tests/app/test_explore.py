@@ -322,29 +322,41 @@ def test_a_new_status_line_repaints_itself_and_lays_nothing_out(window, qtbot):
     assert layouts.count == 0
 
 
-def test_the_material_facts_come_from_the_snapshot_process(window, qtbot):
-    """Once edits pause, the editor shows the albedo and the adaptive table's facts; the table is made in the
-    snapshot process (its build never holds the GUI's interpreter lock)."""
+def test_the_material_facts_come_from_the_snapshot_process(window, qtbot, monkeypatch):
+    """Once edits pause, the editor shows the albedo and the adaptive table's facts, both made in the snapshot
+    process (the table's build and the albedo's quadrature never hold the GUI's interpreter lock); a new
+    value's edit makes the process drop the slow facts of the previous one, which are asked again later."""
     from app import snapshot_process
+    from app.view_data import albedo_line
+    from app.views.albedo import ALBEDO_THETAS_DEG
 
     _select(window, "phong")
-    asked = []
-    real = snapshot_process.table_facts
+    asked, results = [], {}
+    for name in ("table_facts", "albedo"):
+        real = getattr(snapshot_process, name)
 
-    def spy(spec, *args):
-        asked.append(spec)
-        return real(spec, *args)
+        def spy(spec, *args, real=real, name=name):
+            asked.append((name, spec))
+            results[name] = real(spec, *args)
+            return results[name]
 
-    snapshot_process.table_facts = spy
+        monkeypatch.setattr(snapshot_process, name, spy)
     window.material_editor.set_info("adaptive", "")
-    try:
-        window.schedule("brdf")  # as after an edit: the slow jobs start once edits pause
-        window.refresh_now()
-        window.flush_slow_jobs()
-        qtbot.waitUntil(
-            lambda: bool(asked) and "Adaptive table:" in window.material_editor.info.text(), timeout=240_000
-        )
-    finally:
-        snapshot_process.table_facts = real
-    assert asked and asked[-1][0] == "phong"
+    window.material_editor.set_info("albedo", "")
+    window.albedo_view.values = np.zeros((0, 3))  # (as before any curve)
+    window.schedule("brdf")  # as after an edit: the slow jobs start once edits pause
+    window.refresh_now()
+    window.flush_slow_jobs()
+    qtbot.waitUntil(
+        lambda: (
+            results.get("albedo") is not None
+            and "Adaptive table:" in window.material_editor.info.text()
+            and np.array_equal(window.albedo_view.values, results["albedo"])
+        ),
+        timeout=240_000,
+    )
+    assert {name for name, _ in asked} == {"table_facts", "albedo"}
+    assert all(spec[0] == "phong" for _, spec in asked)
     assert "KiB" in window.material_editor.info.text()
+    assert np.all(np.isfinite(results["albedo"])) and np.all(results["albedo"] > 0)
+    assert albedo_line(ALBEDO_THETAS_DEG, results["albedo"]) in window.material_editor.info.text()
