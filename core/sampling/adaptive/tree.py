@@ -1104,8 +1104,9 @@ def shape(mid, p, projection, views, weights, warp_tol, base_level, max_level, c
     x0 = np.empty(capacity)
     y0 = np.empty(capacity)
     level = np.empty(capacity, dtype=np.int32)
-    st = np.zeros((capacity, 9))
-    stv = np.zeros((capacity, nv, 9))
+    # not zeroed (numba writes every byte of np.zeros, 7 MB a tree): a node's stencils are made with it
+    st = np.empty((capacity, 9))
+    stv = np.empty((capacity, nv, 9))
     n, _, evals = grow(
         mid, p, projection, views[0], warp_tol, base_level, max_level, child, x0, y0, level, st
     )
@@ -1138,8 +1139,8 @@ def add_bounds(mid, p, projection, views, weights, cell, n_max, max_level, capac
     x0 = np.empty(capacity)
     y0 = np.empty(capacity)
     level = np.empty(capacity, dtype=np.int32)
-    st = np.zeros((capacity, 9))
-    stv = np.zeros((capacity, nv, 9))
+    st = np.empty((capacity, 9))  # (as in shape: a node's stencils are made with it)
+    stv = np.empty((capacity, nv, 9))
     child[:n] = child_s
     x0[:n] = x0_s
     y0[:n] = y0_s
@@ -1237,7 +1238,7 @@ def view_integral(mid, p, projection, view, warp_tol, quad_tol, base_level, max_
     x0 = np.empty(capacity)
     y0 = np.empty(capacity)
     level = np.empty(capacity, dtype=np.int32)
-    st = np.zeros((capacity, 9))
+    st = np.empty((capacity, 9))  # (as in shape: a node's stencils are made with it)
     n, _, evals = grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y0, level, st)
     fine = np.zeros(capacity)
     fine_err = np.zeros(capacity)
