@@ -44,6 +44,8 @@ COSINE = 2
 ANALYTIC = 3
 COMPILED_STRATEGIES = {"uniform": UNIFORM, "cosine": COSINE, "analytic": ANALYTIC}
 INV_TWO_PI = 0.15915494309189535
+_BLOCK = 64
+"""Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`)."""
 
 # roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
 _U_LIGHT_TYPE = 0
@@ -389,43 +391,58 @@ def bsdf_stage(
     ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
     and the strategy's pdf at the light sample (if a candidate), and one BRDF sample with ``f`` there, the
     model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]`` (MERL tables:
-    ``mat_tables[m]``, float32; see :func:`_eval`), from independent uniforms (as every strategy's)."""
-    for s in range(a, b):
-        m = s_mat[s]
-        kind = mat_strategy[m]
-        if kind == BY_SAMPLER:
-            continue
-        mid = mat_model[m]
-        prm = mat_params[m]
-        table = mat_tables[m]
-        wo = (s_wo[s, 0], s_wo[s, 1], s_wo[s, 2])
-        if nee and l_cand[s]:
-            wi = (l_wi_local[s, 0], l_wi_local[s, 1], l_wi_local[s, 2])
-            l_f[s, 0], l_f[s, 1], l_f[s, 2] = _eval(mid, wi, wo, prm, table)
+    ``mat_tables[m]``, float32; see :func:`_eval`), from independent uniforms (as every strategy's).
+
+    The uniforms of a block of ``_BLOCK`` vertices are hashed first, in a loop of their own: there the hashes
+    of independent paths overlap, where inside the long loop each vertex's chain of hashes waited for the
+    previous vertex's evaluations (81 -> 68 ns a Lambert vertex in isolation; the same numbers)."""
+    blk = np.empty((_BLOCK, 3))
+    for s0 in range(a, b, _BLOCK):
+        s1 = min(b, s0 + _BLOCK)
+        for s in range(s0, s1):
+            kind = mat_strategy[s_mat[s]]
+            if kind == BY_SAMPLER:
+                continue
+            p = s_path[s]
+            # independent uniforms, as strategies with tables draw theirs: BRDF samplers compared on equal terms
+            blk[s - s0, 0], blk[s - s0, 1] = pair(
+                first_sample + p // n_pix, key(key(seed_key, p % n_pix), _PAIR_BSDF + depth), False
+            )
+            if kind == ANALYTIC:
+                blk[s - s0, 2] = uniform(key(key(pass_key, p), depth), _U_LOBE)
+        for s in range(s0, s1):
+            m = s_mat[s]
+            kind = mat_strategy[m]
+            if kind == BY_SAMPLER:
+                continue
+            mid = mat_model[m]
+            prm = mat_params[m]
+            table = mat_tables[m]
+            wo = (s_wo[s, 0], s_wo[s, 1], s_wo[s, 2])
+            if nee and l_cand[s]:
+                wi = (l_wi_local[s, 0], l_wi_local[s, 1], l_wi_local[s, 2])
+                l_f[s, 0], l_f[s, 1], l_f[s, 2] = _eval(mid, wi, wo, prm, table)
+                if kind == UNIFORM:
+                    l_pdf_brdf[s] = INV_TWO_PI if wi[2] >= 0.0 else 0.0
+                elif kind == COSINE:
+                    l_pdf_brdf[s] = cosine_hemisphere_pdf(wi[2])
+                else:
+                    l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
+            u1, u2 = blk[s - s0, 0], blk[s - s0, 1]
             if kind == UNIFORM:
-                l_pdf_brdf[s] = INV_TWO_PI if wi[2] >= 0.0 else 0.0
+                x, y, z = uniform_hemisphere(u1, u2)
+                q = INV_TWO_PI
             elif kind == COSINE:
-                l_pdf_brdf[s] = cosine_hemisphere_pdf(wi[2])
+                x, y, z = cosine_hemisphere(u1, u2)
+                q = cosine_hemisphere_pdf(z)
             else:
-                l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
-        p = s_path[s]
-        # independent uniforms, as strategies with tables draw theirs: BRDF samplers compared on equal terms
-        u1, u2 = pair(first_sample + p // n_pix, key(key(seed_key, p % n_pix), _PAIR_BSDF + depth), False)
-        if kind == UNIFORM:
-            x, y, z = uniform_hemisphere(u1, u2)
-            q = INV_TWO_PI
-        elif kind == COSINE:
-            x, y, z = cosine_hemisphere(u1, u2)
-            q = cosine_hemisphere_pdf(z)
-        else:
-            u3 = uniform(key(key(pass_key, p), depth), _U_LOBE)
-            x, y, z, q = sample_model(mid, wo, prm, u1, u2, u3)
-        wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
-        pdf[s] = q
-        if q > 0.0:
-            f[s, 0], f[s, 1], f[s, 2] = _eval(mid, (x, y, z), wo, prm, table)
-        else:
-            f[s, 0], f[s, 1], f[s, 2] = 0.0, 0.0, 0.0
+                x, y, z, q = sample_model(mid, wo, prm, u1, u2, blk[s - s0, 2])
+            wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
+            pdf[s] = q
+            if q > 0.0:
+                f[s, 0], f[s, 1], f[s, 2] = _eval(mid, (x, y, z), wo, prm, table)
+            else:
+                f[s, 0], f[s, 1], f[s, 2] = 0.0, 0.0, 0.0
 
 
 @njit(inline="always", nogil=True, cache=True)
