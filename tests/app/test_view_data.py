@@ -329,8 +329,10 @@ def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(m
     exact table on its way; asking again, waiting for it, gives the full exact table's (whose ratio map is 1
     wherever f > 0). When the exact mode's coarse table is made already (a render made it), that is shown
     first instead (exact all the same)."""
+    from app.view_data import INTERIM_WARP_TOL
     from core.model import make_brdf
     from core.sampling import make_sampler
+    from core.sampling.adaptive import TableOptions
 
     monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
     brdf = make_brdf("ggx", {"alpha": 0.0911})
@@ -338,6 +340,7 @@ def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(m
     assert first.table["interim"] and not first.table["complete"] and first.table["full_pending"]
     assert first.mode == "warp" and first.ratio_sampler == "adaptive_warp" and len(first.samples) > 0
     assert first.table["theta_nodes"] == 7  # the initial layout: the coarse table
+    assert first.table["options"]["warp_tol"] == INTERIM_WARP_TOL > TableOptions().warp_tol  # a coarser fit
     later = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True, settle=120.0)
     assert later.table["complete"] and not later.table["full_pending"] and not later.table["interim"]
     assert later.mode == "exact" and later.ratio_sampler == "adaptive"
