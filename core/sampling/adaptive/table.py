@@ -469,6 +469,10 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
                 [(float(theta), float(edges[k]), float(edges[k + 1]), j) for j in range(len(phis))]
                 for k, theta in enumerate(thetas)
             ]
+            current = {key for row in keys for key in row}
+            for key, node in nodes.items():
+                if key not in current:  # replaced (its cell changed): its state is not needed again
+                    node.shaped = None
             halve = _intervals_to_halve(thetas, [[nodes[key] for key in row] for row in keys], symmetry, options,
                                         target)  # fmt: skip
             halve &= np.diff(thetas) > 2.0 * min_spacing
