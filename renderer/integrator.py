@@ -346,7 +346,9 @@ class PathTracer:
                     bad += self._wavefront(j0, min(end, j0 + WAVEFRONT) - j0, radiance, pass_index, pass_key,
                                            first, offset, j0)  # fmt: skip
         self.stats.nonfinite += bad
-        if spp == 1:  # one path a pixel: its rows are the mean (no sum, no division: 2 passes over 6 MB at 512²)
+        if (
+            spp == 1
+        ):  # one path a pixel: its rows are the mean (no sum, no division: 2 passes over 6 MB at 512²)
             return radiance
         return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
 
@@ -401,7 +403,7 @@ class PathTracer:
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
-                env_kind, env_rad, env_row, env_col, env_guide, env_pmf, env_img, env_rot,
+                env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot,
                 B.s_mat, B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
                 B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
             )  # fmt: skip

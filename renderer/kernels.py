@@ -272,7 +272,7 @@ def surface_stage(
     nee, n_pix, first_sample, seed_key, pass_key, depth, c_area, c_point, p_area, p_point, p_env,
     emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
     point_pos, point_intensity, point_cdf, point_pmf,
-    env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation,
+    env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_edges, env_pmf, env_image, env_rotation,
     # outputs, one row per surface vertex (sorted order)
     s_mat, s_ng, s_frame, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand,
@@ -352,7 +352,7 @@ def surface_stage(
         elif env_kind != 0 and p_env > 0.0:
             wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
                 env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
-                env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation,
+                env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,
             )  # fmt: skip
             pdf = p_env * pdf_e
         l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz

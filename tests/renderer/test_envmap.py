@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 from numba import njit
 
-from renderer.envmap import EnvironmentMap, guide_table, guided_upper_bound, upper_bound
+from renderer.envmap import (
+    SMALL_ANGLE_COLUMNS,
+    SMALL_ANGLE_ROWS,
+    EnvironmentMap,
+    guide_table,
+    guided_upper_bound,
+    upper_bound,
+)
 
 
 @njit(cache=False)
@@ -133,6 +140,33 @@ def test_lookup_finds_the_pixel_of_the_angles(
         sin_t > 1e-12, env._pixel_pmf[row, col] * (w * h) / (2 * np.pi**2) / np.maximum(sin_t, 1e-300), 0.0
     )
     assert np.allclose(pdf, expected, rtol=1e-12, atol=0.0)
+
+
+@pytest.mark.parametrize("rotate_deg", [0.0, 33.0, 359.9])
+def test_samples_of_a_large_map_by_angle_addition(rng: np.random.Generator, rotate_deg: float) -> None:
+    """A map of at least SMALL_ANGLE_ROWS x SMALL_ANGLE_COLUMNS pixels places its samples by angle addition from
+    the pixel edges: the directions are those of theta = (row + u2) pi / h and phi = rotation + (col + u3)
+    2 pi / w to 4e-15, unit length, in the pixel the inverse CDFs chose, with the pdf and radiance of that
+    pixel's lookup."""
+    h, w = SMALL_ANGLE_ROWS * 2, SMALL_ANGLE_COLUMNS * 2
+    img = rng.random((h, w, 3)) ** 3 + 0.01
+    env = EnvironmentMap(img, rotate_deg=rotate_deg)
+    u = np.concatenate([rng.random((20000, 4)), [[0.5, 0.5, 0.0, 0.0], [0.5, 0.5, 1 - 2**-53, 1 - 2**-53]]])
+    d, le, pdf = env.sample(u)
+    row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), h - 1)
+    col = np.minimum(
+        [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)], w - 1
+    )
+    theta = (row + u[:, 2]) / h * np.pi
+    phi = (col + u[:, 3]) / w * 2 * np.pi + env.rotation
+    expected = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], axis=1)
+    assert np.abs(d - expected).max() < 4e-15  # both sides round theta, phi and the edges: a few ulps
+    assert np.abs(np.linalg.norm(d, axis=1) - 1.0).max() < 1e-15
+    inside = (u[:, 2] > 1e-9) & (u[:, 2] < 1 - 1e-9) & (u[:, 3] > 1e-9) & (u[:, 3] < 1 - 1e-9)
+    assert np.array_equal(env.image[row, col][inside], le[inside])
+    # (at u2 or u3 within rounding of 1 the point rounds onto the next pixel's edge, as theta and phi did)
+    assert np.allclose(pdf[inside], env.pdf(d)[inside], rtol=1e-9)
+    assert np.allclose(le[inside], env.eval(d)[inside])
 
 
 @pytest.mark.parametrize("rotate_deg", [-400.0, -90.0, 0.0, 179.0, 725.0])
