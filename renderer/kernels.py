@@ -284,87 +284,102 @@ def surface_stage(
     both surfaces)."""
     n_emit = emit_ids.shape[0]
     n_point = point_pos.shape[0]
-    for s in range(a, b):
-        i = order[s]
-        gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz = _shading_frame(
-            prim[i], d[i, 0], d[i, 1], d[i, 2], bu[i], bv[i], tri_normal, tri_vnormals, tri_smooth
-        )
-        s_ng[s, 0], s_ng[s, 1], s_ng[s, 2] = gx, gy, gz
-        s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2] = tx, ty, tz
-        s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2] = bx, by, bz
-        s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2] = sx, sy, sz
-        s_wo[s, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
-        s_wo[s, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
-        s_wo[s, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
-        px = o[i, 0] + t[i] * d[i, 0] + eps * gx
-        py = o[i, 1] + t[i] * d[i, 1] + eps * gy
-        pz = o[i, 2] + t[i] * d[i, 2] + eps * gz
-        s_origin[s, 0], s_origin[s, 1], s_origin[s, 2] = px, py, pz
-        p = path[i]
-        s_path[s] = p
-        s_mat[s] = mat[i]
-        for c in range(3):
-            s_beta[s, c] = beta[i, c]
-        l_cand[s] = False
-        l_delta[s] = False
-        l_pdf[s] = 0.0
+    # blocks of _BLOCK vertices, each in two short loops (the frames, then the light samples from the frames'
+    # rows, still in L1): the light sample's long chain of dependent steps overlaps across vertices there
+    for s0 in range(a, b, _BLOCK):
+        s1 = min(b, s0 + _BLOCK)
+        for s in range(s0, s1):
+            i = order[s]
+            gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz = _shading_frame(
+                prim[i], d[i, 0], d[i, 1], d[i, 2], bu[i], bv[i], tri_normal, tri_vnormals, tri_smooth
+            )
+            s_ng[s, 0], s_ng[s, 1], s_ng[s, 2] = gx, gy, gz
+            s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2] = tx, ty, tz
+            s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2] = bx, by, bz
+            s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2] = sx, sy, sz
+            s_wo[s, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
+            s_wo[s, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
+            s_wo[s, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
+            px = o[i, 0] + t[i] * d[i, 0] + eps * gx
+            py = o[i, 1] + t[i] * d[i, 1] + eps * gy
+            pz = o[i, 2] + t[i] * d[i, 2] + eps * gz
+            s_origin[s, 0], s_origin[s, 1], s_origin[s, 2] = px, py, pz
+            p = path[i]
+            s_path[s] = p
+            s_mat[s] = mat[i]
+            for c in range(3):
+                s_beta[s, c] = beta[i, c]
+            l_cand[s] = False
+            l_delta[s] = False
+            l_pdf[s] = 0.0
         if not nee:
             continue
-        # ---- one light sample
-        vk = key(key(pass_key, p), depth)
-        u_type = uniform(vk, _U_LIGHT_TYPE)
-        u_pick = uniform(vk, _U_LIGHT_PICK)
-        pixel = p % n_pix
-        ux, uy = pair(
-            first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
-        )
-        wx, wy, wz = 0.0, 0.0, 1.0
-        lr, lg, lb = 0.0, 0.0, 0.0
-        pdf = 0.0
-        t_max = np.inf
-        if u_type < c_area and n_emit > 0:
-            k = min(np.searchsorted(emit_cdf, u_pick, side="right"), n_emit - 1)
-            tri = emit_ids[k]
-            su = math.sqrt(ux)
-            b1 = su * (1.0 - uy)
-            b2 = su * uy
-            qx = v0[tri, 0] + b1 * e1[tri, 0] + b2 * e2[tri, 0] - px
-            qy = v0[tri, 1] + b1 * e1[tri, 1] + b2 * e2[tri, 1] - py
-            qz = v0[tri, 2] + b1 * e1[tri, 2] + b2 * e2[tri, 2] - pz
-            dist = math.sqrt(qx * qx + qy * qy + qz * qz)
-            if dist > 0.0:
+        for s in range(s0, s1):
+            # ---- one light sample
+            p = s_path[s]
+            px, py, pz = s_origin[s, 0], s_origin[s, 1], s_origin[s, 2]
+            gx, gy, gz = s_ng[s, 0], s_ng[s, 1], s_ng[s, 2]
+            tx, ty, tz = s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2]
+            bx, by, bz = s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2]
+            sx, sy, sz = s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2]
+            vk = key(key(pass_key, p), depth)
+            u_type = uniform(vk, _U_LIGHT_TYPE)
+            u_pick = uniform(vk, _U_LIGHT_PICK)
+            pixel = p % n_pix
+            ux, uy = pair(
+                first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
+            )
+            wx, wy, wz = 0.0, 0.0, 1.0
+            lr, lg, lb = 0.0, 0.0, 0.0
+            pdf = 0.0
+            t_max = np.inf
+            if u_type < c_area and n_emit > 0:
+                k = min(np.searchsorted(emit_cdf, u_pick, side="right"), n_emit - 1)
+                tri = emit_ids[k]
+                su = math.sqrt(ux)
+                b1 = su * (1.0 - uy)
+                b2 = su * uy
+                qx = v0[tri, 0] + b1 * e1[tri, 0] + b2 * e2[tri, 0] - px
+                qy = v0[tri, 1] + b1 * e1[tri, 1] + b2 * e2[tri, 1] - py
+                qz = v0[tri, 2] + b1 * e1[tri, 2] + b2 * e2[tri, 2] - pz
+                dist = math.sqrt(qx * qx + qy * qy + qz * qz)
+                if dist > 0.0:
+                    wx, wy, wz = qx / dist, qy / dist, qz / dist
+                    cos_l = -(wx * tri_normal[tri, 0] + wy * tri_normal[tri, 1] + wz * tri_normal[tri, 2])
+                    if (cos_l > 0.0 or tri_two_sided[tri]) and abs(cos_l) > 1e-9:
+                        lr, lg, lb = tri_emission[tri, 0], tri_emission[tri, 1], tri_emission[tri, 2]
+                        pdf = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
+                        t_max = dist * (1.0 - 1e-4)
+            elif u_type < c_point and n_point > 0:
+                k = min(np.searchsorted(point_cdf, u_pick, side="right"), n_point - 1)
+                qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
+                dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
                 wx, wy, wz = qx / dist, qy / dist, qz / dist
-                cos_l = -(wx * tri_normal[tri, 0] + wy * tri_normal[tri, 1] + wz * tri_normal[tri, 2])
-                if (cos_l > 0.0 or tri_two_sided[tri]) and abs(cos_l) > 1e-9:
-                    lr, lg, lb = tri_emission[tri, 0], tri_emission[tri, 1], tri_emission[tri, 2]
-                    pdf = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
-                    t_max = dist * (1.0 - 1e-4)
-        elif u_type < c_point and n_point > 0:
-            k = min(np.searchsorted(point_cdf, u_pick, side="right"), n_point - 1)
-            qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
-            dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
-            wx, wy, wz = qx / dist, qy / dist, qz / dist
-            inv = 1.0 / (dist * dist)
-            lr, lg, lb = point_intensity[k, 0] * inv, point_intensity[k, 1] * inv, point_intensity[k, 2] * inv
-            pdf = p_point * point_pmf[k]
-            t_max = dist * (1.0 - 1e-4)
-            l_delta[s] = True
-        elif env_kind != 0 and p_env > 0.0:
-            wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
-                env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
-                env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,
-            )  # fmt: skip
-            pdf = p_env * pdf_e
-        l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz
-        lz = wx * sx + wy * sy + wz * sz
-        l_wi_local[s, 0] = wx * tx + wy * ty + wz * tz
-        l_wi_local[s, 1] = wx * bx + wy * by + wz * bz
-        l_wi_local[s, 2] = lz
-        l_le[s, 0], l_le[s, 1], l_le[s, 2] = lr, lg, lb
-        l_pdf[s] = pdf
-        l_tmax[s] = t_max
-        if pdf > 0.0 and lz > 0.0 and (lr > 0.0 or lg > 0.0 or lb > 0.0):
-            l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
+                inv = 1.0 / (dist * dist)
+                lr, lg, lb = (
+                    point_intensity[k, 0] * inv,
+                    point_intensity[k, 1] * inv,
+                    point_intensity[k, 2] * inv,
+                )
+                pdf = p_point * point_pmf[k]
+                t_max = dist * (1.0 - 1e-4)
+                l_delta[s] = True
+            elif env_kind != 0 and p_env > 0.0:
+                wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
+                    env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
+                    env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,
+                )  # fmt: skip
+                pdf = p_env * pdf_e
+            l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz
+            lz = wx * sx + wy * sy + wz * sz
+            l_wi_local[s, 0] = wx * tx + wy * ty + wz * tz
+            l_wi_local[s, 1] = wx * bx + wy * by + wz * bz
+            l_wi_local[s, 2] = lz
+            l_le[s, 0], l_le[s, 1], l_le[s, 2] = lr, lg, lb
+            l_pdf[s] = pdf
+            l_tmax[s] = t_max
+            if pdf > 0.0 and lz > 0.0 and (lr > 0.0 or lg > 0.0 or lb > 0.0):
+                l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
 
 
 @njit(inline="always", nogil=True, cache=True)
