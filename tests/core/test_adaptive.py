@@ -224,6 +224,24 @@ def test_an_anisotropic_model_at_isotropic_parameters_is_laid_out_as_isotropic()
     assert symmetry_of(make_brdf("ward", {"sx": 0.1, "sy": 0.2})) == MIRROR
 
 
+def test_the_exact_mode_does_not_choose_a_disk_whose_azimuth_cells_cannot_reach_the_acceptance():
+    """Poulin-Fournier's half-vector lobe turns with the azimuth in the local frame: across an azimuth cell
+    its envelope cannot fall below ``1 + TV`` of the cell's edge views, above what ``n_max = 1.3`` allows
+    (polar halvings do not narrow azimuth cells), so the exact mode takes the wi disk there; at ``n_max = 2``,
+    and in the rejection-free mode, the disk that moves less."""
+    from core.sampling.adaptive.layout import cell_edges, phi_nodes
+    from core.sampling.adaptive.table import azimuth_floor, choose_projection
+    from core.sampling.adaptive.tree import ACCEPT_MARGIN
+
+    brdf = make_brdf("poulin_fournier")
+    edges = cell_edges(phi_nodes(MIRROR, 4), 0.0, 0.5 * math.pi)
+    aim = 1.3 / (1.0 + ACCEPT_MARGIN)
+    assert azimuth_floor(brdf, EQUAL_AREA, 1, edges) <= aim < azimuth_floor(brdf, HALF_VECTOR, 0, edges)
+    assert choose_projection(brdf, MIRROR, "auto", 1.3, edges) == (EQUAL_AREA, 1)
+    assert choose_projection(brdf, MIRROR, "auto", 2.0, edges) == (HALF_VECTOR, 0)
+    assert choose_projection(brdf, MIRROR, "auto", 0.0, edges) == (HALF_VECTOR, 0)
+
+
 def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_for_more():
     from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
     from core.sampling.adaptive.maps import ORTHOGRAPHIC as ORTHO

@@ -267,21 +267,53 @@ def _motion(mid, p, projection, view_a, view_b):
 
 PROBE_PAIRS_DEG = ((20.0, 0.0, 30.0, 0.0), (50.0, 0.0, 60.0, 0.0), (72.0, 0.0, 80.0, 0.0))
 PROBE_PAIRS_ANISO_DEG = ((45.0, 20.0, 45.0, 35.0), (70.0, 50.0, 70.0, 65.0), (70.0, 10.0, 78.0, 10.0))
+AZIMUTH_FLOOR_THETAS_DEG = (20.0, 45.0, 60.0, 70.0, 78.0)
+"""Polar angles at which :func:`azimuth_floor` compares the views at an azimuth cell's two edges (below 80
+degrees: beyond, every tree is a ``wi`` tree turned with ``wo``)."""
 
 
-def choose_projection(brdf: BRDF, symmetry: int, parameterization: str = "auto") -> tuple[int, int]:
+def azimuth_floor(brdf: BRDF, projection: int, follow: int, phi_edges: np.ndarray) -> float:
+    """A lower estimate of the least envelope mass ``V`` a tree of ``projection`` can reach over an azimuth
+    cell: ``1 + TV`` of the views at the two azimuth edges of the widest cell (the largest over a few polar
+    angles). Any density ``q`` on the square has ``V >= integral of max(pa, pb) / q * q = 1 + TV(pa, pb)``,
+    however fine its leaves; the layout halves polar intervals only, so this floor stays."""
+    k = int(np.argmax(np.diff(phi_edges)))
+    lo, hi = float(phi_edges[k]), float(phi_edges[k + 1])
+    floor = 1.0
+    for theta in AZIMUTH_FLOOR_THETAS_DEG:
+        va = make_view(math.radians(theta), lo, bool(follow))
+        vb = make_view(math.radians(theta), hi, bool(follow))
+        floor = max(floor, 1.0 + _motion(brdf.model.id, brdf.params, projection, va, vb))
+    return floor
+
+
+def choose_projection(brdf: BRDF, symmetry: int, parameterization: str = "auto", n_max: float = 0.0,
+                      phi_edges: np.ndarray | None = None) -> tuple[int, int]:  # fmt: skip
     """``(projection, follow)`` for a material's non-flat trees: the equal-area disk of ``wi`` (turned with
     ``wo``), or of the half vector (kept in the local frame when anisotropic), whichever moves the lobe less
-    between neighbouring views (mean total-variation distance over a few pairs of views)."""
+    between neighbouring views (mean total-variation distance over a few pairs of views).
+
+    ``n_max > 0`` (the exact mode) and an anisotropic material: a disk whose :func:`azimuth_floor` over the
+    cells ``phi_edges`` is above the envelope's aim ``n_max / (1 + ACCEPT_MARGIN)`` is not chosen while the
+    other's is not: no refinement of its trees and no halving of polar intervals reaches the acceptance
+    (Poulin-Fournier at ``n_max = 1.3``: its half-vector lobe, elongated, turns with ``wo``'s azimuth in the
+    local frame; the trees filled their capacity and the layout its 48 polar nodes, acceptance 0.69 at 60
+    degrees)."""
     half = (HALF_VECTOR, 1 if symmetry == ISOTROPIC else 0)
     if parameterization == "wi":
         return EQUAL_AREA, 1
     if parameterization == "half":
         return half
+    candidates = [(EQUAL_AREA, 1), half]
+    if n_max > 0.0 and symmetry != ISOTROPIC and phi_edges is not None:
+        aim = n_max / (1.0 + ACCEPT_MARGIN)
+        reachable = [c for c in candidates if azimuth_floor(brdf, c[0], c[1], phi_edges) <= aim]
+        if len(reachable) == 1:
+            return reachable[0]
     pairs = PROBE_PAIRS_DEG if symmetry == ISOTROPIC else PROBE_PAIRS_DEG + PROBE_PAIRS_ANISO_DEG
     best = (EQUAL_AREA, 1)
     best_motion = np.inf
-    for projection, follow in ((EQUAL_AREA, 1), half):
+    for projection, follow in candidates:
         motion = 0.0
         for ta, pa, tb, pb in pairs:
             va = make_view(math.radians(ta), math.radians(pa), bool(follow))
@@ -430,7 +462,8 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
     if is_lambertian(brdf):
         projection, follow = ORTHOGRAPHIC, 1
     else:
-        projection, follow = choose_projection(brdf, symmetry, options.parameterization)
+        projection, follow = choose_projection(brdf, symmetry, options.parameterization,
+                                               options.n_max if options.bounds else 0.0, phi_edges)  # fmt: skip
     nodes: dict[tuple[float, float, float, int], _Node] = {}
     report = TableReport()
     workers = threads or thread_budget()
