@@ -30,7 +30,7 @@ from numba import njit
 
 from core import merl
 from core.dispatch import MERL, MERL_NEAREST, eval_model, pdf_model, sample_model
-from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
+from core.models.lobes import cosine_hemisphere_pdf
 from renderer.envmap import env_eval_one, env_sample_one
 from renderer.qmc import key, pair, sobol2, uniform
 
@@ -382,6 +382,51 @@ def surface_stage(
                 l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
 
 
+_OCTANT_COS = np.cos((np.arange(8) + 0.5) * np.pi / 4)
+_OCTANT_SIN = np.sin((np.arange(8) + 0.5) * np.pi / 4)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _sin_cos_turn(u):
+    """``(sin 2 pi u, cos 2 pi u)`` for ``0 <= u < 1`` without a library call: the middle of ``u``'s octant
+    (tabulated) plus an offset of at most pi / 8 by its Taylor series to the 13th and 12th order (truncation
+    below 3e-17); within 1e-15 of ``sin``/``cos`` of ``2 pi u`` (whose rounded argument is itself that far),
+    4 ns against 25-34 ns for the two calls."""
+    v = u * 8.0
+    k = min(max(int(v), 0), 7)
+    x = (v - k - 0.5) * (0.25 * math.pi)
+    x2 = x * x
+    sx = x * (
+        1.0
+        - x2
+        / 6.0
+        * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0 * (1.0 - x2 / 156.0)))))
+    )
+    cx = 1.0 - x2 / 2.0 * (
+        1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0 * (1.0 - x2 / 132.0))))
+    )
+    ck, sk = _OCTANT_COS[k], _OCTANT_SIN[k]
+    return sk * cx + ck * sx, ck * cx - sk * sx
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _cosine_hemisphere(u1, u2):
+    """:func:`core.models.lobes.cosine_hemisphere` (Malley's method) with the azimuth's sine and cosine from
+    :func:`_sin_cos_turn`."""
+    r = math.sqrt(u1)
+    sn, cs = _sin_cos_turn(u2)
+    return r * cs, r * sn, math.sqrt(max(0.0, 1.0 - u1))
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _uniform_hemisphere(u1, u2):
+    """:func:`core.models.lobes.uniform_hemisphere` with the azimuth's sine and cosine from
+    :func:`_sin_cos_turn`."""
+    r = math.sqrt(max(0.0, 1.0 - u1 * u1))
+    sn, cs = _sin_cos_turn(u2)
+    return r * cs, r * sn, u1
+
+
 @njit(inline="always", nogil=True, cache=True)
 def _eval(mid, wi, wo, prm, table):
     """``eval_model(mid, wi, wo, prm)``, except that a MERL material's table is read from ``table``, its
@@ -445,10 +490,10 @@ def bsdf_stage(
                     l_pdf_brdf[s] = pdf_model(mid, wo, wi, prm)
             u1, u2 = blk[s - s0, 0], blk[s - s0, 1]
             if kind == UNIFORM:
-                x, y, z = uniform_hemisphere(u1, u2)
+                x, y, z = _uniform_hemisphere(u1, u2)
                 q = INV_TWO_PI
             elif kind == COSINE:
-                x, y, z = cosine_hemisphere(u1, u2)
+                x, y, z = _cosine_hemisphere(u1, u2)
                 q = cosine_hemisphere_pdf(z)
             else:
                 x, y, z, q = sample_model(mid, wo, prm, u1, u2, blk[s - s0, 2])

@@ -402,3 +402,32 @@ def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:
     out = both(MERL, v[0], v[1], prm, tr.mat_tables[m])
     assert np.count_nonzero(out[:, 1]) > 1000
     assert np.allclose(out[:, 0], out[:, 1], rtol=1e-6, atol=1e-12)
+
+
+def test_compiled_hemisphere_samples_are_the_lobes_directions() -> None:
+    """The compiled stage's cosine and uniform hemisphere samples (azimuth by an octant table and a Taylor
+    series, no sin/cos call) are the directions of core's lobes (sin/cos of 2 pi u2) to 2e-15, unit length,
+    at random points and at both sides of every octant's edge."""
+    from numba import njit
+
+    from core.models.lobes import cosine_hemisphere, uniform_hemisphere
+    from renderer.kernels import _cosine_hemisphere, _uniform_hemisphere
+
+    @njit(cache=False)
+    def directions(u):  # type: ignore[no-untyped-def]
+        out = np.empty((u.shape[0], 4, 3))
+        for i in range(u.shape[0]):
+            out[i, 0, 0], out[i, 0, 1], out[i, 0, 2] = _cosine_hemisphere(u[i, 0], u[i, 1])
+            out[i, 1, 0], out[i, 1, 1], out[i, 1, 2] = cosine_hemisphere(u[i, 0], u[i, 1])
+            out[i, 2, 0], out[i, 2, 1], out[i, 2, 2] = _uniform_hemisphere(u[i, 0], u[i, 1])
+            out[i, 3, 0], out[i, 3, 1], out[i, 3, 2] = uniform_hemisphere(u[i, 0], u[i, 1])
+        return out
+
+    rng = np.random.default_rng(5)
+    edges = np.concatenate([np.arange(9) / 8 + e for e in (-1e-12, 0.0, 1e-12)])
+    u2 = np.clip(np.concatenate([rng.random(50000), edges, [1 - 2**-53]]), 0.0, 1 - 2**-53)
+    u = np.stack([rng.random(len(u2)), u2], axis=1)
+    d = directions(u)
+    assert np.abs(d[:, 0] - d[:, 1]).max() < 2e-15
+    assert np.abs(d[:, 2] - d[:, 3]).max() < 2e-15
+    assert np.abs(np.linalg.norm(d[:, 0], axis=1) - 1.0).max() < 2e-15
