@@ -242,6 +242,35 @@ def test_the_exact_mode_does_not_choose_a_disk_whose_azimuth_cells_cannot_reach_
     assert choose_projection(brdf, MIRROR, "auto", 0.0, edges) == (HALF_VECTOR, 0)
 
 
+def test_the_exact_mode_narrows_the_azimuth_cells_where_their_floor_takes_most_of_the_slack():
+    """Ashikhmin-Shirley nu=10 nv=200's wi lobe changes across a 30-degree azimuth cell at grazing angles
+    (floor above half of n_max = 2's slack): its exact table gets 6 azimuth nodes, and the floor over them is
+    within that share; Ward sx=0.05 sy=0.25 keeps 4, and so does every rejection-free table."""
+    from core.sampling.adaptive.layout import phi_nodes
+    from core.sampling.adaptive.table import (
+        AZIMUTH_FLOOR_GRAZING_DEG,
+        AZIMUTH_FLOOR_THETAS_DEG,
+        AZIMUTH_SHARE,
+        TableOptions,
+        azimuth_count,
+        azimuth_edges,
+        azimuth_floor,
+    )
+    from core.sampling.adaptive.tree import ACCEPT_MARGIN
+
+    exact, warp = TableOptions(n_max=2.0), TableOptions(n_max=2.0, bounds=False)
+    slack = AZIMUTH_SHARE * (2.0 / (1.0 + ACCEPT_MARGIN) - 1.0)
+    thetas = AZIMUTH_FLOOR_THETAS_DEG + AZIMUTH_FLOOR_GRAZING_DEG
+    brdf = make_brdf("ashikhmin_shirley", {"nu": 10.0, "nv": 200.0})
+    assert azimuth_count(brdf, MIRROR, EQUAL_AREA, 1, exact) == 6
+    assert azimuth_count(brdf, MIRROR, EQUAL_AREA, 1, warp) == 4
+    for count, above in ((4, True), (6, False)):
+        floor = azimuth_floor(brdf, EQUAL_AREA, 1, azimuth_edges(MIRROR, phi_nodes(MIRROR, count)), thetas)
+        assert (floor - 1.0 > slack) == above
+    ward = make_brdf("ward", {"sx": 0.05, "sy": 0.25})
+    assert azimuth_count(ward, MIRROR, HALF_VECTOR, 0, exact) == 4
+
+
 def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_for_more():
     from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
     from core.sampling.adaptive.maps import ORTHOGRAPHIC as ORTHO

@@ -563,12 +563,13 @@ def _declared_options(modes: tuple[str, ...]) -> tuple[SamplerOption, ...]:
 
 def _table_bytes(brdf: BRDF, options: dict[str, Any]) -> float:
     """An upper bound of a table's memory from its options: the trees being built at once (each node's
-    statistics over up to nine views, ~800 B) and every tree at its node capacity (~64 B a node)."""
+    statistics over up to nine views, ~800 B) and every tree at its node capacity (~64 B a node); an
+    anisotropic material's exact table may have up to twice ``phi_count`` azimuth nodes (``azimuth_count``)."""
     defaults = TableOptions()
     capacity = options.get("capacity", defaults.capacity)
     trees = options.get("max_thetas", defaults.max_thetas)
     if not brdf.model.isotropic:
-        trees *= options.get("phi_count", defaults.phi_count)
+        trees *= 2 * options.get("phi_count", defaults.phi_count)
     return thread_budget() * capacity * 800.0 + trees * capacity * 64.0
 
 
