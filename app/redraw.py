@@ -192,8 +192,9 @@ class Redrawer(QObject):
 
     @property
     def follow_up_pending(self) -> bool:
-        """Whether the sampler view will ask again for the full table's picture."""
-        return self.follow_up_timer.isActive()
+        """Whether the sampler view will ask again for the full table's picture (its timer runs, or it is
+        scheduled and not asked yet)."""
+        return self.follow_up_timer.isActive() or "follow-up" in self._pending
 
     def _sampling_done(self, snapshot: Any) -> None:
         if snapshot is None:  # a follow-up: the full table is not made yet
