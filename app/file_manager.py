@@ -211,7 +211,7 @@ class FileManager:
     def export_samples(self, path: Path | str | None = None, n: int | None = None) -> Path | None:
         """The current material's samples for the current direction, from the sampler view's strategy."""
         from app.exports import sample_set, write_sample_set
-        from app.view_data import ADAPTIVE_SAMPLERS
+        from app.sampling_data import ADAPTIVE_SAMPLERS
 
         if path is None:
             path = self.dialog_path(

@@ -1,4 +1,4 @@
-"""The sampler view's snapshots (:func:`app.view_data.sampling_snapshot`) computed in a separate process.
+"""The sampler view's snapshots (:func:`app.sampling_data.sampling_snapshot`) computed in a separate process.
 
 Why: a snapshot builds an adaptive tree, draws samples and a ratio map. Most of that is compiled code that
 releases the interpreter lock, but its numpy glue does not, and neither do the VTK and matplotlib calls
@@ -145,7 +145,7 @@ def _brdf(spec: Spec) -> Any:
 
 
 def _snapshot_here(spec: Spec, theta_deg: float, phi_deg: float, options: dict, asked_at: int | None) -> Any:
-    from app.view_data import NoSnapshot, sampling_snapshot
+    from app.sampling_data import NoSnapshot, sampling_snapshot
 
     try:
         return sampling_snapshot(_brdf(spec), theta_deg, phi_deg, stop=_superseded(asked_at), **options)
@@ -154,7 +154,7 @@ def _snapshot_here(spec: Spec, theta_deg: float, phi_deg: float, options: dict, 
 
 
 def _facts_here(spec: Spec, asked_at: int | None) -> str | None:
-    from app.view_data import adaptive_line
+    from app.sampling_data import adaptive_line
 
     return adaptive_line(_brdf(spec), stop=_superseded(asked_at))
 
@@ -177,7 +177,7 @@ def _call(fn: Any, *args: Any) -> Any:
 
 
 def table_facts(spec: Spec, asked_at: int | None = None) -> str | None:
-    """:func:`app.view_data.adaptive_line` of the material ``spec`` (its adaptive table's size and build time),
+    """:func:`app.sampling_data.adaptive_line` of the material ``spec`` (its adaptive table's size and build time),
     made in the snapshot process: the table is built once there, for the sampler view and these facts, and
     its build never holds the GUI's interpreter lock. ``asked_at``: the :func:`generation` when the app
     asked; a wait for the table's build gives up when a later :func:`interrupt` came, and None is
@@ -204,8 +204,8 @@ def prewarm() -> None:
 def snapshot(
     spec: Spec, theta_deg: float, phi_deg: float, asked_at: int | None = None, **options: Any
 ) -> Any:
-    """:func:`app.view_data.sampling_snapshot` of the material ``spec``, computed in the snapshot process.
+    """:func:`app.sampling_data.sampling_snapshot` of the material ``spec``, computed in the snapshot process.
     Blocks the calling (worker) thread until the result arrives, without holding the interpreter lock.
-    ``asked_at``: see :func:`table_facts`. None when no picture was made (:class:`app.view_data.NoSnapshot`:
+    ``asked_at``: see :func:`table_facts`. None when no picture was made (:class:`app.sampling_data.NoSnapshot`:
     a newer request is on its way, or ``only_complete`` and the full table is not made yet)."""
     return _call(_snapshot_here, spec, theta_deg, phi_deg, options, asked_at)

@@ -10,7 +10,7 @@ from matplotlib.patches import Circle
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel, QSpinBox, QVBoxLayout, QWidget
 
-from app.view_data import (
+from app.sampling_data import (
     RATIO_CMAP,
     RATIO_RANGE,
     SAMPLING_PROJECTIONS,
@@ -32,7 +32,7 @@ MODE_TIPS = {
 
 
 class SamplingView(QWidget):
-    """Draws a :class:`app.view_data.SamplingSnapshot`. Emits ``options_changed`` when the user changes the
+    """Draws a :class:`app.sampling_data.SamplingSnapshot`. Emits ``options_changed`` when the user changes the
     mode, ``n_max``, the compared strategy or the sample count."""
 
     options_changed = Signal()

@@ -157,7 +157,7 @@ def test_the_document_imports_no_qt():
     import sys
 
     code = (
-        "import sys, app.document, app.project, app.view_data; "
+        "import sys, app.document, app.project, app.view_data, app.sampling_data; "
         "print(any(m.startswith(('PySide6', 'vtk')) for m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -222,7 +222,7 @@ def _count_paints(widget):
 def test_polar_slice_and_sampler_view_update_by_blitting(window, qtbot):
     """A data edit that keeps the scale redraws only the curves (no full figure draw), the pixels change, and
     they reach the screen with the window's next paint rather than a synchronous repaint of their own."""
-    from app.view_data import sampling_snapshot
+    from app.sampling_data import sampling_snapshot
     from core.model import make_brdf
 
     window.tabs.setCurrentWidget(window.explore)  # the polar view on screen, whatever ran before

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.view_data import SAMPLING_PROJECTIONS
+from app.sampling_data import SAMPLING_PROJECTIONS
 
 pytestmark = [pytest.mark.gui]
 
@@ -136,7 +136,7 @@ def test_view_follows_n_max_and_mode(window, qtbot):
 
 
 def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
-    from app.view_data import adaptive_sampler
+    from app.sampling_data import adaptive_sampler
     from core.sampling.adaptive.inspect import from_tree_disk
 
     _use(window, "lambert", "lam", {"kd": 0.5})
@@ -171,7 +171,7 @@ def test_outlines_of_deep_leaves_are_their_ancestors_and_still_tile_the_square()
     """Leaves deeper than OUTLINE_LEVEL are outlined as their ancestor at that level: what is outlined is
     still a tiling of the square (areas sum to 1, no overlaps), with nothing deeper than that level; one
     polyline holds every outline, each closed and followed by a break."""
-    from app.view_data import OUTLINE_LEVEL, leaf_edges, outline_boxes
+    from app.sampling_data import OUTLINE_LEVEL, leaf_edges, outline_boxes
     from core.sampling.adaptive.inspect import TreeView
 
     rng = np.random.default_rng(2)
@@ -220,7 +220,7 @@ def test_a_new_material_shows_a_first_fit_at_once_then_the_full_table(window, qt
     while the app waits for it."""
     import shutil
 
-    from app.view_data import adaptive_sampler
+    from app.sampling_data import adaptive_sampler
     from core.cache import TableCache
     from core.model import make_brdf
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from app import snapshot_process
-from app.view_data import sampling_snapshot
+from app.sampling_data import sampling_snapshot
 from core.errors import BrdfStudioError
 from core.model import get_model
 

@@ -7,19 +7,16 @@ import math
 import numpy as np
 import pytest
 
+from app.sampling_data import leaf_colours, leaf_edges, ratio_colours, sampling_snapshot
 from app.view_data import (
     direction_from_disk,
     grid_normals,
     grid_quads,
     hemisphere_grid,
     incidence_plane,
-    leaf_colours,
-    leaf_edges,
     light_from_disk,
     lit_sphere,
     lobe,
-    ratio_colours,
-    sampling_snapshot,
     to_srgb8,
 )
 from core.model import get_model
@@ -176,7 +173,7 @@ def test_samples_lie_on_the_disk_in_leaves_their_mode_can_draw(snapshots):
 def test_tree_disk_points_map_back_to_their_directions(snapshots):
     """``from_tree_disk`` inverts ``to_tree_disk`` (wi disks and the half-vector disk), and the frames put
     the specular direction where they say: on the -x axis of a turned wi disk, at the centre of an h disk."""
-    from app.view_data import adaptive_sampler
+    from app.sampling_data import adaptive_sampler
 
     for name, _params in CASES:
         brdf = snapshots[name, 30.0, "exact"][0]
@@ -218,7 +215,7 @@ def test_ratio_map_of_other_strategies_on_the_tree_disk():
     """Lambert: the uniform density 1/(2 pi) against the ideal cos / pi is 1 / (2 cos theta_i) at each
     pixel's direction; the warp mode's density is exact for Lambert on its disk; Phong's warp density is
     close to the ideal where the lobe is."""
-    from app.view_data import adaptive_sampler
+    from app.sampling_data import adaptive_sampler
     from core.model import make_brdf
 
     lam = make_brdf("lambert", {"kd": 0.5})
@@ -329,7 +326,7 @@ def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(m
     exact table on its way; asking again, waiting for it, gives the full exact table's (whose ratio map is 1
     wherever f > 0). When the exact mode's coarse table is made already (a render made it), that is shown
     first instead (exact all the same)."""
-    from app.view_data import INTERIM_WARP_TOL
+    from app.sampling_data import INTERIM_WARP_TOL
     from core.model import make_brdf
     from core.sampling import make_sampler
     from core.sampling.adaptive import TableOptions
