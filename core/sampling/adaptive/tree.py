@@ -231,8 +231,8 @@ def _warp_error(st, area, floor):
 
 
 @njit(nogil=True, cache=True)
-def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
-    """Split leaf ``i`` into nodes ``n .. n + 3`` (node-view stencils included); returns the new count."""
+def _children(i, n, child, x0, y0, level):
+    """Make nodes ``n .. n + 3`` the children of leaf ``i`` (their squares and levels); returns their side."""
     h = 0.5 ** (level[i] + 1)
     child[i] = n
     for q in range(4):
@@ -241,7 +241,15 @@ def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
         y0[c] = y0[i] + h * (q // 2)
         level[c] = level[i] + 1
         child[c] = -1
-        _child_stencil(mid, p, projection, view, st, i, n, q, x0[c], y0[c], h)
+    return h
+
+
+@njit(nogil=True, cache=True)
+def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
+    """Split leaf ``i`` into nodes ``n .. n + 3`` (node-view stencils included); returns the new count."""
+    h = _children(i, n, child, x0, y0, level)
+    for q in range(4):
+        _child_stencil(mid, p, projection, view, st, i, n, q, x0[n + q], y0[n + q], h)
     return n + 4
 
 
@@ -936,15 +944,9 @@ def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_l
 @njit(nogil=True, cache=True)
 def _split_tried(i, n, child, x0, y0, level, st, trial):
     """:func:`_split` of a leaf split on trial before: its children's stencils are those the trial made."""
-    h = 0.5 ** (level[i] + 1)
-    child[i] = n
+    _children(i, n, child, x0, y0, level)
     for q in range(4):
-        c = n + q
-        x0[c] = x0[i] + h * (q % 2)
-        y0[c] = y0[i] + h * (q // 2)
-        level[c] = level[i] + 1
-        child[c] = -1
-        st[c] = trial[i, q]
+        st[n + q] = trial[i, q]
     return n + 4
 
 
