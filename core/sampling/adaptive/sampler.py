@@ -248,21 +248,14 @@ class AdaptiveSampler(Sampler):
     def _entry(self) -> tuple[AdaptiveTable, TableReport]:
         if self._current is not None:
             return self._current
-        entry = _TABLES.get(self.key)
+        entry = _TABLES[self.key] if self._stored() else None
+        if entry is None and self.progressive:
+            entry = self._coarse()
         if entry is None:
             with _LOCK:
                 entry = _TABLES.get(self.key)
                 if entry is None:
-                    entry = load_table(self.cache, self.key) if self.cache is not None else None
-                    if entry is not None:
-                        _TABLES[self.key] = entry
-            if entry is None and self.progressive:
-                entry = self._coarse()
-            if entry is None:
-                with _LOCK:
-                    entry = _TABLES.get(self.key)
-                    if entry is None:
-                        entry = self._build_full()
+                    entry = self._build_full()
         self._current = entry
         return entry
 
