@@ -219,10 +219,34 @@ def _geomean(values: Iterable[float]) -> float:
     return float(np.exp(np.mean(np.log(v)))) if v else float("nan")
 
 
+# A case (material, angle, light) whose reference is below this fraction of the same material's largest under the
+# same light is left out of the summaries: the light reaches the viewer only through the BRDF's far tail there.
+NEGLIGIBLE = 1e-6
+
+
+def counted(rows: list[Row]) -> tuple[list[Row], list[tuple[str, float, str]]]:
+    """The rows the summaries average over, and the cases left out as negligible (``NEGLIGIBLE``).
+
+    In such a case (Lewis ``kd = 0`` under the small light at 0° and 80°: ``L_r`` about 1e-9 of its value at
+    30°) the reference is not resolved (the pilot's lowest-variance estimator may see no light at all, giving
+    0), relative errors are measured against round-off, and a sampler that does see the tail gets an efficiency
+    ``1 / (variance × time)`` of ~1e21 while one that does not gets an infinite one, which the geometric mean
+    cannot use: such a case decided a whole column's mean by itself."""
+    peak: dict[tuple[str, str], float] = {}
+    for r in rows:
+        key = (r.material, r.light)
+        peak[key] = max(peak.get(key, 0.0), abs(r.reference))
+    kept = [r for r in rows if abs(r.reference) > NEGLIGIBLE * peak[(r.material, r.light)]]
+    left = {(r.material, r.theta_o, r.light) for r in rows} - {(r.material, r.theta_o, r.light) for r in kept}
+    return kept, sorted(left)
+
+
 def summary_markdown(rows: list[Row]) -> str:
-    """Per material: precompute, memory, samples/s, relative RMSE at the largest N per light; then averages."""
+    """Per material: precompute, memory, samples/s, relative RMSE at the largest N per light; then averages
+    (over the cases ``counted`` keeps)."""
     if not rows:
         return "(no results)\n"
+    rows, left_out = counted(rows)
     n_max = max(r.samples for r in rows)
     samplers = list(dict.fromkeys(r.sampler for r in rows))
     lights = list(dict.fromkeys(r.light for r in rows))
@@ -244,8 +268,12 @@ def summary_markdown(rows: list[Row]) -> str:
                 + " |"
             )
     out.append(
-        "\nAcross all materials and angles (geometric means): relative RMSE at N, and efficiency 1/(var*time).\n"
+        "\nAcross all materials and angles (geometric means): relative RMSE at N, and efficiency 1/(var*time)."
     )
+    if left_out:
+        cases = ", ".join(f"{m} at {t:g}° ({li})" for m, t, li in left_out)
+        out.append(f"Left out as negligible (reference below {NEGLIGIBLE:g} of the material's largest): {cases}.")
+    out.append("")
     out.append(
         "| sampler | "
         + " | ".join(f"RMSE {li}" for li in lights)
@@ -278,8 +306,10 @@ def summary_markdown(rows: list[Row]) -> str:
 def wins_markdown(rows: list[Row]) -> str:
     """How often each strategy has the lowest error at equal samples and at equal time, per light.
 
-    RIS is left out of the ranking: it spends several BRDF evaluations per sample and knows the light.
+    RIS is left out of the ranking: it spends several BRDF evaluations per sample and knows the light; so are
+    the negligible cases (``counted``).
     """
+    rows, _ = counted(rows)
     cases: dict[tuple[str, float, str], dict[str, Row]] = {}
     n_max = max(r.samples for r in rows)
     for r in rows:
@@ -398,6 +428,7 @@ def plot(rows: list[Row], out_dir: Path) -> dict[str, Path]:
     import matplotlib.pyplot as plt
 
     paths = {}
+    rows, _ = counted(rows)
     lights = list(dict.fromkeys(r.light for r in rows))
     samplers = list(dict.fromkeys(r.sampler for r in rows))
     for xaxis in ("samples", "time"):

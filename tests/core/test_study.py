@@ -9,7 +9,15 @@ import math
 import pytest
 
 from app.cli import main
-from core.study import StudyConfig, default_lights, materials, study_material, write_results
+from core.study import (
+    StudyConfig,
+    counted,
+    default_lights,
+    materials,
+    study_material,
+    summary_markdown,
+    write_results,
+)
 
 
 @pytest.fixture(scope="module")
@@ -55,6 +63,28 @@ def test_results_files(rows, tmp_path):
     assert "| lambert | uniform_cdf |" in paths["markdown"].read_text()
     for key in ("error_vs_samples", "error_vs_time"):
         assert paths[key].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_case_the_light_reaches_only_through_the_tail_is_left_out_of_the_means():
+    # Lewis (kd = 0) under the small light at 0°: L_r is ~1e-9 of its value at 30°, the study's reference is 0 and
+    # cosine's "efficiency" 1 / (variance x time) is ~1e21 (round-off), adaptive's infinite (it sees no light);
+    # kept in a geometric mean over 28 cases that one number multiplied cosine's mean by ~10.
+    cfg = StudyConfig(thetas=(0.0, 30.0), counts=(1024,), batch=1 << 14, reference_samples=1 << 16)
+    cfg.samplers = ("cosine", "adaptive_warp")
+    ((label, brdf),) = materials(["lewis"])
+    lights = [li for li in default_lights() if li.name == "small_light"]
+    rows = study_material(label, brdf, cfg, lights)
+    ref = {r.theta_o: abs(r.reference) for r in rows}
+    assert ref[0.0] < 1e-6 * ref[30.0]
+    kept, left = counted(rows)
+    assert left == [("lewis", 0.0, "small_light")]
+    assert {r.theta_o for r in kept} == {30.0} and len(kept) == 2
+    summary = summary_markdown(rows)
+    assert "Left out as negligible" in summary and "lewis at 0° (small_light)" in summary
+    # the means are those of the 30° case alone
+    cos30 = next(r for r in kept if r.sampler == "cosine")
+    line = next(x for x in summary.splitlines() if x.startswith("| cosine |"))
+    assert f"{cos30.efficiency:.3g}" in line
 
 
 @pytest.mark.parametrize(
