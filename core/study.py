@@ -272,7 +272,9 @@ def summary_markdown(rows: list[Row]) -> str:
     )
     if left_out:
         cases = ", ".join(f"{m} at {t:g}° ({li})" for m, t, li in left_out)
-        out.append(f"Left out as negligible (reference below {NEGLIGIBLE:g} of the material's largest): {cases}.")
+        out.append(
+            f"Left out as negligible (reference below {NEGLIGIBLE:g} of the material's largest): {cases}."
+        )
     out.append("")
     out.append(
         "| sampler | "
