@@ -48,20 +48,21 @@ def _record_rays(accel):  # type: ignore[no-untyped-def]
     batches: list[tuple] = []
     trace, occluded = accel.trace, accel.occluded
 
-    def rec_trace(o32, d32, prim, t, u, v):  # type: ignore[no-untyped-def]
+    def rec_trace(o32, d32, prim, t, u, v, **kw):  # type: ignore[no-untyped-def]
         batches.append(("trace", o32.copy(), d32.copy()))
-        return trace(o32, d32, prim, t, u, v)
+        return trace(o32, d32, prim, t, u, v, **kw)
 
-    def rec_occluded(o, d, t_max=None):  # type: ignore[no-untyped-def]
+    def rec_occluded(o, d, t_max=None, **kw):  # type: ignore[no-untyped-def]
         batches.append(("occluded", o.copy(), d.copy(), None if t_max is None else t_max.copy()))
-        return occluded(o, d, t_max)
+        return occluded(o, d, t_max, **kw)
 
     accel.trace, accel.occluded = rec_trace, rec_occluded
     return batches
 
 
 def _embree_alone(accel, batches: list[tuple]) -> float:  # type: ignore[no-untyped-def]
-    """Seconds Embree alone takes for the recorded batches (same queries, same threads and chunks)."""
+    """Seconds Embree alone takes for the recorded batches (same queries), each batch in chunks over all the
+    accelerator's threads (the path tracer may have traced them on one thread each, several at once)."""
     t0 = time.perf_counter()
     for b in batches:
         if b[0] == "trace":

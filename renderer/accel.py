@@ -67,7 +67,10 @@ class Accel:
         size = max(1024, min(self.chunk, -(-n // self.threads)))
         return [slice(i, min(n, i + size)) for i in range(0, n, size)]
 
-    def _map(self, fn, n: int) -> None:  # type: ignore[no-untyped-def]
+    def _map(self, fn, n: int, parallel: bool = True) -> None:  # type: ignore[no-untyped-def]
+        if not parallel:
+            fn(slice(0, n))
+            return
         chunks = self._chunks(n)
         if self._pool is None or len(chunks) == 1:
             for s in chunks:
@@ -99,29 +102,42 @@ class Accel:
         return Hits(t, prim, u, v)
 
     def trace(
-        self, o32: np.ndarray, d32: np.ndarray, prim: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray
+        self,
+        o32: np.ndarray,
+        d32: np.ndarray,
+        prim: np.ndarray,
+        t: np.ndarray,
+        u: np.ndarray,
+        v: np.ndarray,
+        parallel: bool = True,
     ) -> None:
         """Closest hits of the rays ``o32, d32 (n, 3)`` float32 (C order, unit directions) written into
         ``prim (n,)`` int32 (``MISS`` on a miss), ``t`` float32 (inf on a miss) and the barycentrics ``u, v``
-        float32: the wavefront's query, with no conversion of its inputs."""
+        float32: the wavefront's query, with no conversion of its inputs. ``parallel=False`` traces on the
+        calling thread in one call (a caller that runs its own threads)."""
         n = len(o32)
 
         def run(s: slice) -> None:
-            r = self._scene.run(o32[s], d32[s], output=1)
-            miss = r["geomID"] == MISS
-            prim[s] = np.where(miss, MISS, r["primID"])
-            t[s] = np.where(miss, np.inf, r["tfar"])
+            ts = t[s]
+            ts.fill(np.inf)  # Embree's far limit: left as it is on a miss, the distance on a hit
+            r = self._scene.run(o32[s], d32[s], dists=ts, output=1)
+            prim[s] = r["primID"]  # MISS (-1) on a miss
             u[s] = r["u"]
             v[s] = r["v"]
 
         if n:
-            self._map(run, n)
+            self._map(run, n, parallel)
         self.rays_traced += n
 
     def occluded(
-        self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray | None = None
+        self,
+        origins: np.ndarray,
+        directions: np.ndarray,
+        t_max: np.ndarray | None = None,
+        parallel: bool = True,
     ) -> np.ndarray:
-        """``(n,)`` bool: True where something lies on the ray before ``t_max`` (default: infinity)."""
+        """``(n,)`` bool: True where something lies on the ray before ``t_max`` (default: infinity);
+        ``parallel=False`` on the calling thread in one call."""
         n = len(origins)
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
@@ -135,6 +151,6 @@ class Accel:
             out[s] = self._scene.run(o[s], d[s], dists=far[s], query="OCCLUDED") != MISS
 
         if n:
-            self._map(run, n)
+            self._map(run, n, parallel)
         self.rays_traced += n
         return out

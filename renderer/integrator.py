@@ -7,8 +7,9 @@ sampling); each material's sampler then evaluates its BRDF and pdf at the light 
 samples on one contiguous slice (the sampler's draws carry ``f`` with them); a last stage adds the light
 samples' contributions, applies the BRDF samples' throughput and Russian roulette after ``rr_depth`` bounces,
 and packs the next rays and the shadow rays; Embree's occlusion query then decides which light samples count.
-Python runs a fixed number of calls per bounce and per material, whatever the number of rays; each stage runs
-on two threads over halves of the batch (the kernels release the GIL).
+Python runs a fixed number of calls per bounce and per material, whatever the number of rays. A pass's paths
+go in interleaved wavefronts (:mod:`renderer.wavefront`) traced on the tracer's threads at once, each
+wavefront's stages and Embree queries on its own thread (the kernels release the GIL).
 
 NEE picks a light type with equal shares among those present (area, point, sky), then a light (emissive
 triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
@@ -25,6 +26,7 @@ random number is a hash of ``(seed, pass, path, bounce, role)``, and the sampler
 
 from __future__ import annotations
 
+import queue
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -52,11 +54,11 @@ from renderer.kernels import (
     surface_stage,
 )
 from renderer.qmc import key
+from renderer.wavefront import Buffers, Wave, waves
 from renderer.world import NO_MATERIAL, World
 
 PARALLEL_MIN = 16384
-"""Stages over more rows than this run on two threads (two halves of the batch); smaller ones stay on one,
-where the thread hand-off would cost more than it saves."""
+"""Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 
 
 def _key(a: int, b: int) -> np.uint64:
@@ -66,12 +68,7 @@ def _key(a: int, b: int) -> np.uint64:
 
 
 SAMPLER_SLICE = 1 << 15
-"""Rows of one material a sampler object is given at a time (slices run on the integrator's threads)."""
-
-
-WAVEFRONT = 1 << 18
-"""Paths traced together at most: a pass of a large image runs several wavefronts one after the other, so the
-per-path buffers (~600 bytes a path) stay within ~160 MB whatever the image size."""
+"""Rows of one material a sampler object is given at a time (each slice seeded on its own)."""
 
 
 @dataclass
@@ -114,37 +111,6 @@ class Camera:
         )  # fmt: skip
 
 
-class _Buffers:
-    """The arrays of one pass's wavefront, allocated once per batch size and reused by every pass."""
-
-    def __init__(self, n: int):
-        f64, f32, i64 = np.float64, np.float32, np.int64
-        # rays of the current bounce
-        self.o, self.d, self.beta = (np.empty((n, 3), f64) for _ in range(3))
-        self.o32, self.d32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
-        self.path, self.prev_pdf = np.empty(n, i64), np.empty(n, f64)
-        self.prim, self.t = np.empty(n, np.int32), np.empty(n, f32)
-        self.bu, self.bv = np.empty(n, f32), np.empty(n, f32)
-        self.mat, self.order, self.s_mat = np.empty(n, i64), np.empty(n, i64), np.empty(n, i64)
-        # surface vertices, sorted by material
-        self.ng, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(4))
-        self.frame = np.empty((n, 3, 3), f64)
-        self.s_path = np.empty(n, i64)
-        # their light samples and BRDF samples
-        self.l_wi, self.l_wi_local, self.l_le, self.l_f, self.l_contrib = (
-            np.empty((n, 3), f64) for _ in range(5)
-        )
-        self.l_pdf, self.l_tmax, self.l_pdf_brdf = (np.empty(n, f64) for _ in range(3))
-        self.l_delta, self.l_cand, self.l_need = (np.empty(n, np.bool_) for _ in range(3))
-        self.wi_local, self.f, self.next_d = (np.empty((n, 3), f64) for _ in range(3))
-        self.pdf = np.empty(n, f64)
-        self.alive = np.empty(n, np.bool_)
-        # shadow rays
-        self.so32, self.sd32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
-        self.st32 = np.empty(n, f32)
-        self.shadow_slot = np.empty(n, i64)
-
-
 class PathTracer:
     """Renders passes of one sample per pixel for a compiled :class:`World`."""
 
@@ -181,10 +147,12 @@ class PathTracer:
         self._env = tuple(
             np.ascontiguousarray(x) if isinstance(x, np.ndarray) else x for x in env_args(world.env)
         )
-        self._buffers: _Buffers | None = None
         self._strategies()
         self.threads = max(1, int(getattr(world, "threads", 1)))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        # one set of wavefront buffers per thread at work: a wavefront takes a free set and gives it back
+        self._free: queue.SimpleQueue[Buffers] = queue.SimpleQueue()
+        self.buffers: list[Buffers] = []
 
     def _strategies(self) -> None:
         """Per material index: whether its BRDF samples are drawn in compiled code (a strategy without
@@ -224,47 +192,19 @@ class PathTracer:
         ss = np.random.SeedSequence([self.seed, pass_index, depth + 1, material, 0x5A, part, wave])
         return int(ss.generate_state(1, dtype=np.uint32)[0])
 
-    def _cuts(self, n: int) -> np.ndarray:
-        """Row ranges a stage over ``[0, n)`` is split into: one, or one per thread for large ``n``."""
-        parts = 1 if self._pool is None or n < PARALLEL_MIN else self.threads
-        return np.linspace(0, n, parts + 1).astype(np.int64)
-
-    def _compact(self, n_s: int) -> tuple[int, int]:
-        """Pack the next rays and the shadow rays of ``n_s`` vertices (count per range, then write each range
-        from its offset); returns their numbers."""
-        B = self._buffers
-        assert B is not None
-        cuts = self._cuts(n_s)
-        ranges = list(zip(cuts[:-1].tolist(), cuts[1:].tolist(), strict=True))
-        counts = np.zeros((len(ranges), 2), dtype=np.int64)
-        self._each(ranges, lambda a, b, c: compact_counts(a, b, B.alive, B.l_need, counts, c))
-        starts = np.vstack([np.zeros((1, 2), np.int64), np.cumsum(counts, axis=0)])
-        self._each(ranges, lambda a, b, c: compact_stage(
-            a, b, starts[c, 0], starts[c, 1], B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf,
-            B.l_wi, B.l_tmax, B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32,
-            B.shadow_slot,
-        ))  # fmt: skip
-        return int(starts[-1, 0]), int(starts[-1, 1])
-
-    def _each(self, ranges: list[tuple[int, int]], fn) -> None:  # type: ignore[no-untyped-def]
-        """``fn(a, b, index)`` for each range, on the threads when there are several."""
-        if self._pool is None or len(ranges) == 1:
-            for c, (a, b) in enumerate(ranges):
-                fn(a, b, c)
-        else:
-            for job in [self._pool.submit(fn, a, b, c) for c, (a, b) in enumerate(ranges)]:
-                job.result()
-
     def _run(self, stage, n: int, *args) -> int:  # type: ignore[no-untyped-def]
-        """``stage(a, b, *args)`` over ``[0, n)``, in halves on two threads for large ``n``; the sum of what
-        the calls return (counts of dropped contributions, or 0)."""
-        cuts = self._cuts(n)
-        if len(cuts) == 2:
-            return int(stage(0, n, *args) or 0)
-        jobs = [
-            self._pool.submit(stage, int(a), int(b), *args) for a, b in zip(cuts[:-1], cuts[1:], strict=True)
-        ]
-        return sum(int(j.result() or 0) for j in jobs)
+        """``stage(0, n, *args)`` on the calling thread (a wavefront's thread); what it returns (a count of
+        dropped contributions), or 0. Every compiled stage of a wavefront goes through here."""
+        return int(stage(0, n, *args) or 0)
+
+    def _compact(self, B: Buffers, n_s: int) -> tuple[int, int]:
+        """Pack the next rays and the shadow rays of ``n_s`` vertices; returns their numbers."""
+        compact_counts(0, n_s, B.alive, B.l_need, B.compact_counts, 0)
+        compact_stage(
+            0, n_s, 0, 0, B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf, B.l_wi, B.l_tmax,
+            B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32, B.shadow_slot,
+        )  # fmt: skip
+        return int(B.compact_counts[0, 0]), int(B.compact_counts[0, 1])
 
     # ------------------------------------------------------------------------------------------ warm-up
     def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
@@ -330,22 +270,37 @@ class PathTracer:
         band = p1 - p0
         radiance = np.zeros((band * int(spp), 3))
         pass_key = _key(self._seed_key, pass_index)
-        bad = 0
         if pixels is None:
-            n_all = n_pix * int(spp)
-            for j0 in range(0, n_all, WAVEFRONT):
-                n = min(n_all, j0 + WAVEFRONT) - j0
-                bad += self._wavefront(j0, n, radiance, pass_index, pass_key, first, 0, j0 // WAVEFRONT)
+            plan = waves(0, n_pix * int(spp))
         else:
-            for s in range(int(spp)):
-                # path j = s * n_pix + p (pixel p) keeps its radiance in row s * band + p - p0 = j - offset
-                offset = s * (n_pix - band) + p0
-                end = s * n_pix + p1
-                for j0 in range(s * n_pix + p0, end, WAVEFRONT):
-                    # the samplers' draws are keyed by the wavefront's first path: unique within the pass
-                    bad += self._wavefront(j0, min(end, j0 + WAVEFRONT) - j0, radiance, pass_index, pass_key,
-                                           first, offset, j0)  # fmt: skip
-        self.stats.nonfinite += bad
+            # path j = s * n_pix + p (pixel p) keeps its radiance in row s * band + p - p0 = j - offset; the
+            # samplers' draws are keyed by each wavefront's first path: unique within the pass
+            plan = [w for s in range(int(spp))
+                    for w in waves(s * n_pix + p0, s * n_pix + p1, s * (n_pix - band) + p0)]  # fmt: skip
+
+        def trace(wave: Wave) -> tuple[int, int]:
+            try:
+                B = self._free.get_nowait()
+            except queue.Empty:
+                B = None
+            if B is None or len(B) < wave.n:
+                if B is not None:
+                    self.buffers.remove(B)
+                B = Buffers(wave.n)
+                self.buffers.append(B)
+            try:
+                return self._wavefront(B, wave, radiance, pass_index, pass_key, first)
+            finally:
+                self._free.put(B)
+
+        if self._pool is None or len(plan) < 2:
+            done = [trace(w) for w in plan]
+        else:
+            jobs = [self._pool.submit(trace, w) for w in plan]
+            done = [j.result() for j in jobs]
+        self.stats.paths += sum(w.n for w in plan)
+        self.stats.rays += sum(rays for rays, _ in done)
+        self.stats.nonfinite += sum(bad for _, bad in done)
         if (
             spp == 1
         ):  # one path a pixel: its rows are the mean (no sum, no division: 2 passes over 6 MB at 512²)
@@ -354,39 +309,35 @@ class PathTracer:
 
     def _wavefront(
         self,
-        j0: int,
-        n: int,
+        B: Buffers,
+        wave: Wave,
         radiance: np.ndarray,
         pass_index: int,
         pass_key: np.uint64,
         first: int,
-        row_offset: int,
-        wave: int,
-    ) -> int:
-        """Paths ``j0 .. j0 + n - 1`` of a pass, bounce by bounce, the light of path ``j`` added to
-        ``radiance`` row ``j - row_offset``; ``wave`` keys the draws of the samplers with tables. Returns the
-        number of non-finite contributions dropped."""
+    ) -> tuple[int, int]:
+        """The paths of ``wave``, bounce by bounce on the calling thread with the buffers ``B``, the light of
+        path ``j`` added to ``radiance`` row ``j - wave.row_offset``. Returns the number of rays traced and of
+        non-finite contributions dropped."""
         w = self.world
         n_pix = self.width * self.height
-        if self._buffers is None or len(self._buffers.path) < n:
-            self._buffers = _Buffers(n)
-        B = self._buffers
+        n = wave.n
         cam = self.camera
-        rows = np.int64(row_offset)
-        self._run(camera_stage, n, j0, n_pix, first, self._seed_key, self.width, self.height,
-                  cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
+        rows = np.int64(wave.row_offset)
+        self._run(camera_stage, n, wave.j0, wave.block, wave.step, n_pix, first, self._seed_key, self.width,
+                  self.height, cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
                   B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
-        self.stats.paths += n
         env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot = self._env
         power = self.mis == "power"
         n_mat = len(w.materials_by_index)
         offsets = np.zeros(n_mat + 1, dtype=np.int64)
         bad = 0
+        rays = 0
         for depth in range(self.max_depth + 1):
             if n == 0:
                 break
-            w.accel.trace(B.o32[:n], B.d32[:n], B.prim, B.t, B.bu, B.bv)
-            self.stats.rays += n
+            w.accel.trace(B.o32[:n], B.d32[:n], B.prim, B.t, B.bu, B.bv, parallel=False)
+            rays += n
             bad += self._run(
                 hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, rows, B.mat,
                 depth == self.max_depth, power, self.p_env, self.p_area, self.ris > 0,
@@ -414,31 +365,35 @@ class PathTracer:
                 self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
                 B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
-            self._draw_by_samplers(offsets, pass_index, depth, wave)
+            self._draw_by_samplers(B, offsets, pass_index, depth, wave.key)
             if self.ris:
-                bad += self._ris_environment(radiance, rows, pass_index, depth, n_s, offsets, wave)
+                r_bad, r_rays = self._ris_environment(
+                    B, radiance, rows, pass_index, depth, n_s, offsets, wave.key
+                )
+                bad += r_bad
+                rays += r_rays
             rr_key = _key(_key(pass_key, depth), 0x7272)
             self._run(
                 continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta,
                 B.s_path, B.l_wi_local, B.l_le, B.l_pdf, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
                 B.wi_local, B.pdf, B.f, B.l_contrib, B.l_need, B.next_d, B.alive,
             )  # fmt: skip
-            n, k = self._compact(n_s)
+            n, k = self._compact(B, n_s)
             if k:
-                blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k])
-                self.stats.rays += k
+                blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k], parallel=False)
+                rays += k
                 bad += self._run(
                     shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance, rows
                 )
-        return bad
+        return rays, bad
 
-    def _draw_by_samplers(self, offsets: np.ndarray, pass_index: int, depth: int, wave: int) -> None:
+    def _draw_by_samplers(
+        self, B: Buffers, offsets: np.ndarray, pass_index: int, depth: int, wave: int
+    ) -> None:
         """The vertices of materials whose strategy has tables: their sampler objects evaluate ``f`` and the
         pdf at the light samples and draw the BRDF samples (with ``f``), in slices of at most
-        ``SAMPLER_SLICE`` rows of one material, run on the integrator's threads. Each slice's draws are seeded
-        by ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads."""
-        B = self._buffers
-        assert B is not None
+        ``SAMPLER_SLICE`` rows of one material, on the wavefront's thread. Each slice's draws are seeded by
+        ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads."""
         jobs = []
         for m in range(len(offsets) - 1):
             a, b = int(offsets[m]), int(offsets[m + 1])
@@ -459,14 +414,12 @@ class PathTracer:
             drawn = sampler.sample_each(B.wo[lo:hi], seed=seed)
             B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi] = drawn.wi, drawn.pdf, drawn.f
 
-        if self._pool is None or len(jobs) < 2:
-            for job in jobs:
-                run(job)
-        else:
-            list(self._pool.map(run, jobs))
+        for job in jobs:
+            run(job)
 
     def _ris_environment(
         self,
+        B: Buffers,
         radiance: np.ndarray,
         row_offset: np.int64,
         pass_index: int,
@@ -474,14 +427,13 @@ class PathTracer:
         n_s: int,
         offsets: np.ndarray,
         wave: int,
-    ) -> int:
+    ) -> tuple[int, int]:
         """Direct light from the sky by resampled importance sampling at the ``n_s`` surface vertices:
         ``M`` candidates from the material's sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos
         L)`` (unoccluded), one kept with probability ``w_k / sum w``; estimate ``f cos L V * mean(w) /
-        p_hat(y)`` with one shadow ray. Returns the number of non-finite contributions dropped."""
+        p_hat(y)`` with one shadow ray. Returns the numbers of non-finite contributions dropped and of shadow
+        rays."""
         w = self.world
-        B = self._buffers
-        assert B is not None
         m_c = self.ris
         n = n_s
         wo_l, origin, ng = B.wo[:n], B.origin[:n], B.ng[:n]
@@ -513,9 +465,9 @@ class PathTracer:
         good = (total > 0) & (p_hat > 0) & ok[chosen]
         i = np.nonzero(good)[0]
         if len(i) == 0:
-            return 0
+            return 0, 0
         contrib = B.s_beta[i] * fcos_le[i] * ((total[i] / m_c) / p_hat[i])[:, None]
-        blocked = w.accel.occluded(origin[i], wi[chosen[i]])
-        self.stats.rays += len(i)
+        blocked = w.accel.occluded(origin[i], wi[chosen[i]], parallel=False)
         keep = ~blocked
-        return int(add_rows(radiance, B.s_path[i[keep]] - row_offset, np.ascontiguousarray(contrib[keep])))
+        bad = add_rows(radiance, B.s_path[i[keep]] - row_offset, np.ascontiguousarray(contrib[keep]))
+        return int(bad), len(i)

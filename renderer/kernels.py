@@ -15,10 +15,11 @@ A bounce is six loops over the live paths, each one pass over contiguous arrays 
    Russian roulette; :func:`compact_stage` writes the next bounce's rays and the shadow rays; after Embree's
    occlusion test :func:`shadow_stage` adds the unblocked contributions.
 
-Every stage takes a row range ``[a, b)`` and releases the GIL, so the integrator runs two halves of a batch on
-two threads. Contributions are added to a per-path radiance array (one row per path, never shared between
-rows of one stage), so threads never write the same memory. Random numbers come from :mod:`renderer.qmc` by
-key, never from arrays. These kernels do not depend on the material models: they compile once and are cached.
+Every stage takes a row range ``[a, b)`` and releases the GIL, so the integrator runs wavefronts on several
+threads at once (each wavefront's stages on its thread). Contributions are added to a per-path radiance array
+(one row per path; a path belongs to one wavefront), so threads never write the same memory. Random numbers
+come from :mod:`renderer.qmc` by key, never from arrays. These kernels do not depend on the material models:
+they compile once and are cached.
 """
 
 from __future__ import annotations
@@ -125,13 +126,16 @@ def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_h
 
 @njit(nogil=True, cache=True)
 def camera_stage(
-    a, b, j0, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half, aspect,
-    o, d, o32, d32, beta, path, prev_pdf,
+    a, b, j0, block, step, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half,
+    aspect, o, d, o32, d32, beta, path, prev_pdf,
 ):  # fmt: skip
-    """Camera rays of rows ``[a, b)``: row ``r`` is path ``j = j0 + r``, sample ``first_sample + j // n_pix``
-    of pixel ``j % n_pix``, through the pixel's Owen-scrambled Sobol point of that sample number."""
+    """Camera rays of rows ``[a, b)``: row ``r`` is path ``j = j0 + (r // block) * step + r % block`` (runs of
+    ``block`` paths, ``step`` apart: a wavefront interleaved with others; ``block = step`` for consecutive
+    paths), sample ``first_sample + j // n_pix`` of pixel ``j % n_pix``, through the pixel's Owen-scrambled
+    Sobol point of that sample number."""
     for r in range(a, b):
-        j = j0 + r
+        q = r // block
+        j = j0 + q * step + (r - q * block)
         pixel = j % n_pix
         sample = first_sample + j // n_pix
         jx, jy = sobol2(sample, key(key(seed_key, pixel), _PAIR_PIXEL))

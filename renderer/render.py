@@ -292,7 +292,7 @@ def prepare(
 # ------------------------------------------------------------------------------------------ budgets
 BYTES_PER_PATH = 640
 """Peak memory of one path in a pass's wavefront: the integrator's per-path arrays (592 bytes,
-``renderer.integrator._Buffers``) and the samplers' batches; above the slope ``python bench/budgets.py``
+``renderer.wavefront.Buffers``) and the samplers' batches; above the slope ``python bench/budgets.py``
 measures."""
 BYTES_PER_PIXEL = 72
 """The film's float64 running sum, the float32 image and its tone-mapped copy, per pixel."""
@@ -317,10 +317,10 @@ def pass_spp(pixels: int) -> int:
 
 
 def render_memory(width: int, height: int, ris_candidates: int = 0) -> float:
-    """Bytes a render of ``width x height`` pixels needs at its peak: one wavefront's buffers (a pass runs in
-    wavefronts of at most ``renderer.integrator.WAVEFRONT`` paths), the pass's per-path radiance and the
-    film."""
-    from renderer.integrator import WAVEFRONT
+    """Bytes a render of ``width x height`` pixels needs at its peak: the buffers of one group of wavefronts
+    (a pass runs in groups of at most ``renderer.wavefront.WAVEFRONT`` paths), the pass's per-path radiance
+    and the film."""
+    from renderer.wavefront import WAVEFRONT
 
     pixels = float(width) * float(height)
     paths = pixels * pass_spp(int(min(pixels, 2**62)))
@@ -333,7 +333,7 @@ def band_memory(width: int, height: int, rows: int, ris_candidates: int = 0) -> 
     """Bytes a render in bands of ``rows`` rows (of a ``width x height`` image) needs at its peak: one
     wavefront's buffers (a band's pass runs sample by sample, in wavefronts of at most the band's pixels), the
     per-path radiance of one pass over the band and the band's film and output buffers."""
-    from renderer.integrator import WAVEFRONT
+    from renderer.wavefront import WAVEFRONT
 
     band = float(width) * float(rows)
     wave = min(band, float(WAVEFRONT))
@@ -383,7 +383,7 @@ def check_budget(width: int, height: int, ris_candidates: int = 0, bands: bool =
         need = band_memory(width, height, 1, ris_candidates)
         if need <= room:
             return
-        from renderer.integrator import WAVEFRONT
+        from renderer.wavefront import WAVEFRONT
 
         plain = band_memory(width, height, 1)
         if ris_candidates > 0 and plain < room:
@@ -394,7 +394,7 @@ def check_budget(width: int, height: int, ris_candidates: int = 0, bands: bool =
         check_memory(need, what + " in bands of one row", hint)
         return
     if ris_candidates > 0 and render_memory(width, height) < room:
-        from renderer.integrator import WAVEFRONT
+        from renderer.wavefront import WAVEFRONT
 
         wave = min(float(width) * float(height) * pass_spp(width * height), float(WAVEFRONT))
         fit = int((room - render_memory(width, height)) // (wave * BYTES_PER_RIS_CANDIDATE))

@@ -282,16 +282,45 @@ def test_ris_for_the_sky_matches_nee_with_mis(tmp_path: Path) -> None:
 
 def test_image_does_not_depend_on_the_thread_split(tmp_path: Path) -> None:
     """Every random number is keyed by (seed, pass, path, bounce), never drawn in thread order: one thread
-    and two threads (the stages split in halves: 64 x 64 x 8 paths is above the split threshold) give the
-    same image, bit for bit."""
-    from renderer.integrator import PARALLEL_MIN
+    and two threads (64 x 64 x 8 paths: two interleaved wavefronts, one on each thread) give the same image,
+    bit for bit."""
+    from renderer.wavefront import waves
 
     scene = _mixed_scene(tmp_path, "analytic")
-    assert 64 * 64 * 8 > PARALLEL_MIN
+    assert len(waves(0, 64 * 64 * 8)) == 2
     one = prepare(scene, width=64, height=64, threads=1, seed=5).tracer.render_pass(3, 8)
     two = prepare(scene, width=64, height=64, threads=2, seed=5).tracer.render_pass(3, 8)
     assert np.array_equal(one, two)
     assert one.max() > 0
+
+
+def test_strategy_with_tables_does_not_depend_on_the_threads(tmp_path: Path) -> None:
+    """The samplers with tables draw from generators seeded per wavefront, bounce, material and slice: one
+    thread and two give the same image bit for bit for them too (passes of 4 wavefronts at 32 x 32 x 16
+    paths when groups hold 8192 paths), and wavefront buffers that held another pass's rows (or garbage)
+    change nothing: no stage reads a row it did not write."""
+    import renderer.wavefront as wavefront
+
+    scene = _mixed_scene(tmp_path, "adaptive_warp")
+    opts = {"rounds": 1, "cache": str(tmp_path / "tables")}
+    images = []
+    for threads in (1, 2):
+        job = prepare(scene, width=32, height=32, threads=threads, seed=7, sampler_options=opts)
+        old = wavefront.WAVEFRONT
+        wavefront.WAVEFRONT = 8192
+        try:
+            assert len(wavefront.waves(0, 32 * 32 * 16)) == 4
+            images.append(job.tracer.render_pass(1, 16))
+            job.tracer.render_pass(2, 16)
+            for b in job.tracer.buffers:
+                for v in vars(b).values():
+                    v.fill(-1 if v.dtype.kind in "iu" else True if v.dtype.kind == "b" else np.nan)
+            images.append(job.tracer.render_pass(1, 16))
+        finally:
+            wavefront.WAVEFRONT = old
+    for img in images[1:]:
+        assert np.array_equal(images[0], img)
+    assert images[0].max() > 0
 
 
 @pytest.mark.parametrize("sampler", ["analytic", "cosine"])
@@ -342,18 +371,20 @@ def test_two_seeds_agree_within_the_pass_to_pass_error(tmp_path: Path) -> None:
 def test_a_pass_in_several_wavefronts_is_the_same_pass(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A pass larger than ``WAVEFRONT`` paths runs as several wavefronts one after the other (bounded
-    memory): for strategies drawn in compiled code every random number is keyed by the path, so the image is
-    the same bit for bit, and the per-path buffers never exceed one wavefront."""
-    import renderer.integrator as integrator
+    """A pass larger than ``WAVEFRONT`` paths runs as several groups of wavefronts one after the other
+    (bounded memory): for strategies drawn in compiled code every random number is keyed by the path, so the
+    image is the same bit for bit, and the per-path buffers never exceed one wavefront (half a group)."""
+    import renderer.wavefront as wavefront
 
     scene = _mixed_scene(tmp_path, "analytic")
     whole = prepare(scene, width=32, height=32, seed=9).tracer.render_pass(2, 4)
-    monkeypatch.setattr(integrator, "WAVEFRONT", 1000)
+    monkeypatch.setattr(wavefront, "WAVEFRONT", 1000)
     job = prepare(scene, width=32, height=32, seed=9)
     split = job.tracer.render_pass(2, 4)
     assert np.array_equal(whole, split)
-    assert len(job.tracer._buffers.path) == 1000
+    assert max(w.n for w in wavefront.waves(0, 32 * 32 * 4)) == 512
+    assert 1 <= len(job.tracer.buffers) <= job.tracer.threads
+    assert max(len(b) for b in job.tracer.buffers) <= 512
 
 
 def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:

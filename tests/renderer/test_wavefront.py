@@ -1,0 +1,51 @@
+"""A pass's split into interleaved wavefronts (``renderer.wavefront``) and the camera stage's paths."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from renderer.wavefront import RUN, WAVEFRONT, WAVES, waves
+
+
+@pytest.mark.parametrize(
+    ("j0", "j1"),
+    [(0, 1), (5, 68), (0, RUN), (3, 3 + RUN + 1), (0, 2 * RUN), (100, 1100), (7, 7 + WAVEFRONT + 130),
+     (0, 3 * WAVEFRONT)],
+)  # fmt: skip
+def test_waves_partition_the_paths(j0: int, j1: int) -> None:
+    """Every path of ``[j0, j1)`` is in exactly one wavefront; a wavefront holds at most half a group (runs of
+    ``RUN`` alternating between the two of its group) and its key (first path) is unique in the pass."""
+    ws = waves(j0, j1, row_offset=j0)
+    paths = np.concatenate([w.paths() for w in ws])
+    assert np.array_equal(np.sort(paths), np.arange(j0, j1))
+    assert all(0 < w.n <= WAVEFRONT // WAVES for w in ws)
+    assert len({w.key for w in ws}) == len(ws)
+    assert all(w.row_offset == j0 for w in ws)
+    if j1 - j0 >= WAVES * RUN:  # both wavefronts of the first group take runs of RUN paths in turn
+        first = [w.paths()[:RUN] for w in ws[:WAVES]]
+        assert np.array_equal(np.concatenate(first), np.arange(j0, j0 + WAVES * RUN))
+
+
+def test_camera_stage_traces_the_paths_of_its_wavefront() -> None:
+    """The camera stage's path of row ``r`` is the wavefront's ``r``-th path, and its pixel and sample number
+    follow from that path (the same ray as a wavefront of consecutive paths gives it)."""
+    from renderer.kernels import camera_stage
+
+    width, height, n_pix = 16, 8, 128
+    cam = (np.zeros(3), np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+
+    def run(j0: int, n: int, block: int, step: int) -> tuple[np.ndarray, np.ndarray]:
+        o, d, beta = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+        o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+        path, prev = np.empty(n, np.int64), np.empty(n)
+        camera_stage(0, n, j0, block, step, n_pix, 3, np.uint64(77), width, height, *cam, 0.5, 2.0,
+                     o, d, o32, d32, beta, path, prev)  # fmt: skip
+        return path, d
+
+    whole_path, whole_d = run(0, 3 * n_pix, 3 * n_pix, 3 * n_pix)
+    for w in waves(0, 3 * n_pix):
+        path, d = run(w.j0, w.n, w.block, w.step)
+        assert np.array_equal(path, w.paths())
+        assert np.array_equal(d, whole_d[path])
+    assert np.array_equal(whole_path, np.arange(3 * n_pix))
