@@ -241,6 +241,30 @@ def counted(rows: list[Row]) -> tuple[list[Row], list[tuple[str, float, str]]]:
     return kept, sorted(left)
 
 
+def _means_table(rows: list[Row], samplers: list[str], lights: list[str], n_max: int) -> list[str]:
+    """Per sampler: geometric means of the relative RMSE at ``n_max`` and of the efficiency, per light."""
+    out = [
+        "| sampler | "
+        + " | ".join(f"RMSE {li}" for li in lights)
+        + " | "
+        + " | ".join(f"eff {li}" for li in lights)
+        + " |",
+        "|" + "---|" * (1 + 2 * len(lights)),
+    ]
+    for s in samplers:
+        at = [[r for r in rows if r.sampler == s and r.light == li and r.samples == n_max] for li in lights]
+        errs = [_geomean(r.rel_rmse for r in sel) for sel in at]
+        effs = [_geomean(r.efficiency for r in sel) for sel in at]
+        out.append(
+            f"| {s} | "
+            + " | ".join(f"{e:.2e}" for e in errs)
+            + " | "
+            + " | ".join(_eff(e) for e in effs)
+            + " |"
+        )
+    return out
+
+
 def summary_markdown(rows: list[Row]) -> str:
     """Per material: precompute, memory, samples/s, relative RMSE at the largest N per light; then averages
     (over the cases ``counted`` keeps)."""
@@ -267,39 +291,28 @@ def summary_markdown(rows: list[Row]) -> str:
                 + " | ".join(f"{e:.2e}" for e in errs)
                 + " |"
             )
-    out.append(
-        "\nAcross all materials and angles (geometric means): relative RMSE at N, and efficiency 1/(var*time)."
-    )
     if left_out:
         cases = ", ".join(f"{m} at {t:g}° ({li})" for m, t, li in left_out)
         out.append(
-            f"Left out as negligible (reference below {NEGLIGIBLE:g} of the material's largest): {cases}."
+            f"\nLeft out as negligible (reference below {NEGLIGIBLE:g} of the material's largest): {cases}."
         )
-    out.append("")
-    out.append(
-        "| sampler | "
-        + " | ".join(f"RMSE {li}" for li in lights)
-        + " | "
-        + " | ".join(f"eff {li}" for li in lights)
-        + " |"
+    shared = set.intersection(
+        *({(r.material, r.theta_o, r.light) for r in rows if r.sampler == s} for s in samplers)
     )
-    out.append("|" + "---|" * (1 + 2 * len(lights)))
-    for s in samplers:
-        errs = [
-            _geomean(r.rel_rmse for r in rows if r.sampler == s and r.light == li and r.samples == n_max)
-            for li in lights
-        ]
-        effs = [
-            _geomean(r.efficiency for r in rows if r.sampler == s and r.light == li and r.samples == n_max)
-            for li in lights
-        ]
+    common = [r for r in rows if (r.material, r.theta_o, r.light) in shared]
+    if len(common) < len(rows):
+        mats = len({r.material for r in common})
         out.append(
-            f"| {s} | "
-            + " | ".join(f"{e:.2e}" for e in errs)
-            + " | "
-            + " | ".join(_eff(e) for e in effs)
-            + " |"
+            f"\nOn the cases every sampler has ({mats} of {len({r.material for r in rows})} materials; a ranking "
+            "needs the same cases in every mean): geometric means of the relative RMSE at N and of the efficiency "
+            "1/(var*time).\n"
         )
+        out += _means_table(common, samplers, lights, n_max)
+    out.append(
+        "\nAcross all materials and angles, each sampler over the cases it has (geometric means): relative RMSE "
+        "at N, and efficiency 1/(var*time).\n"
+    )
+    out += _means_table(rows, samplers, lights, n_max)
     out.append("\n" + wins_markdown(rows))
     out.append("\n" + seed_comparison_markdown(rows))
     return "\n".join(out) + "\n"

@@ -10,6 +10,7 @@ import pytest
 
 from app.cli import main
 from core.study import (
+    Row,
     StudyConfig,
     counted,
     default_lights,
@@ -85,6 +86,18 @@ def test_a_case_the_light_reaches_only_through_the_tail_is_left_out_of_the_means
     cos30 = next(r for r in kept if r.sampler == "cosine")
     line = next(x for x in summary.splitlines() if x.startswith("| cosine |"))
     assert f"{cos30.efficiency:.3g}" in line
+
+
+def test_the_ranking_compares_samplers_on_the_same_cases():
+    # x has a hard material (efficiency 10) and an easy one (1000), y only the easy one (100): over the cases each
+    # has, both means are 100; on the cases both have, x is 10x better, and that is the table a ranking reads.
+    def row(material, sampler, eff):
+        return Row(material, 30.0, "furnace", sampler, 1024, 0.1, 1e-7, 1.0, 1e-3, eff, 0.0, 0, 1e7, 0.0, 0.0)
+
+    text = summary_markdown([row("hard", "x", 10.0), row("easy", "x", 1000.0), row("easy", "y", 100.0)])
+    common, own = text.split("On the cases every sampler has (1 of 2 materials")[1].split("each sampler over")
+    assert "| x | 1.00e-01 | 1e+03 |" in common and "| y | 1.00e-01 | 100 |" in common
+    assert "| x | 1.00e-01 | 100 |" in own and "| y | 1.00e-01 | 100 |" in own
 
 
 @pytest.mark.parametrize(
