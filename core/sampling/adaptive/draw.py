@@ -25,9 +25,9 @@ AdaptiveTable`):
     already bounds at the cells' edges.)
 
 Choosing the leaf: one uniform ``u``, a guide table (Chen and Asau) to the first candidate of the tree's
-cumulative ``P_L``, a step or two along it; ``P_L`` is the difference of two entries, the length of the
-interval of ``u`` that chooses the leaf (exact up to the 2^-53 spacing of the uniforms, as the tree descent
-it replaced was up to its rounding). Until 2026-12-02 a leaf was reached by descending the tree, one uniform
+cumulative ``P_L`` (whole units of ``2^-31``), a step or two along it; ``P_L`` is the difference of two
+entries, the length of the interval of ``u`` that chooses the leaf, exactly (``u 2^31`` is exact for a
+uniform on the ``2^-53`` grid, and its integer part is compared with the integer entries). Until 2026-12-02 a leaf was reached by descending the tree, one uniform
 and four masses per level (15 ns a level); the tree is now only read by the rejection-free mode's ``pdf``,
 to locate a given direction.
 
@@ -172,20 +172,34 @@ def _to_tree(wx, wy, wz, c, s, sx, sy):
     return c * x + s * y, -s * x + c * y, wz
 
 
+CDF_UNIT = 4.656612873077393e-10
+"""``2^-31``: the stored ``cdf``'s unit (:data:`~core.sampling.adaptive.table.CDF_ONE`)."""
+CDF_SCALE = 2147483648.0
+"""``2^31``: ``u * CDF_SCALE`` is exact for a uniform on the ``2^-53`` grid."""
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _leaf_probability(cdf, start, leaf):
+    """A leaf's probability: its interval of ``cdf`` (the one :func:`_pick_leaf` chooses it by)."""
+    if leaf == start:
+        return np.int64(cdf[leaf]) * CDF_UNIT
+    return (np.int64(cdf[leaf]) - np.int64(cdf[leaf - 1])) * CDF_UNIT
+
+
 @njit(inline="always", nogil=True, cache=True)
 def _pick_leaf(cdf, guide, start, end, u):
     """The leaf of ``start : end`` (one tree's, global indices) whose ``cdf`` interval holds ``u``, and its
     probability, the interval's length: the guide table's entry, then a step or two (the steps back undo a
-    bucket index rounded up)."""
+    bucket index rounded up). ``u 2^31`` is exact and its integer part is compared with the stored integer
+    counts, so the probability is exactly the count's difference times ``2^-31``."""
     n = end - start
-    j = start + guide[start + min(int(u * n), n - 1)]
-    while cdf[j] <= u:
+    x = np.int64(u * CDF_SCALE)
+    j = start + np.int64(guide[start + min(int(u * n), n - 1)])
+    while np.int64(cdf[j]) <= x:
         j += 1
-    while j > start and cdf[j - 1] > u:
+    while j > start and np.int64(cdf[j - 1]) > x:
         j -= 1
-    if j == start:
-        return j, cdf[j]
-    return j, cdf[j] - cdf[j - 1]
+    return j, _leaf_probability(cdf, start, j)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -217,14 +231,6 @@ def _leaf_at(child, root, a, b):
         x0 += h * qi
         y0 += h * qj
         node = c + qi + 2 * qj
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _leaf_probability(cdf, start, leaf):
-    """A leaf's probability: its interval of ``cdf`` (the one :func:`_pick_leaf` chooses it by)."""
-    if leaf == start:
-        return cdf[leaf]
-    return cdf[leaf] - cdf[leaf - 1]
 
 
 @njit(inline="always", nogil=True, cache=True)

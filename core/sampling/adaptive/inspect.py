@@ -17,7 +17,7 @@ from core.sampling.adaptive.draw import _frame
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, TWO_PI
 from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI
 from core.sampling.adaptive.sampler import AdaptiveSampler
-from core.sampling.adaptive.table import LEAF_GRID, AdaptiveTable
+from core.sampling.adaptive.table import CDF_ONE, LEAF_GRID, AdaptiveTable
 
 
 class TreeView(NamedTuple):
@@ -35,9 +35,12 @@ class TreeView(NamedTuple):
     boxes: np.ndarray
     """``(k, 4)``: each leaf's square ``a0, b0, a1, b1`` in ``[0, 1]^2``."""
     density: np.ndarray
-    """``(k,)``: the rejection-free density's mean over each leaf (per unit square area: 1 on average)."""
+    """``(k,)``: the mean over each leaf of the density the table's mode draws from (per unit square area:
+    1 on average): the rejection-free density in a rejection-free table, the trials' density ``K_L q / V``
+    in an exact one (whose leaves do not keep ``q``'s own masses: their stored corners are relative)."""
     bound: np.ndarray
-    """``(k,)``: each leaf's ``K_L`` (the exact mode's envelope over the density)."""
+    """``(k,)``: the exact mode's envelope over ``density``: ``V`` on every leaf of an exact table (the
+    envelope is ``V`` times the trials' density); 1 in a rejection-free table, which has no envelope."""
     acceptance: float
     """The exact mode's acceptance per trial, ``1 / V``."""
     normalizer: float
@@ -73,8 +76,8 @@ def leaves_of(table: AdaptiveTable, t: int) -> tuple[np.ndarray, np.ndarray]:
 
 def leaf_probabilities(table: AdaptiveTable, t: int) -> np.ndarray:
     """``(k,)``: the probability each leaf of tree ``t`` is chosen with (the differences of its ``cdf``)."""
-    cdf = table.cdf[int(table.leaf_base[t]) : int(table.leaf_base[t + 1])]
-    return np.diff(cdf, prepend=0.0)
+    cdf = table.cdf[int(table.leaf_base[t]) : int(table.leaf_base[t + 1])].astype(np.int64)
+    return np.diff(cdf, prepend=0) / CDF_ONE
 
 
 def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
@@ -85,15 +88,9 @@ def tree_view(sampler: AdaptiveSampler, wo: np.ndarray) -> TreeView:
     *_, sx, sy = _frame(table.symmetry, float(wo[0]), float(wo[1]), float(wo[2]))
     boxes, idx = leaves_of(table, t)
     area = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
-    corners = table.corners[idx].astype(np.float64)
-    mass_total = float(np.sum(area * corners.mean(axis=1)))
-    density = corners.mean(axis=1) / mass_total if mass_total > 0 else np.zeros(len(idx))
-    if table.exact:  # K_L = P_L V / q_L, the envelope the draws use (see draw.py)
-        q = area * corners.mean(axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            bound = np.where(q > 0, leaf_probabilities(table, t) * float(table.total[t]) / q, 1.0)
-    else:  # a rejection-free table has no envelope
-        bound = np.ones(len(idx))
+    density = leaf_probabilities(table, t) / area
+    # the exact mode's envelope is V times its trials' density (see draw.py); a rejection-free table has none
+    bound = np.full(len(idx), float(table.total[t]) if table.exact else 1.0)
     k, j = divmod(t, len(table.phis))
     th_lo, th_hi = np.degrees(table.theta_edges[k : k + 2])
     if table.symmetry == ISOTROPIC:

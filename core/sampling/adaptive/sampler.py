@@ -72,7 +72,9 @@ loop releases the GIL; a ``prange`` loop took 40 s more to compile, for the same
 _POOL: ThreadPoolExecutor | None = None
 
 _INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
-         "capacity": (64, 1 << 20)}  # fmt: skip
+         "capacity": (64, 1 << 16)}  # fmt: skip
+"""Integer options and their ranges (``capacity``: a table indexes a tree's leaves in 16 bits, and a tree of
+``2^16`` nodes has at most 49 153)."""
 _FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-4, 10.0),
            "warp_chi2_anisotropic": (1e-4, 10.0),
            "norm_tol": (1e-9, 1e-2), "min_spacing_deg": (1e-3, 10.0)}  # fmt: skip

@@ -53,7 +53,7 @@ from core.sampling.adaptive.tree import (
 )
 from core.threads import thread_budget
 
-TABLE_FORMAT = 8
+TABLE_FORMAT = 9
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -102,7 +102,7 @@ class TableOptions:
     base_level: int = 3
     max_level: int = 12
     capacity: int = 16384
-    """Nodes a tree may have."""
+    """Nodes a tree may have (at most ``2^16``: a table indexes a tree's leaves in 16 bits)."""
 
     def settings(self) -> BuildSettings:
         return BuildSettings(
@@ -157,20 +157,23 @@ class AdaptiveTable(NamedTuple):
     ``(ix, iy) / 2^14``, side ``2^-level``; ``max_level <= 14``): the draws go from the chosen leaf to its
     square without a descent."""
     corners: np.ndarray
-    """``(L, 4)`` float32: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)``
-    (a leaf's density on the square is ``bilinear / (mean * h^2)`` from these stored values: exact)."""
+    """``(L, 4)`` uint16: the bilinear density's corner values ``(x0, y0), (x1, y0), (x0, y1), (x1, y1)`` over
+    the leaf's largest, in units of ``1 / 65535``, rounded up (a leaf's density on the square is
+    ``bilinear / (mean * h^2)`` from these stored values, whatever their scale: exact; an exact table's
+    bounds are widened for the rounding, see :func:`_leaf_corners`)."""
     cdf: np.ndarray
-    """``(L,)`` float64: per tree, the cumulative probability of its leaves (ending at 1): the rejection-free
-    mode's ``q_L``, the exact mode's ``K_L q_L``, normalized. A leaf's probability is the difference of two
-    entries, the very interval a uniform falls in to choose it: the densities are exact whatever rounding
-    made the entries."""
+    """``(L,)`` uint32: per tree, the cumulative probability of its leaves in units of ``2^-31`` (ending at
+    exactly ``2^31``): the rejection-free mode's ``q_L``, the exact mode's ``K_L q_L / V``, each rounded up
+    (:func:`_leaf_cdf`). A leaf's probability is the difference of two entries, the very interval a uniform
+    falls in to choose it: the densities are exact whatever rounding made the entries."""
     guide: np.ndarray
-    """``(L,)`` int32: per tree of ``n`` leaves, ``guide[k]`` the first leaf whose ``cdf`` exceeds ``k / n``
-    (Chen and Asau's guide table: a lookup and a step or two instead of a search or a descent)."""
+    """``(L,)`` uint16: per tree of ``n`` leaves, ``guide[k]`` the first leaf (counted within the tree) whose
+    ``cdf`` exceeds ``k / n`` (Chen and Asau's guide table: a lookup and a step or two instead of a search
+    or a descent)."""
     total: np.ndarray
-    """``(K * J,)`` float64: the exact mode's envelope mass ``V = sum K_L q_L`` per tree (the acceptance is
-    ``1 / V``; a trial's envelope is ``V`` times its own density, see :mod:`~core.sampling.adaptive.draw`);
-    1 in a rejection-free table."""
+    """``(K * J,)`` float64: the exact mode's envelope mass ``V`` per tree, ``sum K_L q_L`` widened for the
+    stored probabilities' rounding (the acceptance is ``1 / V``; a trial's envelope is ``V`` times its own
+    density, see :mod:`~core.sampling.adaptive.draw`); 1 in a rejection-free table."""
     norm: np.ndarray
     """``(M, J)``: the normalizer's fine table in ``s = -log(cos theta)`` (``log I``, or ``I`` when
     ``norm_log`` is 0; MIRROR: cosine-series coefficients), see
@@ -731,13 +734,15 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
     for row in grid:
         for n in row:
             tr = n.tree
-            corner32 = tr.corners.astype(np.float32)
             leaves = _leaves(tr)
             cells.append(_leaf_cells(tr, leaves))
-            weight = 0.25 ** tr.level[leaves].astype(np.float64) * corner32.astype(np.float64).mean(axis=1)
-            if exact:  # K_L rounded up to float32 as before (the envelope never decreases)
-                weight *= np.nextafter(tr.bound.astype(np.float32), np.float32(np.inf)).astype(np.float64)
-            cdf, guide, total = _leaf_cdf(weight)
+            corner16, widen = _leaf_corners(tr.corners)
+            weight = 0.25 ** tr.level[leaves].astype(np.float64) * tr.corners.mean(axis=1)
+            if exact:  # K_L rounded up to float32 as before, times what the stored corners' rounding can cost
+                weight *= (
+                    np.nextafter(tr.bound.astype(np.float32), np.float32(np.inf)).astype(np.float64) * widen
+                )
+            cdf, guide, total = _leaf_cdf(weight, exact)
             cdfs.append(cdf)
             guides.append(guide)
             totals.append(total if exact else 1.0)
@@ -749,7 +754,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
                 children.append(child)
             roots.append(node_base)
             node_base += 0 if exact else len(tr.child)
-            corners.append(corner32)
+            corners.append(corner16)
             projections.append(n.projection)
             leaf_base.append(leaf_base[-1] + len(weight))
     norm_fine, norm_ds, norm_log = norm
@@ -773,9 +778,9 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         child=np.concatenate(children).astype(np.int32) if children else np.zeros(0, dtype=np.int32),
         leaf_base=np.array(leaf_base, dtype=np.int64),
         leaf_cell=np.concatenate(cells).astype(np.uint32),
-        corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.float32),
-        cdf=np.concatenate(cdfs),
-        guide=np.concatenate(guides).astype(np.int32),
+        corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.uint16),
+        cdf=np.concatenate(cdfs).astype(np.uint32),
+        guide=np.concatenate(guides).astype(np.uint16),
         total=np.array(totals, dtype=np.float64),
         norm=norm_fine,
         norm_ds=float(norm_ds),
@@ -807,18 +812,57 @@ def _leaf_cells(tree: TreeArrays, leaves: np.ndarray) -> np.ndarray:
     return (ix | (iy << LEAF_GRID) | (level << (2 * LEAF_GRID))).astype(np.uint32)
 
 
-def _leaf_cdf(weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(cdf, guide, total)`` of one tree's leaf weights (:attr:`AdaptiveTable.cdf`, ``guide``): the
-    cumulative sums over the total, the last entry exactly 1 (no uniform in ``[0, 1)`` falls beyond it)."""
+CORNER_ONE = 65535
+"""A leaf's largest corner value as stored (:attr:`AdaptiveTable.corners`)."""
+CDF_ONE = 1 << 31
+"""A tree's total probability in the stored ``cdf``'s units (:attr:`AdaptiveTable.cdf`): ``2^-31`` each."""
+MAX_TREE_LEAVES = 1 << 16
+"""Leaves a tree may have in a table (``guide`` holds indices within a tree as ``uint16``; a tree of
+``capacity`` 16 384 nodes has at most 12 289)."""
+
+
+def _leaf_corners(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(stored (L, 4) uint16, widen (L,))``: each leaf's corner values over its largest, in units of
+    ``1 / CORNER_ONE``, rounded up (a leaf's density depends on its corners' ratios only), and the factor
+    ``widen >= 1`` by which a bound of ``g / q`` over the leaf must grow to bound ``g / q'``, ``q'`` the
+    density of the stored corners: ``q / q' <= max_k (c_k / s_k) * sum(s) / sum(c)`` (a bilinear
+    interpolant's ratio lies between its corners' ratios), at most ``1 + 3 / CORNER_ONE``."""
+    top = corners.max(axis=1, keepdims=True)
+    if not np.all(top > 0.0):  # (the floor keeps every corner positive)
+        raise ValueError("a leaf without a positive corner value")
+    stored = np.clip(np.ceil(corners / top * CORNER_ONE), 1, CORNER_ONE)
+    widen = np.max(corners / stored, axis=1) * stored.sum(axis=1) / corners.sum(axis=1)
+    return stored.astype(np.uint16), np.maximum(widen, 1.0) * (1.0 + 1e-12)
+
+
+def _leaf_cdf(weight: np.ndarray, envelope: bool) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(cdf, guide, total)`` of one tree's leaf weights (:attr:`AdaptiveTable.cdf`, ``guide``, ``total``).
+
+    The cumulative counts of ``2^-31`` end at exactly ``CDF_ONE``: a uniform ``u`` on the ``2^-53`` grid
+    picks leaf ``L`` with probability ``P_L = n_L / 2^31`` exactly (``u 2^31`` is exact and compared with
+    integers). Each count is rounded up from ``w_L S / W`` (``W`` the weights' sum, ``S = CDF_ONE - L``), so
+    no leaf of positive weight has probability 0, and what is left of ``CDF_ONE`` goes to the heaviest leaf.
+    For the exact mode (``envelope``), ``total`` is the envelope mass ``V`` with ``V P_L >= w_L`` for every
+    leaf, the largest of ``w_L CDF_ONE / n_L``: at most ``W CDF_ONE / S`` (``1 + 6e-6`` times ``W`` for the
+    largest trees), so the envelope ``V p`` the draws use still bounds ``g / c``. Otherwise ``total`` is
+    ``W``."""
+    leaves = len(weight)
+    if leaves > MAX_TREE_LEAVES:
+        raise ValueError(f"a tree of {leaves} leaves: a table holds at most {MAX_TREE_LEAVES} per tree")
     total = float(weight.sum())
     if not total > 0.0:  # (no tree has an empty density: the floor keeps every corner positive)
         weight = np.ones_like(weight)
-        total = float(len(weight))
-    cdf = np.cumsum(weight) / total
-    cdf[-1] = 1.0
-    cdf = np.minimum(cdf, 1.0)
-    guide = np.searchsorted(cdf, np.arange(len(cdf)) / len(cdf), side="right")
-    return cdf, np.minimum(guide, len(cdf) - 1).astype(np.int32), total
+        total = float(leaves)
+    share = CDF_ONE - leaves
+    counts = np.ceil(weight * (share / total)).astype(np.int64)
+    counts[weight <= 0.0] = 0
+    counts[int(np.argmax(weight))] += CDF_ONE - int(counts.sum())
+    cdf = np.cumsum(counts)
+    guide = np.searchsorted(cdf, (np.arange(leaves) * CDF_ONE) // leaves, side="right")
+    if envelope:
+        positive = counts > 0
+        total = float(np.max(weight[positive] * CDF_ONE / counts[positive])) * (1.0 + 1e-12)
+    return cdf, np.minimum(guide, leaves - 1).astype(np.uint16), total
 
 
 # ------------------------------------------------------------------------------------------ storage
