@@ -64,6 +64,7 @@ from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
 from core.models._he_series import (
     diffuse_series,
+    direction_terms,
     effective_roughness_ratio,
     log_k,
     shadow_over_cos,
@@ -114,7 +115,9 @@ def eval_he(wi, wo, p):
     hxy2 = hx * hx + hy * hy
     hh = hxy2 + hz * hz
 
-    ratio = effective_roughness_ratio(log_k(ci, si, tau_2s), log_k(co, so, tau_2s))
+    log_ki, shadow_i = direction_terms(ci, si, tau_2s, sig_tau)
+    log_ko, shadow_o = direction_terms(co, so, tau_2s, sig_tau)
+    ratio = effective_roughness_ratio(log_ki, log_ko)
     kz = wave_k * sigma * ratio * hz
     g = kz * kz
     tau = p[_TAU]
@@ -124,20 +127,15 @@ def eval_he(wi, wo, p):
         return kd_r, kd_g, kd_b
     geom = hh / hz
     geom *= geom
-    common = (
-        INV_PI
-        * geom
-        * shadow_over_cos(ci, si, tau_2s, sig_tau)
-        * shadow_over_cos(co, so, tau_2s, sig_tau)
-        * p[_D_PREFACTOR]
-        * series
-    )
+    common = INV_PI * geom * shadow_i * shadow_o * p[_D_PREFACTOR] * series
     cos_b = min(0.5 * math.sqrt(hh), 1.0)
-    return (
-        kd_r + common * fresnel_conductor(cos_b, p[_N], p[_K]),
-        kd_g + common * fresnel_conductor(cos_b, p[_N + 1], p[_K + 1]),
-        kd_b + common * fresnel_conductor(cos_b, p[_N + 2], p[_K + 2]),
-    )
+    # one Fresnel term for the channels that share the first one's index (a grey metal: all three)
+    f_r = fresnel_conductor(cos_b, p[_N], p[_K])
+    same_g = p[_N + 1] == p[_N] and p[_K + 1] == p[_K]
+    f_g = f_r if same_g else fresnel_conductor(cos_b, p[_N + 1], p[_K + 1])
+    same_b = p[_N + 2] == p[_N] and p[_K + 2] == p[_K]
+    f_b = f_r if same_b else fresnel_conductor(cos_b, p[_N + 2], p[_K + 2])
+    return kd_r + common * f_r, kd_g + common * f_g, kd_b + common * f_b
 
 
 def specular_weight(params: np.ndarray, theta_i: float) -> np.ndarray:
