@@ -5,9 +5,9 @@ thread, so the process CPU time of a call is that stage's own; other jobs on the
 through shared caches and memory, so quote the load average printed with the table), one warm-up
 pass is rendered, then ``--passes`` passes with every stage of the wavefront timed (camera, Embree closest
 hits, hits, material sort, surface + light sample, the compiled BRDF stage, the samplers with tables,
-continuation, compaction, Embree shadow rays, shadows) plus what is left (the pass's own numpy: the sum of
-its paths per pixel, and Python). Prints a table in milliseconds of CPU per pass and per cent; writes
-``render_stages.csv`` under ``--out``.
+continuation with the packing of the next rays, Embree shadow rays, shadows) plus what is left (the pass's
+own numpy: the sum of its paths per pixel, and Python). Prints a table in milliseconds of CPU per pass and
+per cent; writes ``render_stages.csv`` under ``--out``.
 
     .venv/bin/python bench/render_stages.py [--size 512] [--passes 3] [--samplers cosine,adaptive_warp]
 """
@@ -35,7 +35,6 @@ STAGES = (
     "bsdf_stage",
     "samplers with tables",
     "continue_stage",
-    "compaction",
     "embree shadow rays",
     "shadow_stage",
 )
@@ -68,7 +67,6 @@ def profile(scene_path: str, sampler: str, size: int, passes: int) -> dict[str, 
             spent[stage.__name__] = spent.get(stage.__name__, 0.0) + time.process_time() - t0
 
     tracer._run = run  # type: ignore[method-assign]
-    tracer._compact = timed("compaction", tracer._compact)  # type: ignore[method-assign]
     tracer._draw_by_samplers = timed("samplers with tables", tracer._draw_by_samplers)  # type: ignore[method-assign]
     sort = integrator.sort_by_material
     integrator.sort_by_material = timed("sort_by_material", sort)

@@ -44,8 +44,6 @@ from renderer.kernels import (
     bsdf_step,
     camera_rays,
     camera_stage,
-    compact_counts,
-    compact_stage,
     continue_stage,
     hit_stage,
     shadow_stage,
@@ -196,15 +194,6 @@ class PathTracer:
         """``stage(0, n, *args)`` on the calling thread (a wavefront's thread); what it returns (a count of
         dropped contributions), or 0. Every compiled stage of a wavefront goes through here."""
         return int(stage(0, n, *args) or 0)
-
-    def _compact(self, B: Buffers, n_s: int) -> tuple[int, int]:
-        """Pack the next rays and the shadow rays of ``n_s`` vertices; returns their numbers."""
-        compact_counts(0, n_s, B.alive, B.l_need, B.compact_counts, 0)
-        compact_stage(
-            0, n_s, 0, 0, B.alive, B.l_need, B.origin, B.next_d, B.s_beta, B.s_path, B.pdf, B.l_wi, B.l_tmax,
-            B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf, B.so32, B.sd32, B.st32, B.shadow_slot,
-        )  # fmt: skip
-        return int(B.compact_counts[0, 0]), int(B.compact_counts[0, 1])
 
     # ------------------------------------------------------------------------------------------ warm-up
     def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
@@ -373,12 +362,15 @@ class PathTracer:
                 bad += r_bad
                 rays += r_rays
             rr_key = _key(_key(pass_key, depth), 0x7272)
+            counts = B.counts
+            counts[:] = 0
             self._run(
-                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta,
-                B.s_path, B.l_wi_local, B.l_le, B.l_pdf, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
-                B.wi_local, B.pdf, B.f, B.l_contrib, B.l_need, B.next_d, B.alive,
+                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta, B.s_path,
+                B.origin, B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
+                B.wi_local, B.pdf, B.f, B.l_contrib, B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf,
+                B.so32, B.sd32, B.st32, B.shadow_slot, counts,
             )  # fmt: skip
-            n, k = self._compact(B, n_s)
+            n, k = int(counts[0]), int(counts[1])
             if k:
                 blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k], parallel=False)
                 rays += k

@@ -12,8 +12,8 @@ A bounce is six loops over the live paths, each one pass over contiguous arrays 
 5. The samplers (compiled per strategy, outside this module) evaluate ``f`` and their pdf at the light
    samples and draw the BRDF samples, material by material.
 6. :func:`continue_stage`: the light sample's MIS-weighted contribution, the BRDF sample's throughput and
-   Russian roulette; :func:`compact_stage` writes the next bounce's rays and the shadow rays; after Embree's
-   occlusion test :func:`shadow_stage` adds the unblocked contributions.
+   Russian roulette, and the next bounce's rays and the shadow rays, packed; after Embree's occlusion test
+   :func:`shadow_stage` adds the unblocked contributions.
 
 Every stage takes a row range ``[a, b)`` and releases the GIL, so the integrator runs wavefronts on several
 threads at once (each wavefront's stages on its thread). Contributions are added to a per-path radiance array
@@ -532,16 +532,22 @@ def _throughput(x, y, z, tx, ty, tz, bx, by, bz, sx, sy, sz, gx, gy, gz, p, r, g
 
 @njit(nogil=True, cache=True)
 def continue_stage(
-    a, b, power, rr, rr_key, s_ng, s_frame, s_beta, s_path, l_wi_local, l_le, l_pdf, l_delta, l_cand, l_f, l_pdf_brdf,
-    wi_local, pdf, f, l_contrib, l_need, next_d, alive,
+    a, b, power, rr, rr_key, s_ng, s_frame, s_beta, s_path, s_origin, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
+    l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, l_contrib, o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32,
+    shadow_slot, counts,
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` after their samplers ran: the light sample's contribution ``beta f L cos
-    w / pdf_light`` (MIS weight ``w`` against the sampler's density; 1 for delta lights) and whether it
-    needs a shadow ray; the BRDF sample's world direction and throughput (:func:`_throughput`), then Russian
-    roulette when ``rr`` (survival ``min(0.95, max beta)``, a uniform keyed by ``rr_key`` and the path)."""
+    w / pdf_light`` (MIS weight ``w`` against the sampler's density; 1 for delta lights) and, if it carries
+    light, its shadow ray; the BRDF sample's world direction and throughput (:func:`_throughput`), then Russian
+    roulette when ``rr`` (survival ``min(0.95, max beta)``, a uniform keyed by ``rr_key`` and the path), and
+    the next bounce's ray of a path that goes on. Rays and shadow rays are packed in the vertices' order from
+    rows ``counts[0]`` and ``counts[1]`` of their arrays (the rows the vertices before ``a`` took), and
+    ``counts`` is advanced past them. The rays' arrays may be the ones the vertices were made from: a vertex
+    reads only its own rows (``s_*``, ``l_*``) and writes row ``m <= s``."""
+    m = counts[0]
+    k = counts[1]
     for s in range(a, b):
-        # ---- the light sample
-        l_need[s] = False
+        # ---- the light sample, and its shadow ray
         if l_cand[s]:
             pl = l_pdf[s]
             w = 1.0 if l_delta[s] else _mis(pl, l_pdf_brdf[s], power)
@@ -551,16 +557,20 @@ def continue_stage(
                 v = s_beta[s, c] * l_f[s, c] * l_le[s, c] * sc
                 l_contrib[s, c] = v
                 any_light = any_light or v > 0.0
-            l_need[s] = any_light
-        # ---- the BRDF sample
-        alive[s] = False
+            if any_light:
+                for c in range(3):
+                    so32[k, c] = s_origin[s, c]
+                    sd32[k, c] = l_wi[s, c]
+                st32[k] = min(l_tmax[s], 1e30)
+                shadow_slot[k] = s
+                k += 1
+        # ---- the BRDF sample, and the next ray
         fr = s_frame[s]
         wx, wy, wz, br, bg, bb, ok = _throughput(
             wi_local[s, 0], wi_local[s, 1], wi_local[s, 2], fr[0, 0], fr[0, 1], fr[0, 2], fr[1, 0], fr[1, 1],
             fr[1, 2], fr[2, 0], fr[2, 1], fr[2, 2], s_ng[s, 0], s_ng[s, 1], s_ng[s, 2], pdf[s], f[s, 0], f[s, 1],
             f[s, 2], s_beta[s, 0], s_beta[s, 1], s_beta[s, 2],
         )  # fmt: skip
-        next_d[s, 0], next_d[s, 1], next_d[s, 2] = wx, wy, wz
         if not ok:
             continue
         if rr:
@@ -568,50 +578,17 @@ def continue_stage(
             if not uniform(rr_key, s_path[s]) < q:
                 continue
             br, bg, bb = br / q, bg / q, bb / q
-        s_beta[s, 0], s_beta[s, 1], s_beta[s, 2] = br, bg, bb
-        alive[s] = True
-
-
-@njit(nogil=True, cache=True)
-def compact_counts(a, b, alive, l_need, counts, chunk):
-    """``counts[chunk] = (rays, shadow rays)`` that the vertices ``[a, b)`` pass on (the first phase of a
-    parallel :func:`compact_stage`)."""
-    m = 0
-    k = 0
-    for s in range(a, b):
-        m += alive[s]
-        k += l_need[s]
-    counts[chunk, 0] = m
-    counts[chunk, 1] = k
-
-
-@njit(nogil=True, cache=True)
-def compact_stage(
-    a, b, m, k, alive, l_need, s_origin, next_d, s_beta, s_path, pdf, l_wi, l_tmax,
-    o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32, shadow_slot,
-):  # fmt: skip
-    """The next bounce's rays (from the surviving BRDF samples) and the shadow rays (light samples that need
-    one) of the vertices ``[a, b)``, packed from row ``m`` and row ``k`` of their arrays (the rows the
-    vertices before ``a`` took, from :func:`compact_counts`): the packed order is the vertices' order,
-    however the work is split."""
-    for s in range(a, b):
-        if alive[s]:
-            for c in range(3):
-                o[m, c] = s_origin[s, c]
-                d[m, c] = next_d[s, c]
-                o32[m, c] = s_origin[s, c]
-                d32[m, c] = next_d[s, c]
-                beta[m, c] = s_beta[s, c]
-            path[m] = s_path[s]
-            prev_pdf[m] = pdf[s]
-            m += 1
-        if l_need[s]:
-            for c in range(3):
-                so32[k, c] = s_origin[s, c]
-                sd32[k, c] = l_wi[s, c]
-            st32[k] = min(l_tmax[s], 1e30)
-            shadow_slot[k] = s
-            k += 1
+        ox, oy, oz = s_origin[s, 0], s_origin[s, 1], s_origin[s, 2]
+        o[m, 0], o[m, 1], o[m, 2] = ox, oy, oz
+        d[m, 0], d[m, 1], d[m, 2] = wx, wy, wz
+        o32[m, 0], o32[m, 1], o32[m, 2] = ox, oy, oz
+        d32[m, 0], d32[m, 1], d32[m, 2] = wx, wy, wz
+        beta[m, 0], beta[m, 1], beta[m, 2] = br, bg, bb
+        path[m] = s_path[s]
+        prev_pdf[m] = pdf[s]
+        m += 1
+    counts[0] = m
+    counts[1] = k
 
 
 @njit(nogil=True, cache=True)

@@ -88,15 +88,14 @@ class Buffers:
             np.empty((n, 3), f64) for _ in range(5)
         )
         self.l_pdf, self.l_tmax, self.l_pdf_brdf = (np.empty(n, f64) for _ in range(3))
-        self.l_delta, self.l_cand, self.l_need = (np.empty(n, np.bool_) for _ in range(3))
-        self.wi_local, self.f, self.next_d = (np.empty((n, 3), f64) for _ in range(3))
+        self.l_delta, self.l_cand = np.empty(n, np.bool_), np.empty(n, np.bool_)
+        self.wi_local, self.f = np.empty((n, 3), f64), np.empty((n, 3), f64)
         self.pdf = np.empty(n, f64)
-        self.alive = np.empty(n, np.bool_)
-        # shadow rays
+        # shadow rays, and the numbers of next rays and shadow rays
         self.so32, self.sd32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
         self.st32 = np.empty(n, f32)
         self.shadow_slot = np.empty(n, i64)
-        self.compact_counts = np.zeros((1, 2), i64)
+        self.counts = np.zeros(2, i64)
 
     def __len__(self) -> int:
         return len(self.path)
