@@ -50,6 +50,7 @@ from renderer.kernels import (
     sort_by_material,
     surface_frames,
     surface_stage,
+    tangent_frames,
 )
 from renderer.qmc import key
 from renderer.wavefront import Buffers, Wave, waves
@@ -344,7 +345,7 @@ class PathTracer:
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
                 env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot,
-                B.s_mat, B.ng, B.frame, B.wo, B.origin, B.s_beta, B.s_path,
+                B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
                 B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
             )  # fmt: skip
             # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
@@ -365,7 +366,7 @@ class PathTracer:
             counts = B.counts
             counts[:] = 0
             self._run(
-                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.frame, B.s_beta, B.s_path,
+                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.ns, B.s_beta, B.s_path,
                 B.origin, B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
                 B.wi_local, B.pdf, B.f, B.l_contrib, B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf,
                 B.so32, B.sd32, B.st32, B.shadow_slot, counts,
@@ -429,7 +430,8 @@ class PathTracer:
         m_c = self.ris
         n = n_s
         wo_l, origin, ng = B.wo[:n], B.origin[:n], B.ng[:n]
-        tb, bb, ns = (np.ascontiguousarray(B.frame[:n, r]) for r in range(3))
+        ns = B.ns[:n]
+        tb, bb = tangent_frames(ns)
         wi_l = np.zeros((n * m_c, 3))
         pdf = np.zeros(n * m_c)
         f = np.zeros((n * m_c, 3))

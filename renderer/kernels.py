@@ -215,6 +215,28 @@ def sort_by_material(mat, n_materials, order, offsets):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _tangents(sx, sy, sz):
+    """Tangent and bitangent of the unit normal ``s`` (Duff et al. 2017): a function of ``s`` alone, so a
+    stage that needs the frame recomputes it from the stored normal (the same values bit for bit) instead of
+    reading six more numbers a vertex."""
+    sign = 1.0 if sz >= 0.0 else -1.0
+    q = -1.0 / (sign + sz)
+    c = sx * sy * q
+    return 1.0 + sign * sx * sx * q, sign * c, -sign * sx, c, sign + sy * sy * q, -sy
+
+
+@njit(nogil=True, cache=True)
+def tangent_frames(ns):
+    """Tangents and bitangents ``(n, 3)`` of the unit normals ``ns (n, 3)`` (:func:`_tangents`)."""
+    n = ns.shape[0]
+    tb = np.empty((n, 3))
+    bb = np.empty((n, 3))
+    for i in range(n):
+        tb[i, 0], tb[i, 1], tb[i, 2], bb[i, 0], bb[i, 1], bb[i, 2] = _tangents(ns[i, 0], ns[i, 1], ns[i, 2])
+    return tb, bb
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _shading_frame(k, dx, dy, dz, bu, bv, tri_normal, tri_vnormals, tri_smooth):
     """Geometric and shading normals at a hit of triangle ``k`` (barycentrics ``bu, bv``) turned towards the
     viewer (two-sided surfaces), and a tangent frame of the shading normal (Duff et al. 2017)."""
@@ -233,11 +255,7 @@ def _shading_frame(k, dx, dy, dz, bu, bv, tri_normal, tri_vnormals, tri_smooth):
             sx, sy, sz = vx / length, vy / length, vz / length
             if flip:
                 sx, sy, sz = -sx, -sy, -sz
-    sign = 1.0 if sz >= 0.0 else -1.0
-    q = -1.0 / (sign + sz)
-    c = sx * sy * q
-    tx, ty, tz = 1.0 + sign * sx * sx * q, sign * c, -sign * sx
-    bx, by, bz = c, sign + sy * sy * q, -sy
+    tx, ty, tz, bx, by, bz = _tangents(sx, sy, sz)
     return gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz
 
 
@@ -278,16 +296,18 @@ def surface_stage(
     point_pos, point_intensity, point_cdf, point_pmf,
     env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_edges, env_pmf, env_image, env_rotation,
     # outputs, one row per surface vertex (sorted order)
-    s_mat, s_ng, s_frame, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
+    s_mat, s_ng, s_ns, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand,
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
     offset origin, and one light sample (light type by ``c_area``/``c_point``, then a light, then a point
-    on it from an Owen-scrambled Sobol pair). ``s_frame (n, 3, 3)`` holds the tangent, bitangent and
-    shading normal. ``l_cand`` marks light samples worth a BRDF evaluation (positive pdf and radiance, above
-    both surfaces)."""
+    on it from an Owen-scrambled Sobol pair). ``s_ns`` holds the shading normal (the frame's tangents are a
+    function of it, :func:`_tangents`); ``l_wi`` the light sample's direction (float32: it only makes the
+    shadow ray) and ``l_tmax`` its distance limit (float32, at most 1e30, as Embree takes it). ``l_cand``
+    marks light samples worth a BRDF evaluation (positive pdf and radiance, above both surfaces)."""
     n_emit = emit_ids.shape[0]
     n_point = point_pos.shape[0]
+    frames = np.empty((_BLOCK, 9))  # the block's frames, for its light samples
     # blocks of _BLOCK vertices, each in two short loops (the frames, then the light samples from the frames'
     # rows, still in L1): the light sample's long chain of dependent steps overlaps across vertices there
     for s0 in range(a, b, _BLOCK):
@@ -298,9 +318,9 @@ def surface_stage(
                 prim[i], d[i, 0], d[i, 1], d[i, 2], bu[i], bv[i], tri_normal, tri_vnormals, tri_smooth
             )
             s_ng[s, 0], s_ng[s, 1], s_ng[s, 2] = gx, gy, gz
-            s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2] = tx, ty, tz
-            s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2] = bx, by, bz
-            s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2] = sx, sy, sz
+            s_ns[s, 0], s_ns[s, 1], s_ns[s, 2] = sx, sy, sz
+            fb = frames[s - s0]
+            fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8] = tx, ty, tz, bx, by, bz, sx, sy, sz
             s_wo[s, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
             s_wo[s, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
             s_wo[s, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
@@ -323,9 +343,8 @@ def surface_stage(
             p = s_path[s]
             px, py, pz = s_origin[s, 0], s_origin[s, 1], s_origin[s, 2]
             gx, gy, gz = s_ng[s, 0], s_ng[s, 1], s_ng[s, 2]
-            tx, ty, tz = s_frame[s, 0, 0], s_frame[s, 0, 1], s_frame[s, 0, 2]
-            bx, by, bz = s_frame[s, 1, 0], s_frame[s, 1, 1], s_frame[s, 1, 2]
-            sx, sy, sz = s_frame[s, 2, 0], s_frame[s, 2, 1], s_frame[s, 2, 2]
+            fb = frames[s - s0]
+            tx, ty, tz, bx, by, bz, sx, sy, sz = fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8]
             vk = key(key(pass_key, p), depth)
             u_type = uniform(vk, _U_LIGHT_TYPE)
             u_pick = uniform(vk, _U_LIGHT_PICK)
@@ -381,7 +400,7 @@ def surface_stage(
             l_wi_local[s, 2] = lz
             l_le[s, 0], l_le[s, 1], l_le[s, 2] = lr, lg, lb
             l_pdf[s] = pdf
-            l_tmax[s] = t_max
+            l_tmax[s] = min(t_max, 1e30)
             if pdf > 0.0 and lz > 0.0 and (lr > 0.0 or lg > 0.0 or lb > 0.0):
                 l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
 
@@ -532,7 +551,7 @@ def _throughput(x, y, z, tx, ty, tz, bx, by, bz, sx, sy, sz, gx, gy, gz, p, r, g
 
 @njit(nogil=True, cache=True)
 def continue_stage(
-    a, b, power, rr, rr_key, s_ng, s_frame, s_beta, s_path, s_origin, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
+    a, b, power, rr, rr_key, s_ng, s_ns, s_beta, s_path, s_origin, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, l_contrib, o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32,
     shadow_slot, counts,
 ):  # fmt: skip
@@ -561,15 +580,16 @@ def continue_stage(
                 for c in range(3):
                     so32[k, c] = s_origin[s, c]
                     sd32[k, c] = l_wi[s, c]
-                st32[k] = min(l_tmax[s], 1e30)
+                st32[k] = l_tmax[s]
                 shadow_slot[k] = s
                 k += 1
         # ---- the BRDF sample, and the next ray
-        fr = s_frame[s]
+        sx, sy, sz = s_ns[s, 0], s_ns[s, 1], s_ns[s, 2]
+        tx, ty, tz, bx, by, bz = _tangents(sx, sy, sz)
         wx, wy, wz, br, bg, bb, ok = _throughput(
-            wi_local[s, 0], wi_local[s, 1], wi_local[s, 2], fr[0, 0], fr[0, 1], fr[0, 2], fr[1, 0], fr[1, 1],
-            fr[1, 2], fr[2, 0], fr[2, 1], fr[2, 2], s_ng[s, 0], s_ng[s, 1], s_ng[s, 2], pdf[s], f[s, 0], f[s, 1],
-            f[s, 2], s_beta[s, 0], s_beta[s, 1], s_beta[s, 2],
+            wi_local[s, 0], wi_local[s, 1], wi_local[s, 2], tx, ty, tz, bx, by, bz, sx, sy, sz,
+            s_ng[s, 0], s_ng[s, 1], s_ng[s, 2], pdf[s], f[s, 0], f[s, 1], f[s, 2], s_beta[s, 0], s_beta[s, 1],
+            s_beta[s, 2],
         )  # fmt: skip
         if not ok:
             continue

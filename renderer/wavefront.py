@@ -80,14 +80,13 @@ class Buffers:
         self.bu, self.bv = np.empty(n, f32), np.empty(n, f32)
         self.mat, self.order, self.s_mat = np.empty(n, i64), np.empty(n, i64), np.empty(n, i64)
         # surface vertices, sorted by material
-        self.ng, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(4))
-        self.frame = np.empty((n, 3, 3), f64)
+        self.ng, self.ns, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(5))
         self.s_path = np.empty(n, i64)
         # their light samples and BRDF samples
-        self.l_wi, self.l_wi_local, self.l_le, self.l_f, self.l_contrib = (
-            np.empty((n, 3), f64) for _ in range(5)
-        )
-        self.l_pdf, self.l_tmax, self.l_pdf_brdf = (np.empty(n, f64) for _ in range(3))
+        self.l_wi_local, self.l_le, self.l_f, self.l_contrib = (np.empty((n, 3), f64) for _ in range(4))
+        self.l_pdf, self.l_pdf_brdf = np.empty(n, f64), np.empty(n, f64)
+        # what only makes shadow rays is kept in Embree's float32
+        self.l_wi, self.l_tmax = np.empty((n, 3), f32), np.empty(n, f32)
         self.l_delta, self.l_cand = np.empty(n, np.bool_), np.empty(n, np.bool_)
         self.wi_local, self.f = np.empty((n, 3), f64), np.empty((n, 3), f64)
         self.pdf = np.empty(n, f64)
