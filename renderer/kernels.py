@@ -132,15 +132,32 @@ def camera_stage(
     """Camera rays of rows ``[a, b)``: row ``r`` is path ``j = j0 + (r // block) * step + r % block`` (runs of
     ``block`` paths, ``step`` apart: a wavefront interleaved with others; ``block = step`` for consecutive
     paths), sample ``first_sample + j // n_pix`` of pixel ``j % n_pix``, through the pixel's Owen-scrambled
-    Sobol point of that sample number."""
+    Sobol point of that sample number. Within a run the pixel, its row and column and the sample number are
+    advanced by one path at a time (the integer divisions once a run instead of four a ray)."""
+    q = a // block
+    off = a - q * block - 1
+    pixel = sample = row = col = 0
     for r in range(a, b):
-        q = r // block
-        j = j0 + q * step + (r - q * block)
-        pixel = j % n_pix
-        sample = first_sample + j // n_pix
+        off += 1
+        if off == block:
+            q += 1
+            off = 0
+        j = j0 + q * step + off
+        if r == a or off == 0:
+            pixel = j % n_pix
+            sample = first_sample + j // n_pix
+            row = pixel // width
+            col = pixel - row * width
+        else:
+            pixel += 1
+            col += 1
+            if pixel == n_pix:
+                pixel = row = col = 0
+                sample += 1
+            elif col == width:
+                col = 0
+                row += 1
         jx, jy = sobol2(sample, key(key(seed_key, pixel), _PAIR_PIXEL))
-        row = pixel // width
-        col = pixel - row * width
         dx, dy, dz = camera_ray(
             col + jx, row + jy, width, height, origin, forward, right, up, tan_half, aspect
         )

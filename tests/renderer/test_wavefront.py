@@ -49,3 +49,43 @@ def test_camera_stage_traces_the_paths_of_its_wavefront() -> None:
         assert np.array_equal(path, w.paths())
         assert np.array_equal(d, whole_d[path])
     assert np.array_equal(whole_path, np.arange(3 * n_pix))
+
+
+@pytest.mark.parametrize(
+    ("a", "block", "step"), [(5, 384, 384), (70, 64, 128), (127, 64, 128), (128, 64, 128)]
+)
+def test_camera_stage_rows_from_any_start(a: int, block: int, step: int) -> None:
+    """Rows ``[a, b)`` of the camera stage, started anywhere in a run (it advances pixel, row, column and sample
+    number path by path), are the rows a call over ``[0, b)`` gives: the same paths and rays, across the
+    image's row ends and the pixels' wrap to the next sample."""
+    from renderer.kernels import camera_rays, camera_stage
+    from renderer.qmc import key, sobol2
+
+    width, height, n_pix, n = 16, 8, 128, 384
+    cam = (np.zeros(3), np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+
+    def run(lo: int) -> tuple[np.ndarray, np.ndarray]:
+        o, d, beta = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        o32, d32 = np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32)
+        path, prev = np.full(n, -1, np.int64), np.ones(n)
+        camera_stage(lo, n, 9, block, step, n_pix, 3, np.uint64(77), width, height, *cam, 0.5, 2.0,
+                     o, d, o32, d32, beta, path, prev)  # fmt: skip
+        return path, d
+
+    whole_path, whole_d = run(0)
+    path, d = run(a)
+    assert np.array_equal(path[a:], whole_path[a:])
+    assert np.array_equal(d[a:], whole_d[a:])
+    assert np.all(path[:a] == -1)
+    # the paths are the wavefront's, and their rays those of their pixel and sample number
+    q = np.arange(n) // block
+    assert np.array_equal(whole_path, 9 + q * step + np.arange(n) % block)
+    pixel, sample = whole_path % n_pix, 3 + whole_path // n_pix
+    jitter = np.array(
+        [
+            sobol2(int(s), np.uint64(key(np.uint64(key(np.uint64(77), int(p))), 0)))
+            for p, s in zip(pixel, sample, strict=True)
+        ]
+    )
+    _, expect = camera_rays(pixel, jitter, width, height, *cam, 0.5, 2.0)
+    assert np.array_equal(whole_d, expect)
