@@ -21,7 +21,7 @@ import numpy as np
 
 WAVEFRONT = 1 << 18
 """Paths traced together at most (a group of ``WAVES`` wavefronts): a pass of a large image runs several groups
-one after the other, so the per-path buffers (~600 bytes a path) stay within ~160 MB whatever the image size."""
+one after the other, so the per-path buffers (~500 bytes a path) stay within ~130 MB whatever the image size."""
 
 WAVES = 2
 """Wavefronts a group of paths is split into (each traced on its own thread when the tracer has several)."""
