@@ -291,7 +291,7 @@ def prepare(
 
 # ------------------------------------------------------------------------------------------ budgets
 BYTES_PER_PATH = 640
-"""Peak memory of one path in a pass's wavefront: the integrator's per-path arrays (566 bytes,
+"""Peak memory of one path in a pass's wavefront: the integrator's per-path arrays (502 bytes,
 ``renderer.wavefront.Buffers``) and the samplers' batches; above the slope ``python bench/budgets.py``
 measures."""
 BYTES_PER_PIXEL = 72
