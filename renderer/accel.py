@@ -47,7 +47,6 @@ class Accel:
         self._pool = (
             ThreadPoolExecutor(self.threads, thread_name_prefix=_THREAD_PREFIX) if self.threads > 1 else None
         )
-        self.rays_traced = 0
 
     def close(self) -> None:
         """Stop the worker threads (waiting for them, unless called from one of them)."""
@@ -98,7 +97,6 @@ class Accel:
 
         if n:
             self._map(run, n)
-        self.rays_traced += n
         return Hits(t, prim, u, v)
 
     def trace(
@@ -127,7 +125,6 @@ class Accel:
 
         if n:
             self._map(run, n, parallel)
-        self.rays_traced += n
 
     def occluded(
         self,
@@ -152,5 +149,4 @@ class Accel:
 
         if n:
             self._map(run, n, parallel)
-        self.rays_traced += n
         return out
