@@ -181,8 +181,11 @@ class PathTracer:
                 self.mat_tables[m, : len(rt.brdf.params)] = rt.brdf.params
             else:
                 self.mat_params[m, : len(rt.brdf.params)] = rt.brdf.params
-            if type(rt.sampler) in compiled:
-                self.mat_strategy[m] = COMPILED_STRATEGIES[rt.sampler.name]
+            # a sampler with tables whose density is a compiled strategy's (the adaptive sampler's flat table
+            # of a Lambertian material: the cosine density) is drawn as that strategy
+            name = rt.sampler.name if type(rt.sampler) in compiled else rt.sampler.compiled_equivalent()
+            if name is not None:
+                self.mat_strategy[m] = COMPILED_STRATEGIES[name]
 
     def _rng(self, pass_index: int, depth: int, role: int, wave: int = 0) -> np.random.Generator:
         return np.random.default_rng([self.seed, pass_index, depth + 1, role, wave])
@@ -398,17 +401,11 @@ class PathTracer:
                     (sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k, wave))
                 )
 
-        def run(job) -> None:  # type: ignore[no-untyped-def]
-            sampler, lo, hi, seed = job
+        for sampler, lo, hi, seed in jobs:
             if self.has_nee_lights:
-                c = lo + np.flatnonzero(B.l_cand[lo:hi])
-                if len(c):
-                    B.l_f[c], B.l_pdf_brdf[c] = sampler.eval_pdf(B.wo[c], B.l_wi_local[c])
-            drawn = sampler.sample_each(B.wo[lo:hi], seed=seed)
-            B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi] = drawn.wi, drawn.pdf, drawn.f
-
-        for job in jobs:
-            run(job)
+                sampler.eval_pdf_where(B.wo[lo:hi], B.l_wi_local[lo:hi], B.l_cand[lo:hi], B.l_f[lo:hi],
+                                       B.l_pdf_brdf[lo:hi])  # fmt: skip
+            sampler.sample_into(B.wo[lo:hi], seed, B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi])
 
     def _ris_environment(
         self,

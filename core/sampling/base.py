@@ -120,6 +120,26 @@ class Sampler:
         whose density is made of ``f`` (the adaptive sampler's exact mode) computes both in one pass."""
         return self.eval(wo, wi), self.pdf(wo, wi)
 
+    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray) -> None:
+        """:meth:`sample_each` written into the caller's arrays (rows of ``wo``); a strategy whose kernels
+        can write there directly overrides it."""
+        drawn = self.sample_each(wo, seed=seed)
+        wi[:], pdf[:], f[:] = drawn.wi, drawn.pdf, drawn.f
+
+    def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,
+                       pdf: np.ndarray) -> None:  # fmt: skip
+        """:meth:`eval_pdf` at the rows where ``mask`` holds, written into ``f (n, 3)`` and ``pdf (n,)``; the
+        other rows are left as they are."""
+        rows = np.flatnonzero(mask)
+        if len(rows):
+            f[rows], pdf[rows] = self.eval_pdf(wo[rows], wi[rows])
+
+    def compiled_equivalent(self) -> str | None:
+        """The name of a strategy drawn in compiled code (``uniform``, ``cosine``, ``analytic``) whose density
+        and pdf are this sampler's exactly, for this BRDF: a renderer may draw that one instead. None: no
+        such strategy."""
+        return None
+
     def info(self) -> dict[str, Any]:
         """Precomputation facts (memory in bytes, build seconds, ...) for reports."""
         return {"sampler": self.name, "memory_bytes": 0, "build_seconds": 0.0}

@@ -295,6 +295,48 @@ def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_fo
     assert np.all(glossy.projection != ORTHO)
 
 
+def test_a_coloured_lambertian_material_has_a_flat_table_drawn_as_the_cosine_density():
+    """Flatness is per channel (the channels of a coloured albedo differ, the directions do not): both modes
+    then draw the cosine density, and say so to a renderer; a glossy material has no such equivalent."""
+    brdf = make_brdf("lambert", {"kd": [0.55, 0.55, 0.2]})
+    for mode in ("exact", "warp"):
+        sampler = make_sampler("adaptive", brdf, mode=mode, cache=False)
+        assert sampler.table.flat == 1
+        assert sampler.compiled_equivalent() == "cosine"
+        wo = np.tile(degrees_to_dir(40.0, 10.0), (2000, 1))
+        drawn = sampler.sample_each(wo, seed=3)
+        np.testing.assert_allclose(drawn.pdf, drawn.wi[:, 2] / math.pi, rtol=1e-12)
+        np.testing.assert_allclose(drawn.f, np.tile([0.55, 0.55, 0.2], (2000, 1)) / math.pi, rtol=1e-12)
+    assert make_sampler("adaptive", make_brdf("phong"), cache=False).compiled_equivalent() is None
+
+
+@pytest.mark.parametrize("mode", ["exact", "warp"])
+def test_in_place_draws_and_masked_densities_equal_the_batch_interface(mode):
+    """``sample_into`` writes ``sample_each``'s draws into views of a caller's buffers, and ``eval_pdf_where``
+    writes ``eval_pdf`` at the masked rows only, leaving the others untouched."""
+    sampler = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.2}), mode=mode)
+    rng = np.random.default_rng(5)
+    n = 3000
+    wo = rng.normal(size=(n, 3))
+    wo[:, 2] = np.abs(wo[:, 2])
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    ref = sampler.sample_each(wo[100:2100], seed=9)
+    wi, pdf, f = np.full((n, 3), -7.0), np.full(n, -7.0), np.full((n, 3), -7.0)
+    sampler.sample_into(wo[100:2100], 9, wi[100:2100], pdf[100:2100], f[100:2100])
+    np.testing.assert_array_equal(wi[100:2100], ref.wi)
+    np.testing.assert_array_equal(pdf[100:2100], ref.pdf)
+    np.testing.assert_array_equal(f[100:2100], ref.f)
+    assert np.all(pdf[:100] == -7.0) and np.all(pdf[2100:] == -7.0)
+    mask = rng.random(n) < 0.5
+    wi = sampler.sample_each(wo, seed=1).wi
+    f_at, pdf_at = np.full((n, 3), -7.0), np.full(n, -7.0)
+    sampler.eval_pdf_where(wo, wi, mask, f_at, pdf_at)
+    f_ref, pdf_ref = sampler.eval_pdf(wo[mask], wi[mask])
+    np.testing.assert_array_equal(pdf_at[mask], pdf_ref)
+    np.testing.assert_array_equal(f_at[mask], f_ref)
+    assert np.all(pdf_at[~mask] == -7.0) and np.all(f_at[~mask] == -7.0)
+
+
 def test_a_progressive_sampler_starts_coarse_and_swaps_in_the_full_table_when_asked():
     """A coarse table at once, exact all the same; the full one built in the background once a refresh asks
     for it, and swapped in by a refresh."""

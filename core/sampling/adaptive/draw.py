@@ -435,9 +435,11 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
 
 
 @njit(nogil=True, cache=True)
-def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
+def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
     """``pdf(wo[i], wi[i])`` per unit solid angle, and ``f`` there (the loop written out as in
-    :func:`sample_rows`)."""
+    :func:`sample_rows`), at the rows where ``mask`` (bool) holds; an empty ``mask`` means every row (rows
+    left out are not written: a renderer's light samples that a material's rows did not make)."""
+    every = mask.shape[0] == 0
     flat, symmetry, follow = table.flat, table.symmetry, table.follow
     cell_lut, cell_mu, phis = table.cell_lut, table.cell_mu, table.phis
     edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
@@ -445,6 +447,8 @@ def pdf_rows(table, mid, p, mode, wo, wi, out_pdf, out_f):
     corners, cdf, cos_min = table.corners, table.cdf, table.cos_min
     norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
     for i in range(wo.shape[0]):
+        if not every and not mask[i]:
+            continue
         wx = wo[i, 0]
         wy = wo[i, 1]
         wz = wo[i, 2]

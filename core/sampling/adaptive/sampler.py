@@ -42,6 +42,7 @@ from core.sampling.adaptive.table import (
     TableOptions,
     TableReport,
     build_table,
+    is_lambertian,
     load_table,
     memory_bytes,
     save_table,
@@ -70,6 +71,9 @@ PARALLEL_MIN = 1 << 14
 loop releases the GIL; a ``prange`` loop took 40 s more to compile, for the same draws)."""
 
 _POOL: ThreadPoolExecutor | None = None
+
+_EVERY_ROW = np.zeros(0, dtype=np.bool_)
+"""``pdf_rows``'s mask for every row."""
 
 _INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
          "capacity": (64, 1 << 16)}  # fmt: skip
@@ -236,6 +240,7 @@ class AdaptiveSampler(Sampler):
         self.violations = 0
         self.trials = 0
         self.samples = 0
+        self._lambertian: bool | None = None
         self._counts_lock = threading.Lock()  # a renderer draws slices of one material on several threads
 
     # ------------------------------------------------------------------------------------------ the table
@@ -398,6 +403,25 @@ class AdaptiveSampler(Sampler):
         """Like :meth:`sample_each`, with the number of rejection trials of every sample."""
         return self._draw(wo, seed)
 
+    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray) -> None:
+        """:meth:`sample_each` written into the caller's C-contiguous float64 arrays (a renderer's buffers:
+        no copies), the same draws."""
+        self._draw_into(wo, seed, wi, pdf, f, np.empty(wo.shape[0], dtype=np.int64))
+
+    def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,
+                       pdf: np.ndarray) -> None:  # fmt: skip
+        """:meth:`eval_pdf` at the rows where ``mask`` holds, written into ``f`` and ``pdf`` in place (the
+        other rows are left as they are); all arrays C-contiguous, rows of one length."""
+        mode = EXACT if self.mode == "exact" else WARP
+        pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, mask, pdf, f)
+
+    def compiled_equivalent(self) -> str | None:
+        """``"cosine"`` for a Lambertian BRDF, whose table is flat: both modes draw the cosine density then,
+        and report its pdf (:class:`~core.sampling.adaptive.table.AdaptiveTable` ``flat``)."""
+        if self._lambertian is None:
+            self._lambertian = is_lambertian(self.brdf)
+        return "cosine" if self._lambertian else None
+
     def _draw(self, wo: np.ndarray, seed: int) -> tuple[SampleBatch, np.ndarray]:
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
         n = wo.shape[0]
@@ -405,6 +429,12 @@ class AdaptiveSampler(Sampler):
         pdf = np.empty(n)
         f = np.empty((n, 3))
         trials = np.empty(n, dtype=np.int64)
+        self._draw_into(wo, seed, wi, pdf, f, trials)
+        return SampleBatch(wi, pdf, f), trials
+
+    def _draw_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
+                   trials: np.ndarray) -> None:  # fmt: skip
+        n = wo.shape[0]
         mode = EXACT if self.mode == "exact" else WARP
         table, mid, p, seed = self.table, self.brdf.model.id, self.brdf.params, int(seed) % (1 << 63)
         chunks = thread_budget() if self.threads and n >= PARALLEL_MIN else 1
@@ -435,7 +465,6 @@ class AdaptiveSampler(Sampler):
             self.violations += int(v)
             self.trials += int(trials.sum())
             self.samples += n
-        return SampleBatch(wi, pdf, f), trials
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         return self.eval_pdf(wo, wi)[1]
@@ -450,7 +479,7 @@ class AdaptiveSampler(Sampler):
         pdf = np.empty(wo.shape[0])
         f = np.empty((wo.shape[0], 3))
         mode = EXACT if self.mode == "exact" else WARP
-        pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, pdf, f)
+        pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, _EVERY_ROW, pdf, f)
         return f, pdf
 
     # ------------------------------------------------------------------------------------------ facts
