@@ -134,6 +134,93 @@ def _bracket(u, n):
     return i, u - i
 
 
+# Coefficients of (atan(t) / t - 1) / t^2 as a polynomial in u = t^2 on [0, tan(pi/8)^2]: a Chebyshev fit of
+# degree 10 to the series (error below 4e-16 there; atan's own below 1e-17 absolute).
+_ATAN = (
+    -0.3333333333333335, 0.19999999999996815, -0.14285714284955728, 0.11111111039382242, -0.09090905577789848,
+    0.07692206606588207, -0.06664841459947057, 0.058610027663728734, -0.05100269245681807, 0.03965572205667133,
+    -0.019690822004180538,
+)  # fmt: skip
+_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, _A8, _A9, _A10 = _ATAN
+_TAN_PI_8 = 0.41421356237309503
+_QUARTER_PI = 0.25 * math.pi
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _atan_unit(t):
+    """``atan(t)`` for ``t`` in ``[0, 1]`` (within 5e-16): above ``tan(pi/8)`` by ``pi/4 + atan((t - 1) / (t + 1))``,
+    then the polynomial :data:`_ATAN` by Estrin's scheme. A few multiply-adds where the library's ``atan2`` costs
+    ~20 ns, and a lookup makes three."""
+    off = 0.0
+    if t > _TAN_PI_8:
+        t = (t - 1.0) / (t + 1.0)
+        off = _QUARTER_PI
+    u = t * t
+    u2 = u * u
+    u4 = u2 * u2
+    u8 = u4 * u4
+    f = (
+        ((_A0 + _A1 * u) + u2 * (_A2 + _A3 * u))
+        + u4 * ((_A4 + _A5 * u) + u2 * (_A6 + _A7 * u))
+        + u8 * ((_A8 + _A9 * u) + u2 * _A10)
+    )
+    return off + (t + t * u * f)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _atan2(y, x):
+    """``atan2(y, x)`` by :func:`_atan_unit` (within 5e-16 of the library's)."""
+    ay = abs(y)
+    ax = abs(x)
+    if ay <= ax:
+        a = _atan_unit(ay / ax) if ax > 0.0 else 0.0
+    else:
+        a = HALF_PI - _atan_unit(ax / ay)
+    if x < 0.0:
+        a = math.pi - a
+    return -a if y < 0.0 else a
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _lookup_angles(wi, wo):
+    """``(theta_h, theta_d, phi_d)`` of a pair as :func:`half_diff_angles` (to ~1e-14), ``phi_d`` folded into
+    ``[0, pi]``, without normalizing ``h`` or turning ``wi`` into its frame: with ``h = wi + wo`` unnormalized,
+    ``r = |h_xy|`` and ``n = |h|``, the vector ``d`` of :func:`half_diff_angles` times ``r n`` is
+    ``(a h_z - wi_z r^2, n (wi_y h_x - wi_x h_y), r (a + wi_z h_z))``, ``a = wi_x h_x + wi_y h_y``, and the
+    three angles are arc tangents of ratios (no divisions before them); the arc tangents are :func:`_atan2`."""
+    hx = wi[0] + wo[0]
+    hy = wi[1] + wo[1]
+    hz = wi[2] + wo[2]
+    r2 = hx * hx + hy * hy
+    r = math.sqrt(r2)
+    if r > 0.0:
+        n = math.sqrt(r2 + hz * hz)
+        a = wi[0] * hx + wi[1] * hy
+        dx = a * hz - wi[2] * r2
+        dy = n * (wi[1] * hx - wi[0] * hy)
+        dz = r * (a + wi[2] * hz)
+    else:  # h along the normal: its frame is the local one
+        dx, dy, dz = wi[0], wi[1], wi[2]
+    theta_h = _atan2(r, hz)
+    theta_d = _atan2(math.sqrt(dx * dx + dy * dy), dz)
+    if dy < 0.0:  # reciprocity: phi_d and phi_d + pi are the same cell
+        dx, dy = -dx, -dy
+    return theta_h, theta_d, _atan2(dy, dx)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _add_corner(p, k, w, acc):
+    """``acc = (sum w v_r, sum w v_g, sum w v_b, sum w over valid r, g, b)`` with the corner at ``p[k]``
+    added; a missing (negative) value adds nothing (selects, not branches)."""
+    r = p[k]
+    g = p[k + 1]
+    b = p[k + 2]
+    wr = w if r >= 0.0 else 0.0
+    wg = w if g >= 0.0 else 0.0
+    wb = w if b >= 0.0 else 0.0
+    return (acc[0] + wr * r, acc[1] + wg * g, acc[2] + wb * b, acc[3] + wr, acc[4] + wg, acc[5] + wb)
+
+
 @njit(nogil=True, cache=True)
 def eval_merl(wi, wo, p):
     """``f_r`` by trilinear interpolation between cell centres in index space (``sqrt(theta_h)``,
@@ -141,44 +228,40 @@ def eval_merl(wi, wo, p):
     missing cells are left out of the weights (0 where every neighbour is missing).
 
     ``p`` is :meth:`MerlTable.kernel_vector`: scaled values, missing cells negative, RGB interleaved.
+    The angles come from :func:`_lookup_angles` (its own arc tangents; MERL's reference reader,
+    :func:`eval_merl_nearest`, keeps :func:`half_diff_angles`) and the eight corners are summed
+    without branches: 136 -> 75 ns a lookup (a sweep of one view's directions, one core).
     """
     if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
         return 0.0, 0.0, 0.0
-    theta_h, theta_d, phi_d = half_diff_angles(wi, wo)
-    ih, th = _bracket(math.sqrt(max(theta_h, 0.0) / HALF_PI) * N_THETA_H - 0.5, N_THETA_H)
-    jd, td = _bracket(theta_d / HALF_PI * N_THETA_D - 0.5, N_THETA_D)
-    if phi_d < 0.0:
-        phi_d += math.pi
-    up = phi_d / math.pi * N_PHI_D - 0.5
+    theta_h, theta_d, phi_d = _lookup_angles(wi, wo)
+    ih, th = _bracket(math.sqrt(max(theta_h, 0.0) * (1.0 / HALF_PI)) * N_THETA_H - 0.5, N_THETA_H)
+    jd, td = _bracket(theta_d * (N_THETA_D / HALF_PI) - 0.5, N_THETA_D)
+    up = phi_d * (N_PHI_D / math.pi) - 0.5
     kp = int(math.floor(up))
     tp = up - kp
-    acc_r = acc_g = acc_b = 0.0
-    w_r = w_g = w_b = 0.0
-    for a in range(2):
-        wa = th if a == 1 else 1.0 - th
-        if wa == 0.0:
-            continue
-        for b in range(2):
-            wb = wa * (td if b == 1 else 1.0 - td)
-            if wb == 0.0:
-                continue
-            for c in range(2):
-                w = wb * (tp if c == 1 else 1.0 - tp)
-                if w == 0.0:
-                    continue
-                k = 3 * ((kp + c) % N_PHI_D + N_PHI_D * (jd + b + N_THETA_D * (ih + a)))
-                v = p[k]
-                if v >= 0.0:
-                    acc_r += w * v
-                    w_r += w
-                v = p[k + 1]
-                if v >= 0.0:
-                    acc_g += w * v
-                    w_g += w
-                v = p[k + 2]
-                if v >= 0.0:
-                    acc_b += w * v
-                    w_b += w
+    k0 = kp if kp >= 0 else kp + N_PHI_D  # the two phi_d neighbours (periodic), without a modulo
+    k1 = kp + 1 if kp + 1 < N_PHI_D else kp + 1 - N_PHI_D
+    b00 = N_PHI_D * (jd + N_THETA_D * ih)  # the four (theta_h, theta_d) rows of the eight corners
+    b01 = b00 + N_PHI_D
+    b10 = b00 + N_PHI_D * N_THETA_D
+    b11 = b10 + N_PHI_D
+    w00 = (1.0 - th) * (1.0 - td)
+    w01 = (1.0 - th) * td
+    w10 = th * (1.0 - td)
+    w11 = th * td
+    sp = 1.0 - tp
+    # straight-line, in the order of the loops it replaced (theta_h, theta_d, phi_d): the same sums to the bit
+    acc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    acc = _add_corner(p, 3 * (k0 + b00), w00 * sp, acc)
+    acc = _add_corner(p, 3 * (k1 + b00), w00 * tp, acc)
+    acc = _add_corner(p, 3 * (k0 + b01), w01 * sp, acc)
+    acc = _add_corner(p, 3 * (k1 + b01), w01 * tp, acc)
+    acc = _add_corner(p, 3 * (k0 + b10), w10 * sp, acc)
+    acc = _add_corner(p, 3 * (k1 + b10), w10 * tp, acc)
+    acc = _add_corner(p, 3 * (k0 + b11), w11 * sp, acc)
+    acc = _add_corner(p, 3 * (k1 + b11), w11 * tp, acc)
+    acc_r, acc_g, acc_b, w_r, w_g, w_b = acc
     r = acc_r / w_r if w_r > 0.0 else 0.0
     g = acc_g / w_g if w_g > 0.0 else 0.0
     b_ = acc_b / w_b if w_b > 0.0 else 0.0
