@@ -22,7 +22,7 @@ equal-time run would show (``bench/render.py``), component by component.
 Prints tables; writes ``demo_error.csv`` (one row per strategy, component and class) under ``--out``.
 
     .venv/bin/python bench/demo_error.py [--size 256] [--spp 64] [--ref-spp 2048] [--seed 1] [--save]
-        [--strategies uniform,cosine,analytic,adaptive_warp] [--option LABEL=S:k=v,p_area=P] [--ris 0]
+        [--strategies uniform,cosine,analytic,adaptive_warp] [--option LABEL=S:k=v,p_area=P,mis=balance] [--ris 0]
         [--scene FILE]
 
 Findings (the demo, 2026-12-03): docs/renderer.md, "Where the demo's remaining error comes from".
@@ -170,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument(
         "--option", action="append", default=[], metavar="LABEL=S:k=v,...",
-        help="an extra row: strategy S with sampler options (or ris=M, p_area=P), labelled LABEL (repeatable)",
+        help="an extra row: strategy S with sampler options (or ris=M, p_area=P, mis=balance), labelled LABEL (repeatable)",
     )  # fmt: skip
     ap.add_argument(
         "--save", action="store_true", help="also write each strategy's images (demo_error_S.npz)"
@@ -201,6 +201,9 @@ def main(argv: list[str] | None = None) -> int:
             if k == "p_area":
                 opts["@p_area"] = float(v)
                 continue
+            if k == "mis":
+                opts["@mis"] = v
+                continue
             try:
                 opts[k] = int(v) if v.lstrip("-").isdigit() else float(v)
             except ValueError:
@@ -211,12 +214,16 @@ def main(argv: list[str] | None = None) -> int:
     summary: dict[str, dict] = {}
     for label, strat, opts, ris in runs:
         p_area = opts.pop("@p_area", None)
+        run_scene = scene
+        if "@mis" in opts:  # the MIS heuristic of this row ("power" or "balance")
+            run_scene = scene.model_copy(deep=True)
+            run_scene.render.mis = opts.pop("@mis")
         options = {**scene.render.sampler_options, **opts}
         kw = {"sampler_options": options, "ris_candidates": ris, "p_area": p_area}
         img, _, cpu, names, classes = render_stats(
-            scene, strat, args.size, args.spp, args.seed, full_depth, **kw
+            run_scene, strat, args.size, args.spp, args.seed, full_depth, **kw
         )
-        dimg, _, cpu_d, _, _ = render_stats(scene, strat, args.size, args.spp, args.seed, 1, **kw)
+        dimg, _, cpu_d, _, _ = render_stats(run_scene, strat, args.size, args.spp, args.seed, 1, **kw)
         neg = float(np.minimum(img - dimg, 0.0).min())
         cls_names = {i: n for i, n in enumerate(names)} | {-2: "sky", -3: "edge", NO_MATERIAL: "light"}
         e_full, e_dir = img - ref_full, dimg - ref_dir
