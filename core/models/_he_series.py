@@ -29,6 +29,19 @@ logarithms' sum; within 1.2e-13 of it inside these limits, ``tests/core/models/t
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _dot6(w, values, j):
+    """``sum_k w[k] values[j + k]`` over six nodes, left to right."""
+    return (
+        w[0] * values[j]
+        + w[1] * values[j + 1]
+        + w[2] * values[j + 2]
+        + w[3] * values[j + 3]
+        + w[4] * values[j + 4]
+        + w[5] * values[j + 5]
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _lagrange6(t):
     """Weights of the six-node Lagrange interpolant on the nodes ``0..5`` at ``t``."""
     d0 = t
@@ -189,15 +202,7 @@ def log_roughness_ratio_of_k(k_sum):
         return -0.5 * math.log1p(_halley_u2(x, _initial_log_u(x)))
     u = (x - RATIO_X_MIN) * (1.0 / RATIO_STEP) + 2.0
     i = min(int(u) - 2, RATIO_NODES - 6)
-    w = _lagrange6(u - i)
-    return (
-        w[0] * RATIO_TABLE[i]
-        + w[1] * RATIO_TABLE[i + 1]
-        + w[2] * RATIO_TABLE[i + 2]
-        + w[3] * RATIO_TABLE[i + 3]
-        + w[4] * RATIO_TABLE[i + 4]
-        + w[5] * RATIO_TABLE[i + 5]
-    )
+    return _dot6(_lagrange6(u - i), RATIO_TABLE, i)
 
 
 HALF_LOG_TWO_PI = 0.9189385332046728
@@ -397,15 +402,7 @@ frozen into the compiled kernels (580 kB together)."""
 @njit(inline="always", nogil=True, cache=True)
 def _row_at(table, i, j, w):
     """Row ``i`` of ``table`` interpolated in ``y`` from columns ``j..j+5`` with the weights ``w``."""
-    row = table[i]
-    return (
-        w[0] * row[j]
-        + w[1] * row[j + 1]
-        + w[2] * row[j + 2]
-        + w[3] * row[j + 3]
-        + w[4] * row[j + 4]
-        + w[5] * row[j + 5]
-    )
+    return _dot6(w, table[i], j)
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -4,24 +4,18 @@ of its direct/indirect split), and the script writes its table."""
 from __future__ import annotations
 
 import csv
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from app.commands.render import demo_scene_path
 from core.scene import load_scene
-
-ROOT = Path(__file__).resolve().parents[2]
+from tests.bench._load import bench_module
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_demo_error", ROOT / "bench" / "demo_error.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    yield from bench_module("demo_error")
 
 
 def test_direct_only_is_a_prefix_of_the_full_render(bench):

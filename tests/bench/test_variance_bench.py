@@ -4,24 +4,18 @@ its files."""
 from __future__ import annotations
 
 import csv
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, make_brdf
-
-ROOT = Path(__file__).resolve().parents[2]
+from tests.bench._load import bench_module
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_variance", ROOT / "bench" / "variance.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    yield from bench_module("variance")
 
 
 def test_lambert_variances_match_closed_forms(bench, tmp_path, monkeypatch):
