@@ -353,3 +353,43 @@ def test_table_values_scale_and_zero_missing():
     v = t.values()
     assert np.all(v[:, 0, 0, 0] == 0.0)
     np.testing.assert_array_equal(v[:, 1, 0, 0], SCALES)
+
+
+def test_the_lookup_angles_are_the_rusinkiewicz_angles_at_hard_pairs():
+    """The interpolating reader's own angles (no library arc tangent, ``h`` not normalized) against
+    :func:`half_diff_angles` (``phi_d`` folded into ``[0, pi]``, reciprocity) at random pairs, grazing ones a
+    hair above the horizon, ``h`` along the normal (``wi = wo``, normal incidence) and mirror pairs."""
+    from numba import njit
+
+    from core.merl import _lookup_angles, half_diff_angles
+
+    @njit
+    def both(wi, wo):
+        out = np.empty((wi.shape[0], 6))
+        for k in range(wi.shape[0]):
+            a = (wi[k, 0], wi[k, 1], wi[k, 2])
+            b = (wo[k, 0], wo[k, 1], wo[k, 2])
+            out[k, 0], out[k, 1], out[k, 2] = _lookup_angles(a, b)
+            out[k, 3], out[k, 4], out[k, 5] = half_diff_angles(a, b)
+        return out
+
+    rng = np.random.default_rng(17)
+
+    def upper(n, z_max=1.0):
+        z = rng.uniform(0.0, z_max, n)
+        phi = rng.uniform(0.0, 2.0 * math.pi, n)
+        s = np.sqrt(1.0 - z * z)
+        return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+
+    wi = np.concatenate([upper(4000), upper(1000, 1e-6), [[0.0, 0.0, 1.0]], upper(500)])
+    wo = np.concatenate([upper(4000), upper(1000, 1e-6), [[0.0, 0.0, 1.0]], wi[-500:] * [-1.0, -1.0, 1.0]])
+    wi[-501 - 200 : -501] = wo[-501 - 200 : -501]  # wi = wo: h along wo
+    got = both(np.ascontiguousarray(wi), np.ascontiguousarray(wo))
+    assert np.all(np.isfinite(got))
+    ref_phi = np.where(got[:, 5] < 0.0, got[:, 5] + math.pi, got[:, 5])
+    np.testing.assert_allclose(got[:, 0], got[:, 3], atol=1e-12)
+    np.testing.assert_allclose(got[:, 1], got[:, 4], atol=1e-12)
+    # phi_d is undefined where theta_d = 0 (wi = h): compare it where the difference direction is defined
+    defined = got[:, 4] > 1e-6
+    d_phi = np.abs(got[defined, 2] - ref_phi[defined])
+    assert np.all(np.minimum(d_phi, math.pi - d_phi) < 1e-9)
