@@ -1,19 +1,28 @@
-"""Ray queries through Embree (embreex): batched closest-hit and occlusion, chunked over worker threads.
+"""Ray queries through Embree: batched closest-hit and occlusion, chunked over worker threads.
 
-Embree's ``tnear`` is fixed at 0 in embreex, so callers offset secondary-ray origins off the surface.
-``run`` releases the GIL, so chunks of one batch run in parallel on the worker threads.
+Two backends, the same answers (tested): ``"direct"`` calls the Embree library embreex ships from compiled
+loops in packets of 16 (:mod:`renderer.embree`, the default); ``"embreex"`` goes through embreex's ``run``,
+one ray at a time (used where the library cannot be loaded, or chosen with ``BRDF_STUDIO_EMBREE=embreex``).
+Both leave ``tnear`` at 0, so callers offset secondary-ray origins off the surface, and both run without the
+GIL, so chunks of one batch run in parallel on the worker threads.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from renderer.embree import EmbreeScene, EmbreeUnavailable
+
 MISS = -1
+BACKEND_ENV = "BRDF_STUDIO_EMBREE"
+BACKENDS = ("direct", "embreex")
 _THREAD_PREFIX = "embree-rays"
 _FAR = np.float32(1e30)
 
@@ -32,16 +41,35 @@ class Hits:
 class Accel:
     """An Embree BVH over triangles ``vertices (n, 3)``, ``faces (m, 3)``; triangle ids are face rows."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, threads: int = 2, chunk: int = 32768):
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
+    def __init__(
+        self,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        threads: int = 2,
+        chunk: int = 32768,
+        backend: str | None = None,
+    ):
+        backend = backend or os.environ.get(BACKEND_ENV) or "direct"
+        if backend not in BACKENDS:
+            raise ValueError(f"{BACKEND_ENV}={backend!r}: expected one of {', '.join(BACKENDS)}")
+        self._direct: EmbreeScene | None = None
+        if backend == "direct":
+            try:
+                self._direct = EmbreeScene(vertices, faces)
+            except EmbreeUnavailable as e:
+                warnings.warn(f"{e}; tracing through embreex's run instead", RuntimeWarning, stacklevel=2)
+                backend = "embreex"
+        if backend == "embreex":
+            from embreex import rtcore_scene
+            from embreex.mesh_construction import TriangleMesh
 
-        self._scene = rtcore_scene.EmbreeScene()
-        self._mesh = TriangleMesh(
-            self._scene,
-            np.ascontiguousarray(vertices, dtype=np.float32),
-            np.ascontiguousarray(faces, dtype=np.int32),
-        )
+            self._scene = rtcore_scene.EmbreeScene()
+            self._mesh = TriangleMesh(
+                self._scene,
+                np.ascontiguousarray(vertices, dtype=np.float32),
+                np.ascontiguousarray(faces, dtype=np.int32),
+            )
+        self.backend = backend
         self.threads = max(1, int(threads))
         self.chunk = int(chunk)
         self._pool = (
@@ -82,22 +110,13 @@ class Accel:
         n = len(origins)
         o = np.ascontiguousarray(origins, dtype=np.float32)
         d = np.ascontiguousarray(directions, dtype=np.float32)
-        t = np.empty(n, dtype=np.float64)
-        prim = np.empty(n, dtype=np.int64)
-        u = np.empty(n, dtype=np.float64)
-        v = np.empty(n, dtype=np.float64)
-
-        def run(s: slice) -> None:
-            r = self._scene.run(o[s], d[s], output=1)
-            geom = r["geomID"]
-            prim[s] = np.where(geom == MISS, MISS, r["primID"])
-            t[s] = np.where(geom == MISS, np.inf, r["tfar"])
-            u[s] = r["u"]
-            v[s] = r["v"]
-
+        prim32 = np.empty(n, dtype=np.int32)
+        t32, u32, v32 = (np.empty(n, dtype=np.float32) for _ in range(3))
         if n:
-            self._map(run, n)
-        return Hits(t, prim, u, v)
+            self.trace(o, d, prim32, t32, u32, v32)
+        return Hits(
+            t32.astype(np.float64), prim32.astype(np.int64), u32.astype(np.float64), v32.astype(np.float64)
+        )
 
     def trace(
         self,
@@ -114,6 +133,11 @@ class Accel:
         float32: the wavefront's query, with no conversion of its inputs. ``parallel=False`` traces on the
         calling thread in one call (a caller that runs its own threads)."""
         n = len(o32)
+        direct = self._direct
+        if direct is not None:
+            if n:
+                self._map(lambda s: direct.trace(o32[s], d32[s], prim[s], t[s], u[s], v[s]), n, parallel)
+            return
 
         def run(s: slice) -> None:
             ts = t[s]
@@ -143,6 +167,11 @@ class Accel:
         else:
             far = np.ascontiguousarray(np.minimum(t_max, _FAR), dtype=np.float32)
         out = np.empty(n, dtype=bool)
+        direct = self._direct
+        if direct is not None:
+            if n:
+                self._map(lambda s: direct.occluded(o[s], d[s], far[s], out[s]), n, parallel)
+            return out
 
         def run(s: slice) -> None:
             out[s] = self._scene.run(o[s], d[s], dists=far[s], query="OCCLUDED") != MISS
