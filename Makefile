@@ -4,9 +4,9 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 WARMED := $(VENV)/.warmed-stamp
-# numba's cached compiles are stamped by the sources they import (core/_numba_cache.py): an edit of any of
-# these makes some of them stale, and the warm-up compiles those again
-KERNEL_SOURCES := $(shell find core renderer -name '*.py' -not -path '*/__pycache__/*' 2>/dev/null)
+# numba's cached compiles are stamped by the sources they import (core/_numba_cache.py) and the modules' .npz
+# tables: an edit of any of these makes some of them stale, and the warm-up compiles those again
+KERNEL_SOURCES := $(shell find core renderer \( -name '*.py' -o -name '*.npz' \) -not -path '*/__pycache__/*' 2>/dev/null)
 JOBS   ?= 2
 
 .PHONY: setup sysdeps run test lint bench clean

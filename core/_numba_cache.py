@@ -130,13 +130,18 @@ def _file_hash(path: Path) -> bytes:
 @cache
 def closure_hash(path: str) -> bytes:
     """Hash of the import closure of the source file ``path`` and of the numba and Python versions (read
-    once per process: the sources of a running process do not change; each file is read and hashed once)."""
+    once per process: the sources of a running process do not change; each file is read and hashed once).
+    A module's data file of the same name with the suffix ``.npz`` (``_he_series.npz``) counts as part of the
+    module: its values are frozen into the compiled kernels that read them at import."""
     import numba
 
     h = hashlib.sha256()
     for f in import_closure(Path(path).resolve()):
         h.update(str(f.relative_to(ROOT)).encode() if f.is_relative_to(ROOT) else str(f).encode())
         h.update(_file_hash(f))
+        data = f.with_suffix(".npz")
+        if data.is_file():  # a module's data file (its tables, frozen into its kernels) is part of it
+            h.update(_file_hash(data))
     h.update(numba.__version__.encode())
     h.update(sys.version.encode())
     return h.digest()

@@ -2,12 +2,17 @@
 
 Kept apart from the model module so the tests can reach each piece: the shadowing function, the effective
 roughness from the Newton iteration, and the Poisson-weighted series of the directional-diffuse term.
-All functions are numba kernels working on plain floats.
+The kernels are numba functions working on plain floats; the tables they read are computed once from them and
+shipped as ``_he_series.npz`` (:data:`TABLES_FILE`, written by ``python -m core.models._he_tables``).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import warnings
+import zipfile
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -182,7 +187,7 @@ def _ratio_table():
     return out
 
 
-RATIO_TABLE = _ratio_table()
+# RATIO_TABLE (of _ratio_table) is read from the tables' file with the series' tables: see load_tables below
 
 
 @njit(nogil=True, cache=True)
@@ -393,10 +398,114 @@ def _series_table(x0, rows, cols, step_y):
     return out
 
 
-ROUGH_TABLE = _series_table(ROUGH_X0, ROUGH_ROWS, ROUGH_COLS, TABLE_STEP)
-SMOOTH_TABLE = _series_table(SMOOTH_X0, SMOOTH_ROWS, SMOOTH_COLS, TABLE_STEP / 2.0)
-"""``ln`` of the series for ``g >= 1`` (162 x 226 values) and below (80 x 448), built at import (~30 ms) and
-frozen into the compiled kernels (580 kB together)."""
+TABLES_FILE = Path(__file__).with_name("_he_series.npz")
+"""The tables, computed once by :func:`build_tables` and shipped with the package (uncompressed ``.npz``,
+634 kB; ~1 ms to read, where building them took numba's cached functions, 0.3-0.6 s at every import).
+:mod:`core._numba_cache` stamps the compiled kernels of this module with this file too: the kernels freeze the
+tables' values, so a regenerated file recompiles them."""
+REGENERATE = "python -m core.models._he_tables"
+
+
+def _grid_key() -> np.ndarray:
+    """The constants the tables are built on, stored with them: a file built on another grid is not used."""
+    constants = (RATIO_X_MIN, RATIO_X_MAX, RATIO_STEP, RATIO_NODES, TABLE_A_MAX, TABLE_G_MIN, TABLE_G_MID)
+    constants += (TABLE_G_MAX, TABLE_STEP, ROUGH_X0, ROUGH_ROWS, ROUGH_COLS, SMOOTH_X0, SMOOTH_ROWS)
+    constants += (SMOOTH_COLS,)
+    return np.array(constants, dtype=np.float64)
+
+
+TABLE_SHAPES = {
+    "ratio": (RATIO_NODES,),
+    "rough": (ROUGH_ROWS, ROUGH_COLS),
+    "smooth": (SMOOTH_ROWS, SMOOTH_COLS),
+}
+
+
+def build_tables() -> dict[str, np.ndarray]:
+    """The three tables computed from the code: ``ratio`` (:func:`log_roughness_ratio_of_k`'s, of
+    :func:`_ratio_table`), ``rough`` and ``smooth`` (``ln`` of :func:`diffuse_series` for ``g >= 1`` and below)."""
+    return {
+        "ratio": _ratio_table(),
+        "rough": _series_table(ROUGH_X0, ROUGH_ROWS, ROUGH_COLS, TABLE_STEP),
+        "smooth": _series_table(SMOOTH_X0, SMOOTH_ROWS, SMOOTH_COLS, TABLE_STEP / 2.0),
+    }
+
+
+class TablesFileError(ValueError):
+    """What makes the tables' file unusable (missing, damaged, of another grid)."""
+
+
+def _read_tables(path: Path) -> dict[str, np.ndarray]:
+    """The tables stored at ``path``; :class:`TablesFileError` naming what is wrong with the file."""
+    names = ("grid", *TABLE_SHAPES)
+    if not path.is_file():
+        raise TablesFileError("the file is missing")
+    if not zipfile.is_zipfile(path):  # np.load would try it as a pickle
+        raise TablesFileError("the file is not an .npz (zip) archive")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [name for name in names if name not in data.files]
+            stored = {} if missing else {name: data[name] for name in names}
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile) as exc:
+        raise TablesFileError(f"the file cannot be read ({type(exc).__name__}: {exc})") from None
+    if missing:
+        raise TablesFileError(f"the file has no {', '.join(missing)} table")
+    if not all(isinstance(table, np.ndarray) for table in stored.values()):  # a member that is not .npy
+        raise TablesFileError("the file holds a table that is not an .npy array")
+    grid = stored.pop("grid")
+    if grid.shape != _grid_key().shape or not np.array_equal(grid, _grid_key()):
+        raise TablesFileError("the file was built on other grid constants than the code's")
+    for name, table in stored.items():
+        if table.dtype != np.float64 or table.shape != TABLE_SHAPES[name]:
+            raise TablesFileError(
+                f"its table {name!r} is {table.dtype} {table.shape}, not float64 {TABLE_SHAPES[name]}"
+            )
+        if not np.isfinite(table).all():
+            raise TablesFileError(f"its table {name!r} holds non-finite values")
+    return stored
+
+
+def load_tables(path: Path = TABLES_FILE) -> dict[str, np.ndarray]:
+    """The tables of the file ``path``; when it is missing or unusable, a ``RuntimeWarning`` naming it and the
+    command that writes it again, and the tables built in memory (the same values, 0.3-0.6 s)."""
+    try:
+        return _read_tables(Path(path))
+    except TablesFileError as exc:
+        warnings.warn(
+            f"He's series tables {path}: {exc}. Building them in memory instead; "
+            f"regenerate the file with `{REGENERATE}`.",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return build_tables()
+
+
+def write_tables(path: Path = TABLES_FILE) -> Path:
+    """Compute the tables (:func:`build_tables`) and write them to ``path`` atomically (a temporary file in the
+    same folder, then renamed over it)."""
+    path = Path(path)
+    tables = build_tables()
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        # np.savez's layout (one .npy a table, uncompressed) with a fixed date in the zip entries: the same tables
+        # make the same bytes, so writing them again changes neither git nor the kernels' cache stamps
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_STORED) as z:
+            for name, table in (("grid", _grid_key()), *tables.items()):
+                info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+                with z.open(info, "w", force_zip64=True) as out:
+                    np.lib.format.write_array(out, np.ascontiguousarray(table), allow_pickle=False)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+_TABLES = load_tables()
+RATIO_TABLE = _TABLES["ratio"]
+ROUGH_TABLE = _TABLES["rough"]
+SMOOTH_TABLE = _TABLES["smooth"]
+"""``ln`` of the series for ``g >= 1`` (162 x 226 values) and below (80 x 448), read from ``TABLES_FILE``
+(built by :func:`_series_table`) and frozen into the compiled kernels (580 kB together)."""
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -31,10 +31,10 @@ k (wi + wo)``, ``k = 2 pi / lambda``:
   which ``rho_dd`` becomes the Torrance-Sparrow form ``F D_Beckmann S / (4 cos_i cos_r)`` with Beckmann slope
   ``m = 2 sigma / tau``; the tests check both limits.
 * Tabulated series (the kernel's cost): for ``0.1 <= g <= 128`` and ``a = tau^2 v_xy^2 / 4 <= 1024`` (the
-  seed's settings reach ``g = 61.7``, ``a = 555``) the kernel reads ``ln`` of the sum from two tables built at
-  import from the sum itself, on nodes every 1/32 of ``ln g`` and every 1/32 (``g >= 1``) or 1/64 (``g < 1``)
-  of ``ln(1 + a)``, by six-by-six-node Lagrange interpolation (``_he_series.tabulated_series_log``); elsewhere it
-  sums the series. The interpolant's error is of order ``h^6`` times derivatives of ``ln sum``, which are
+  seed's settings reach ``g = 61.7``, ``a = 555``) the kernel reads ``ln`` of the sum from two tables computed
+  once from the sum itself (shipped as ``_he_series.npz``, read at import), on nodes every 1/32 of ``ln g``
+  and every 1/32 (``g >= 1``) or 1/64 (``g < 1``) of ``ln(1 + a)``, by six-by-six-node Lagrange interpolation
+  (``_he_series.tabulated_series_log``); elsewhere it sums the series. The interpolant's error is of order ``h^6`` times derivatives of ``ln sum``, which are
   cumulants of ``m`` and ``1/m`` under the terms' weights (bounded, and largest where few terms matter: near
   ``g = 1``, ``a = 5``); it is bounded by measurement, not proof: 8.4e-10 at most on 16 points of every
   cell of both tables and 10^6 random points, 8.5e-10 for ``f`` against the summed kernel on 500 000

@@ -92,3 +92,21 @@ def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monke
 
     rgl = {p.name for p in table.source_files(SimpleNamespace(model=RGL))}  # type: ignore[arg-type]
     assert {"lookup.py", "marginal.py", "tensor_file.py"} <= rgl and "ggx.py" not in rgl
+
+
+def test_a_module_s_npz_data_file_is_part_of_its_stamp(monkeypatch):
+    """Tables a module reads at import (``core/models/_he_series.npz``) are frozen into its kernels: a module's
+    ``.npz`` of the same name is hashed with it, so a regenerated file makes its compiles stale."""
+    hashed: list[Path] = []
+
+    def file_hash(path: Path) -> bytes:
+        hashed.append(path)
+        return path.name.encode()
+
+    monkeypatch.setattr(nc, "_file_hash", file_hash)
+    nc.closure_hash.__wrapped__(str(nc.ROOT / "core" / "models" / "he.py"))
+    he_series = nc.ROOT / "core" / "models" / "_he_series.py"
+    assert he_series in hashed
+    assert hashed[hashed.index(he_series) + 1] == he_series.with_suffix(".npz")
+    assert he_series.with_suffix(".npz").is_file()
+    assert [p for p in hashed if p.suffix == ".npz"] == [he_series.with_suffix(".npz")]

@@ -391,3 +391,59 @@ def test_direction_k_is_log_k_and_shadow_over_cos():
             if k == 0.0:  # mu >= 25: K below 1e-270
                 assert s == 0.0 or math.exp(log_k(c, s, tau_2s)) < 1e-260
             np.testing.assert_allclose(shadow, shadow_over_cos(c, s, tau_2s, sig_tau), rtol=1e-15)
+
+
+def test_the_shipped_tables_are_the_code_s():
+    """The tables read from ``_he_series.npz`` at import are, bit for bit, the ones the code builds now (the
+    guard that the shipped file and the code agree: regenerate it with ``python -m core.models._he_tables``)."""
+    from core.models import _he_series
+
+    built = _he_series.build_tables()
+    assert set(built) == {"ratio", "rough", "smooth"}
+    assert np.array_equal(_he_series.RATIO_TABLE, built["ratio"])
+    assert np.array_equal(_he_series.ROUGH_TABLE, built["rough"])
+    assert np.array_equal(_he_series.SMOOTH_TABLE, built["smooth"])
+    stored = _he_series.load_tables()  # the file itself, not a fallback: no warning (an error under pytest)
+    assert all(np.array_equal(stored[name], built[name]) for name in built)
+
+
+def test_a_written_tables_file_reads_back_the_same_bytes(tmp_path):
+    """``write_tables`` writes atomically (no temporary file left) and the same tables make the same bytes."""
+    from core.models import _he_series
+
+    path = _he_series.write_tables(tmp_path / "tables.npz")
+    assert [p.name for p in tmp_path.iterdir()] == ["tables.npz"]
+    assert path.read_bytes() == _he_series.TABLES_FILE.read_bytes()
+    stored = _he_series.load_tables(path)
+    assert all(np.array_equal(stored[n], getattr(_he_series, f"{n.upper()}_TABLE")) for n in stored)
+
+
+@pytest.mark.parametrize(
+    "damage", ["missing", "garbage", "truncated", "one bit flipped", "other grid", "no table"]
+)
+def test_an_unusable_tables_file_warns_and_the_tables_are_built(tmp_path, damage):
+    """A missing or damaged file: a ``RuntimeWarning`` naming the file and the command that writes it again,
+    and the tables built in memory (the same values), not a traceback from numpy."""
+    from core.models import _he_series
+
+    path = tmp_path / "tables.npz"
+    shipped = _he_series.TABLES_FILE.read_bytes()
+    if damage == "garbage":
+        path.write_bytes(b"not a zip file at all")
+    elif damage == "truncated":
+        path.write_bytes(shipped[: len(shipped) // 2])
+    elif damage == "one bit flipped":  # in a table's values: the zip's CRC-32 catches it
+        flipped = bytearray(shipped)
+        flipped[len(shipped) // 2] ^= 1
+        path.write_bytes(bytes(flipped))
+    elif damage == "other grid":
+        tables = {n: getattr(_he_series, f"{n.upper()}_TABLE") for n in ("ratio", "rough", "smooth")}
+        np.savez(path, grid=_he_series._grid_key() + 1.0, **tables)
+    elif damage == "no table":
+        np.savez(path, grid=_he_series._grid_key(), ratio=_he_series.RATIO_TABLE)
+    with pytest.warns(RuntimeWarning) as record:
+        tables = _he_series.load_tables(path)
+    message = str(record[0].message)
+    assert str(path) in message and _he_series.REGENERATE in message, message
+    assert _he_series.REGENERATE == "python -m core.models._he_tables"
+    assert all(np.array_equal(tables[n], getattr(_he_series, f"{n.upper()}_TABLE")) for n in tables)
