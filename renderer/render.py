@@ -179,6 +179,7 @@ class RenderJob:
             "render_seconds": round(self.elapsed, 4),
             "rays": stats.rays,
             "rays_per_second": round(stats.rays / self.elapsed) if self.elapsed > 0 else None,
+            "ray_queries": self.world.accel.backend,
             "nonfinite_contributions": stats.nonfinite,
             "prepare": self.prepare_report,
             "versions": versions(),
