@@ -188,35 +188,53 @@ def _aligned(n_floats):  # type: ignore[no-untyped-def]
     return buf, buf.view(np.uint32), buf.ctypes.data
 
 
+@nb.njit(cache=True, inline="always")
+def _packet(fields):  # type: ignore[no-untyped-def]
+    """A packet of ``fields`` 16-lane fields and its valid mask: ``(r, r as uint32, r's address, mask as
+    int32, mask's address)``."""
+    r, ri, r_ptr = _aligned(fields * WIDTH)
+    valid, _, valid_ptr = _aligned(WIDTH)
+    return r, ri, r_ptr, valid.view(np.int32), valid_ptr
+
+
+@nb.njit(cache=True, nogil=True)
+def _load_packet(r, ri, vi, o32, d32, s, m, t_max):  # type: ignore[no-untyped-def]
+    """Rays ``s .. s + m - 1`` into the packet ``r`` (``ri``: its uint32 view), lanes ``m ..`` off in the
+    valid mask ``vi``: from 0 to ``t_max[i]``, or for ``t_max = None`` to infinity with the hit's geometry
+    id cleared (a closest-hit query's ``RTCRayHit16``)."""
+    for k in range(WIDTH):
+        if k >= m:
+            vi[k] = 0
+            continue
+        i = s + k
+        r[k] = o32[i, 0]
+        r[WIDTH + k] = o32[i, 1]
+        r[2 * WIDTH + k] = o32[i, 2]
+        r[3 * WIDTH + k] = 0.0  # tnear: callers offset their origins off the surface
+        r[4 * WIDTH + k] = d32[i, 0]
+        r[5 * WIDTH + k] = d32[i, 1]
+        r[6 * WIDTH + k] = d32[i, 2]
+        r[7 * WIDTH + k] = 0.0  # time
+        ri[_MASK * WIDTH + k] = _INVALID
+        ri[_ID * WIDTH + k] = 0
+        ri[_FLAGS * WIDTH + k] = 0
+        if t_max is None:
+            r[_TFAR * WIDTH + k] = np.inf
+            ri[_GEOM * WIDTH + k] = _INVALID
+        else:
+            r[_TFAR * WIDTH + k] = t_max[i]
+        vi[k] = -1
+
+
 @nb.njit(cache=True, nogil=True)
 def trace_packets(intersect16, scene, o32, d32, prim, t, u, v):  # type: ignore[no-untyped-def]
     """Closest hits of the rays in packets of 16 through ``rtcIntersect16`` (``intersect16``, a ctypes
     function pointer; ``scene`` the ``RTCScene`` handle); results into ``prim, t, u, v``."""
     n = o32.shape[0]
-    r, ri, r_ptr = _aligned(_FIELDS_HIT * WIDTH)
-    valid, _, valid_ptr = _aligned(WIDTH)
-    vi = valid.view(np.int32)
+    r, ri, r_ptr, vi, valid_ptr = _packet(_FIELDS_HIT)
     for s in range(0, n, WIDTH):
         m = min(WIDTH, n - s)
-        for k in range(WIDTH):
-            if k < m:
-                i = s + k
-                r[k] = o32[i, 0]
-                r[WIDTH + k] = o32[i, 1]
-                r[2 * WIDTH + k] = o32[i, 2]
-                r[3 * WIDTH + k] = 0.0  # tnear: callers offset their origins off the surface
-                r[4 * WIDTH + k] = d32[i, 0]
-                r[5 * WIDTH + k] = d32[i, 1]
-                r[6 * WIDTH + k] = d32[i, 2]
-                r[7 * WIDTH + k] = 0.0
-                r[_TFAR * WIDTH + k] = np.inf
-                ri[_MASK * WIDTH + k] = _INVALID
-                ri[_ID * WIDTH + k] = 0
-                ri[_FLAGS * WIDTH + k] = 0
-                ri[_GEOM * WIDTH + k] = _INVALID
-                vi[k] = -1
-            else:
-                vi[k] = 0
+        _load_packet(r, ri, vi, o32, d32, s, m, None)
         intersect16(valid_ptr, scene, r_ptr, 0)
         for k in range(m):
             i = s + k
@@ -237,29 +255,10 @@ def occluded_packets(occluded16, scene, o32, d32, t_max, out):  # type: ignore[n
     """``out[i]``: something lies on ray ``i`` before ``t_max[i]``, through ``rtcOccluded16`` in packets of
     16 (Embree sets an occluded ray's ``tfar`` to -inf)."""
     n = o32.shape[0]
-    r, ri, r_ptr = _aligned(_FIELDS_RAY * WIDTH)
-    valid, _, valid_ptr = _aligned(WIDTH)
-    vi = valid.view(np.int32)
+    r, ri, r_ptr, vi, valid_ptr = _packet(_FIELDS_RAY)
     for s in range(0, n, WIDTH):
         m = min(WIDTH, n - s)
-        for k in range(WIDTH):
-            if k < m:
-                i = s + k
-                r[k] = o32[i, 0]
-                r[WIDTH + k] = o32[i, 1]
-                r[2 * WIDTH + k] = o32[i, 2]
-                r[3 * WIDTH + k] = 0.0
-                r[4 * WIDTH + k] = d32[i, 0]
-                r[5 * WIDTH + k] = d32[i, 1]
-                r[6 * WIDTH + k] = d32[i, 2]
-                r[7 * WIDTH + k] = 0.0
-                r[_TFAR * WIDTH + k] = t_max[i]
-                ri[_MASK * WIDTH + k] = _INVALID
-                ri[_ID * WIDTH + k] = 0
-                ri[_FLAGS * WIDTH + k] = 0
-                vi[k] = -1
-            else:
-                vi[k] = 0
+        _load_packet(r, ri, vi, o32, d32, s, m, t_max)
         occluded16(valid_ptr, scene, r_ptr, 0)
         for k in range(m):
             out[s + k] = r[_TFAR * WIDTH + k] < 0.0
