@@ -82,7 +82,8 @@ def adaptive_line(brdf: BRDF, stop: Callable[[], bool] | None = None) -> str | N
     info = sampler.info()
     return (
         f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
-        f"built in {info.get('build_seconds', 0.0) * 1000:.0f} ms"
+        + ("loaded from the cache" if info.get("from_cache") else "built")
+        + f" (its build took {info.get('build_seconds', 0.0) * 1000:.0f} ms)"
     )
 
 

@@ -362,5 +362,7 @@ def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
             if minfo.get("memory_bytes"):
                 print(
                     f"    tables: material '{mname}' ({minfo['model']}, {minfo['sampler']}): "
-                    f"{minfo['memory_bytes'] / 1024:.1f} KB, built in {minfo.get('build_seconds', 0.0):.2f} s"
+                    f"{minfo['memory_bytes'] / 1024:.1f} KB, "
+                    + ("loaded from the table cache" if minfo.get("from_cache") else "built")
+                    + f" (its build took {minfo.get('build_seconds', 0.0):.2f} s)"
                 )
