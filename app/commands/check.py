@@ -18,7 +18,6 @@ from app.commands import _args
 from app.commands._args import add_list, azimuth, name, number, seed, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
 from core.budget import check_memory, largest_within, round_down
-from core.chi2 import chi2_test, integrate_pdf, sampler_functions
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, all_models
@@ -56,6 +55,9 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 def validate(sampler, theta: float, phi: float, n: int, n_tests: int, seed: int) -> dict:
     """One row of the report."""
+    # imported here: scipy.stats costs every other command's start 0.7 s
+    from core.chi2 import chi2_test, integrate_pdf, sampler_functions
+
     wo = degrees_to_dir(theta, phi)
     sample, pdf = sampler_functions(sampler, wo)
     row: dict = {"theta": theta}

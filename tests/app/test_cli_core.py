@@ -173,3 +173,15 @@ def test_console_script_exit_code_and_no_traceback():
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and "theta must be within" in proc.stderr
+
+
+def test_the_parser_does_not_import_what_only_one_command_needs():
+    """Every command's parser is built on every call (``--help`` included): scipy's statistics (0.7 s, for
+    ``check`` only) and Qt are imported by the commands that use them, not by the parser."""
+    code = (
+        "import sys; from app.cli import build_parser; build_parser(); "
+        "print(sorted(m for m in ('scipy.stats', 'PySide6.QtWidgets', 'vtk', 'pyvista') if m in sys.modules))"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"
