@@ -27,6 +27,7 @@ random number is a hash of ``(seed, pass, path, bounce, role)``, and the sampler
 from __future__ import annotations
 
 import queue
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -53,10 +54,12 @@ from renderer.kernels import (
     tangent_frames,
 )
 from renderer.qmc import key
-from renderer.wavefront import Buffers, Wave, waves
+from renderer.wavefront import WAVEFRONT, Buffers, Wave, waves
 from renderer.world import NO_MATERIAL, World
 
 PARALLEL_MIN = 16384
+LOAD_PASS = (1 << 62) + 0x10AD
+"""The pass index of :meth:`PathTracer.load_kernels`' paths (no render numbers its passes this high)."""
 """Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 
 
@@ -299,6 +302,38 @@ class PathTracer:
         ):  # one path a pixel: its rows are the mean (no sum, no division: 2 passes over 6 MB at 512²)
             return radiance
         return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
+
+    def load_kernels(self, paths: int = 256) -> float:
+        """Trace ``paths`` paths through the middle of the image and forget them (image, statistics): each
+        compiled stage's first call in a process loads it from numba's cache, ~0.1 s in all (most of it the
+        BRDF stage's model switch), which belongs with the preparation rather than in a render's first pass.
+        Returns the seconds it took. Passes are keyed by their index, so later passes draw what they would
+        have drawn without it."""
+        t0 = time.perf_counter()
+        n_pix = self.width * self.height
+        k = min(n_pix, int(paths))
+        p0 = max(0, min(n_pix - k, (n_pix - k) // 2 + self.width // 2))
+        stats, self.stats = self.stats, PassStats()
+        self.render_pass(LOAD_PASS, 1, pixels=(p0, p0 + k))
+        self.stats = stats
+        return time.perf_counter() - t0
+
+    def reserve(self, paths: int) -> None:
+        """Allocate and touch the wavefront buffers a pass of ``paths`` paths uses (one set per thread, each
+        the size of the pass's largest wavefront), replacing smaller ones: the first pass then runs on mapped
+        memory like every later one (at 256² and 4 spp a pass, ~60 ms of page faults and first writes)."""
+        n = max((w.n for w in waves(0, max(1, min(int(paths), WAVEFRONT)))), default=1)  # the first group's
+        while True:
+            try:
+                self._free.get_nowait()
+            except queue.Empty:
+                break
+        self.buffers = []
+        for _ in range(self.threads):
+            B = Buffers(n)
+            B.touch()
+            self.buffers.append(B)
+            self._free.put(B)
 
     def _wavefront(
         self,

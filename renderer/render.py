@@ -287,6 +287,12 @@ def prepare(
     )
     if warm_up and {world.sampler_name, *world.material_samplers.values()} - set(EAGER_SAMPLERS):
         _warm_up(world, tracer, report, on_step, warm_up_sweep)
+    t0 = time.perf_counter()
+    tracer.load_kernels()
+    n_pix = settings["width"] * settings["height"]
+    if not bands:
+        tracer.reserve(n_pix * pass_spp(n_pix))
+    report["kernel_load_seconds"] = round(time.perf_counter() - t0, 3)
     return RenderJob(scene, world, tracer, settings, report)
 
 

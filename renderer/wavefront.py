@@ -98,3 +98,8 @@ class Buffers:
 
     def __len__(self) -> int:
         return len(self.path)
+
+    def touch(self) -> None:
+        """Write every array once (zeros): their pages are mapped now rather than in a pass's stages."""
+        for a in vars(self).values():
+            a.fill(0)

@@ -279,3 +279,35 @@ def test_cli_says_whether_a_table_was_built_or_loaded(
     assert lines[0] and all("KB, built (its build took" in s for s in lines[0])
     assert len(lines[1]) == len(lines[0])
     assert all("KB, loaded from the table cache (its build took" in s for s in lines[1])
+
+
+def _loaded_signatures() -> int:
+    """Signatures compiled or loaded from numba's cache so far, over the renderer's compiled stages."""
+    import numba
+
+    from renderer import embree, kernels
+
+    found = 0
+    for module in (kernels, embree):
+        for obj in vars(module).values():
+            if isinstance(obj, numba.core.registry.CPUDispatcher):
+                found += len(obj.overloads)
+    return found
+
+
+def test_prepare_loads_the_kernels_and_buffers_a_pass_uses(scene_file: Path) -> None:
+    """After ``prepare`` the first pass loads no compiled stage (every one its paths call was loaded by the
+    preparation's few paths) and allocates no wavefront buffers; the preparation's paths change neither the
+    statistics nor what the passes draw (the same image as a tracer that traced them twice)."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=64, height=48, seed=4)
+    assert job.tracer.stats.paths == 0 and job.prepare_report["kernel_load_seconds"] >= 0.0
+    buffers = list(job.tracer.buffers)
+    before = _loaded_signatures()
+    first = job.tracer.render_pass(0, 2)
+    assert _loaded_signatures() == before
+    assert job.tracer.buffers == buffers and len(buffers) == job.tracer.threads
+    again = prepare(load_scene(scene_file), width=64, height=48, seed=4)
+    again.tracer.load_kernels(paths=1000)
+    assert np.array_equal(again.tracer.render_pass(0, 2), first)
