@@ -35,15 +35,29 @@ def format_bytes(n: float) -> str:
     return f"{n:.0f} {units[k]}" if k == 0 else f"{n:.3g} {units[k]}"
 
 
+_BINARY = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def parse_bytes(text: str, name: str) -> int:
+    """A size as a user writes it: bytes (``4e9``) or binary units (``512M``, ``4G``, ``4GiB``); raises
+    :class:`BudgetError` naming ``name`` for anything else (a budget silently ignored would be measured)."""
+    t = text.strip().lower().removesuffix("ib").removesuffix("b")
+    unit = t[-1:] if t[-1:] in _BINARY else ""
+    try:
+        value = float(t[: len(t) - len(unit)]) * _BINARY[unit]
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value < 0:
+        raise BudgetError(f"{name}={text!r}: expected a size in bytes, e.g. 4e9, 512M or 4G")
+    return int(value)
+
+
 def available_memory() -> int:
     """Bytes of memory this process can still use: ``MemAvailable`` of ``/proc/meminfo`` (Linux), capped by a
     cgroup limit if one is set; ``BRDF_STUDIO_MEMORY`` (bytes) overrides both (tests, shared machines)."""
     override = os.environ.get("BRDF_STUDIO_MEMORY")
     if override:
-        try:
-            return max(0, int(float(override)))
-        except ValueError:
-            pass
+        return parse_bytes(override, "BRDF_STUDIO_MEMORY")
     avail = None
     try:
         with open("/proc/meminfo", encoding="ascii") as fh:
