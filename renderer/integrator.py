@@ -58,9 +58,9 @@ from renderer.wavefront import WAVEFRONT, Buffers, Wave, waves
 from renderer.world import NO_MATERIAL, World
 
 PARALLEL_MIN = 16384
+"""Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 LOAD_PASS = (1 << 62) + 0x10AD
 """The pass index of :meth:`PathTracer.load_kernels`' paths (no render numbers its passes this high)."""
-"""Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 
 
 def _key(a: int, b: int) -> np.uint64:
