@@ -16,6 +16,7 @@ then the hit's ``Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID, instPrimID``; `
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import glob
@@ -165,8 +166,10 @@ class EmbreeScene:
             self.device = 0
 
     def __del__(self) -> None:
+        # the collector may run this at interpreter exit or during a Ctrl-C: never raise from here
         if getattr(self, "_lib", None) is not None:
-            self.release()
+            with contextlib.suppress(Exception):
+                self.release()
 
     def trace(self, o32: np.ndarray, d32: np.ndarray, prim: np.ndarray, t: np.ndarray, u: np.ndarray,
               v: np.ndarray) -> None:  # fmt: skip
