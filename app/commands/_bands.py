@@ -61,9 +61,7 @@ def render_in_bands(
     from renderer.image_io import ExrRows, PngRows, write_sidecar
 
     width, height = job.tracer.width, job.tracer.height
-    bar = tqdm(
-        total=height, desc=f"{strategy}: render in bands", unit="row", disable=quiet or None, file=sys.stderr
-    )
+    bar = tqdm(total=height, desc=f"{strategy}: render in bands", unit="row", disable=quiet, file=sys.stderr)
     exr = ExrRows(with_extension(stem, ".exr"), width, height, {"spp": spp, "sampler": strategy})
     try:
         png = PngRows(with_extension(stem, ".png"), width, height, exposure)

@@ -113,9 +113,7 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         default=0.0,
         help=f"PNG exposure in stops, [-{_args.MAX_EXPOSURE:g}, {_args.MAX_EXPOSURE:g}] (default 0)",
     )
-    p.add_argument(
-        "--quiet", action="store_true", help="no progress bar (none is drawn when stderr is not a terminal)"
-    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     return ["render"]
 
 
@@ -226,9 +224,7 @@ def run(args: argparse.Namespace) -> int:
     images, curves, summary = [], {}, []
     interrupted = False
     for strategy in strategies:
-        bar = tqdm(
-            total=1, desc=f"{strategy}: compiling", unit="step", disable=args.quiet or None, file=sys.stderr
-        )
+        bar = tqdm(total=1, desc=f"{strategy}: compiling", unit="step", disable=args.quiet, file=sys.stderr)
 
         def on_step(what: str, k: int, n: int, bar=bar, strategy=strategy) -> None:
             _signals.check()
@@ -325,7 +321,7 @@ def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -
     forever = time_s is not None and math.isinf(time_s)
     total = None if forever else (spp if spp is not None else time_s)
     unit = "spp" if spp is not None or forever else "s"
-    bar = tqdm(total=total, desc=f"{strategy}: render", unit=unit, disable=quiet or None, file=sys.stderr)
+    bar = tqdm(total=total, desc=f"{strategy}: render", unit=unit, disable=quiet, file=sys.stderr)
     records: list[dict] = []
     try:
         with _signals.cooperative() as stop:
