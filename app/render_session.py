@@ -217,9 +217,10 @@ def render_events(
         except RenderCancelled:
             return
         report = job.prepare_report
-        secs = sum(v for k, v in report.items() if k.endswith("seconds") and isinstance(v, int | float))
+        secs = report["seconds"]
         mark(f"prepared {name}: geometry {report.get('geometry_seconds', 0):.2f} s, materials "
-             f"{report.get('compile_seconds', 0):.2f} s, tables {report.get('warm_up_seconds', 0):.2f} s")  # fmt: skip
+             f"{report.get('compile_seconds', 0):.2f} s, tables {report.get('warm_up_seconds', 0):.2f} s, "
+             f"kernels {report.get('kernel_load_seconds', 0):.2f} s")  # fmt: skip
         yield {"kind": "status", "text": f"Prepared '{name}' in {secs:.1f} s ({len(steps)} steps)"}
         budget_kw = {"spp": int(budget)} if mode == "spp" else {"time_s": float(budget)}
         passes[name] = job.passes(cancel=cancel, first_spp=first_spp, **budget_kw)

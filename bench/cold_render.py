@@ -45,8 +45,7 @@ def render(sampler: str, cache: Path, spp: int, width: int, height: int, out_exr
     materials = prep.get("materials", {}).values()
     return {
         "wall_s": wall,
-        "prepare_s": prep.get("compile_seconds", 0.0) + prep.get("geometry_seconds", 0.0)
-        + prep.get("warm_up_seconds", 0.0),
+        "prepare_s": prep["seconds"],
         "tables_build_s": sum(m.get("build_seconds", 0.0) for m in materials if not m.get("from_cache")),
         "tables_loaded": sum(1 for m in materials if m.get("from_cache")),
         "render_s": info["render_seconds"],

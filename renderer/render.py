@@ -232,7 +232,7 @@ def prepare(
         bands=bands,
     )
     check_environment(scene)
-    t0 = time.perf_counter()
+    t0 = t_prepare = time.perf_counter()
     with np.errstate(over="ignore"):  # coordinates out of range are reported below, not as numpy warnings
         world = World(
             scene,
@@ -293,6 +293,7 @@ def prepare(
     if not bands:
         tracer.reserve(n_pix * pass_spp(n_pix))
     report["kernel_load_seconds"] = round(time.perf_counter() - t0, 3)
+    report["seconds"] = round(time.perf_counter() - t_prepare, 3)  # all of it: geometry, kernels, tables
     return RenderJob(scene, world, tracer, settings, report)
 
 

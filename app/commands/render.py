@@ -352,7 +352,7 @@ def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
         rmse = f"{err['rmse']:.5g}" if err else "-"
         rel = f"{err['relmse']:.5g}" if err else "-"
         rep = job.prepare_report
-        prep = rep["compile_seconds"] + rep["geometry_seconds"] + rep.get("warm_up_seconds", 0.0)
+        prep = rep["seconds"]
         print(
             f"{strategy:<14}{job.spp:>6}{job.elapsed:>9.2f}{rps:>9.2f}{prep:>10.2f}{rmse:>12}{rel:>12}  {out}"
         )
