@@ -31,8 +31,6 @@ Findings (the demo, 2026-12-03): docs/renderer.md, "Where the demo's remaining e
 from __future__ import annotations
 
 import argparse
-import hashlib
-import json
 import sys
 import time
 from pathlib import Path
@@ -40,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from app.commands.render import demo_scene_path
-from core.scene import load_scene
+from core.scene import load_scene, scene_digest
 from renderer.render import prepare
 from renderer.world import NO_MATERIAL
 
@@ -106,14 +104,8 @@ def first_hit_classes(job, size: int, rays: int = 16) -> np.ndarray:  # type: ig
 
 def reference(scene, size: int, spp: int, max_depth: int | None, out: Path, **kw):  # type: ignore[no-untyped-def]
     """Cached analytic reference (mean, variance of the mean)."""
-    h = hashlib.sha1(json.dumps([scene.model_dump(mode="json"), size, spp, max_depth, REF_SEED, kw],
-                                sort_keys=True).encode())  # fmt: skip
-    files = {m.path for m in scene.meshes} | {m.measured for m in scene.materials if m.measured}
-    if scene.environment is not None and getattr(scene.environment, "path", None):
-        files.add(scene.environment.path)
-    for rel in sorted(files):
-        h.update(scene.resolve(rel).read_bytes())
-    path = out / f"demo_error_ref_{size}_{spp}spp_d{max_depth}_{h.hexdigest()[:10]}.npz"
+    key = scene_digest(scene, size, spp, max_depth, REF_SEED, kw)[:10]
+    path = out / f"demo_error_ref_{size}_{spp}spp_d{max_depth}_{key}.npz"
     if path.is_file():
         z = np.load(path)
         return z["mean"], z["var"]

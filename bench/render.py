@@ -27,7 +27,6 @@ Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` 
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 import time
@@ -37,7 +36,7 @@ import numpy as np
 
 from app.commands.render import demo_scene_path
 from core.sampling import sampler_names
-from core.scene import load_scene
+from core.scene import load_scene, scene_digest
 from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
 from renderer.render import prepare
 
@@ -166,13 +165,7 @@ def compare_seconds_per_spp(
 
 
 def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
-    h = hashlib.sha1(json.dumps([scene.model_dump(mode="json"), size, spp, seed], sort_keys=True).encode())
-    files = [m.path for m in scene.meshes] + [m.measured for m in scene.materials if m.measured]
-    if scene.environment is not None and getattr(scene.environment, "path", None):
-        files.append(scene.environment.path)
-    for rel in sorted(set(files)):  # a changed mesh, map or table invalidates the cached reference
-        h.update(scene.resolve(rel).read_bytes())
-    key = h.hexdigest()[:10]
+    key = scene_digest(scene, size, spp, seed)[:10]  # a changed mesh, map or table invalidates the reference
     path = out / f"render_reference_{size}_{spp}spp_{key}.exr"
     if path.is_file():
         print(f"reference: cached {path}")

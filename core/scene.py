@@ -26,6 +26,7 @@ version-2 file without that field) and saved as version 2.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -599,6 +600,19 @@ def scene_to_dict(scene: Scene) -> dict[str, Any]:
         if not mesh["exclude_groups"]:
             del mesh["exclude_groups"]
     return data
+
+
+def scene_digest(scene: Scene, *extra: Any) -> str:
+    """A hex key of what renders ``scene``: its JSON form, ``extra`` (JSON values: size, spp, seed, ...) and the
+    bytes of every file it names (meshes, measured materials, the sky map), so that a cached render of it is
+    not used once any of them changes."""
+    h = hashlib.sha1(json.dumps([scene.model_dump(mode="json"), *extra], sort_keys=True).encode())
+    files = {m.path for m in scene.meshes} | {m.measured for m in scene.materials if m.measured}
+    if scene.environment is not None and getattr(scene.environment, "path", None):
+        files.add(scene.environment.path)
+    for rel in sorted(files):
+        h.update(scene.resolve(rel).read_bytes())
+    return h.hexdigest()
 
 
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from core.scene import Scene, SceneError, load_scene, save_scene, scene_from_dict
+from core.scene import Scene, SceneError, load_scene, save_scene, scene_digest, scene_from_dict
 
 
 def _write(folder: Path, data: object, name: str = "scene.json") -> Path:
@@ -45,6 +45,22 @@ def test_valid_scene_loads_and_round_trips(tmp_path: Path) -> None:
     again = load_scene(out)
     assert again.model_dump() == scene.model_dump()
     assert not list(tmp_path.glob(".copy.json.*"))  # the atomic write left no temporary file
+
+
+def test_digest_follows_the_scene_its_files_and_the_extra_values(tmp_path: Path) -> None:
+    """The key of a cached render changes with a setting, an extra value or a byte of a mesh file, and only
+    then (a saved copy of the same scene has the same key)."""
+    scene = load_scene(_write(tmp_path, _base(tmp_path)))
+    key = scene_digest(scene, 256, 16)
+    assert scene_digest(scene, 256, 16) == key
+    save_scene(scene, tmp_path / "copy.json")
+    assert scene_digest(load_scene(tmp_path / "copy.json"), 256, 16) == key
+    assert scene_digest(scene, 256, 32) != key
+    data = _base(tmp_path)
+    data["render"]["spp"] = 8
+    assert scene_digest(load_scene(_write(tmp_path, data, "other.json")), 256, 16) != key
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert scene_digest(scene, 256, 16) != key
 
 
 def test_transform_matrix_rotates_then_translates() -> None:
