@@ -27,7 +27,6 @@ random number is a hash of ``(seed, pass, path, bounce, role)``, and the sampler
 from __future__ import annotations
 
 import queue
-import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -303,20 +302,17 @@ class PathTracer:
             return radiance
         return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
 
-    def load_kernels(self, paths: int = 256) -> float:
+    def load_kernels(self, paths: int = 256) -> None:
         """Trace ``paths`` paths through the middle of the image and forget them (image, statistics): each
         compiled stage's first call in a process loads it from numba's cache, ~0.1 s in all (most of it the
         BRDF stage's model switch), which belongs with the preparation rather than in a render's first pass.
-        Returns the seconds it took. Passes are keyed by their index, so later passes draw what they would
-        have drawn without it."""
-        t0 = time.perf_counter()
+        Passes are keyed by their index, so later passes draw what they would have drawn without it."""
         n_pix = self.width * self.height
         k = min(n_pix, int(paths))
         p0 = max(0, min(n_pix - k, (n_pix - k) // 2 + self.width // 2))
         stats, self.stats = self.stats, PassStats()
         self.render_pass(LOAD_PASS, 1, pixels=(p0, p0 + k))
         self.stats = stats
-        return time.perf_counter() - t0
 
     def reserve(self, paths: int) -> None:
         """Allocate and touch the wavefront buffers a pass of ``paths`` paths uses (one set per thread, each

@@ -287,14 +287,14 @@ def prepare(
     )
     if warm_up and {world.sampler_name, *world.material_samplers.values()} - set(EAGER_SAMPLERS):
         _warm_up(world, tracer, report, on_step, warm_up_sweep)
+    job = RenderJob(scene, world, tracer, settings, report)
     t0 = time.perf_counter()
     tracer.load_kernels()
-    n_pix = settings["width"] * settings["height"]
-    if not bands:
-        tracer.reserve(n_pix * pass_spp(n_pix))
+    if not bands:  # a render in bands sizes its buffers by band
+        tracer.reserve(tracer.width * tracer.height * job.batch)
     report["kernel_load_seconds"] = round(time.perf_counter() - t0, 3)
     report["seconds"] = round(time.perf_counter() - t_prepare, 3)  # all of it: geometry, kernels, tables
-    return RenderJob(scene, world, tracer, settings, report)
+    return job
 
 
 # ------------------------------------------------------------------------------------------ budgets

@@ -25,7 +25,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.check:
-        stored = _he_series.load_tables()
+        try:  # the file itself: load_tables would build the tables in memory for a damaged file
+            stored = _he_series._read_tables(_he_series.TABLES_FILE)
+        except _he_series.TablesFileError as exc:
+            print(f"{_he_series.TABLES_FILE}: {exc}")
+            return 1
         built = _he_series.build_tables()
         same = all(np.array_equal(stored[name], built[name]) for name in built)
         print(f"{_he_series.TABLES_FILE}: {'equal to' if same else 'DIFFERENT from'} the tables built now")

@@ -447,3 +447,16 @@ def test_an_unusable_tables_file_warns_and_the_tables_are_built(tmp_path, damage
     assert str(path) in message and _he_series.REGENERATE in message, message
     assert _he_series.REGENERATE == "python -m core.models._he_tables"
     assert all(np.array_equal(tables[n], getattr(_he_series, f"{n.upper()}_TABLE")) for n in tables)
+
+
+def test_the_check_command_reads_the_file_itself(tmp_path, monkeypatch, capsys):
+    """``python -m core.models._he_tables --check`` passes on the shipped file and fails on a damaged one
+    (it must not compare freshly built tables with the tables a damaged file falls back to)."""
+    from core.models import _he_series, _he_tables
+
+    assert _he_tables.main(["--check"]) == 0
+    bad = tmp_path / "_he_series.npz"
+    bad.write_bytes(b"not a zip archive")
+    monkeypatch.setattr(_he_series, "TABLES_FILE", bad)
+    assert _he_tables.main(["--check"]) == 1
+    assert "not an .npz (zip) archive" in capsys.readouterr().out
