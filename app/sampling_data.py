@@ -80,11 +80,17 @@ def adaptive_line(brdf: BRDF, stop: Callable[[], bool] | None = None) -> str | N
                 return None
     sampler.preload()
     info = sampler.info()
+    return f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, {table_origin(info, 'ms')}"
+
+
+def table_origin(info: dict, unit: str = "s") -> str:
+    """Whether a sampler's table (its ``info()``) was built by this process or read from the table cache, with
+    the time its build took (the first build's, for a cached table): in seconds, or ``unit="ms"``."""
+    seconds = float(info.get("build_seconds", 0.0))
+    took = f"{seconds * 1e3:.0f} ms" if unit == "ms" else f"{seconds:.2f} s"
     return (
-        f"Adaptive table: {info.get('memory_bytes', 0) / 1024:.1f} KiB, "
-        + ("loaded from the cache" if info.get("from_cache") else "built")
-        + f" (its build took {info.get('build_seconds', 0.0) * 1000:.0f} ms)"
-    )
+        "loaded from the table cache" if info.get("from_cache") else "built"
+    ) + f" (its build took {took})"
 
 
 SAMPLING_PROJECTIONS = {

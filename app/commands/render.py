@@ -344,6 +344,8 @@ def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -
 
 
 def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
+    from app.sampling_data import table_origin
+
     print(
         f"{'strategy':<14}{'spp':>6}{'seconds':>9}{'Mrays/s':>9}{'prepare s':>10}{'RMSE':>12}{'relMSE':>12}  output"
     )
@@ -362,7 +364,5 @@ def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
             if minfo.get("memory_bytes"):
                 print(
                     f"    tables: material '{mname}' ({minfo['model']}, {minfo['sampler']}): "
-                    f"{minfo['memory_bytes'] / 1024:.1f} KB, "
-                    + ("loaded from the table cache" if minfo.get("from_cache") else "built")
-                    + f" (its build took {minfo.get('build_seconds', 0.0):.2f} s)"
+                    f"{minfo['memory_bytes'] / 1024:.1f} KB, {table_origin(minfo)}"
                 )

@@ -16,6 +16,7 @@ from app.sampling_data import (
     SAMPLING_PROJECTIONS,
     TREE_RASTER,
     SamplingSnapshot,
+    table_origin,
 )
 from app.views.figure import FigureView
 from core.sampling import sampler_names
@@ -226,11 +227,7 @@ class SamplingView(QWidget):
         )
 
         table = snap.table
-        built = (
-            "loaded from the cache"
-            if table.get("from_cache")
-            else f"built in {table['build_seconds'] * 1e3:.0f} ms"
-        )
+        built = table_origin(table, "ms")
         if table.get("interim"):
             built += (
                 " (a first fit: the rejection-free mode's coarse table, shown while the exact mode's table is"
