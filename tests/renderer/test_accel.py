@@ -112,3 +112,16 @@ def test_missing_library_falls_back_to_embreex(monkeypatch: pytest.MonkeyPatch) 
     o = np.array([[0.2, 0.3, 1.0], [3.0, 0.0, 1.0]], np.float32)
     d = np.array([[0, 0, -1], [0, 0, -1]], np.float32)
     assert accel.intersect(o, d).prim[1] == MISS and accel.intersect(o, d).t[0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_degenerate_rays_miss_without_harm(backend: str) -> None:
+    """A NaN origin, a NaN direction and a zero direction are misses (no hit, no occlusion, ``t`` = inf) and
+    leave the good rays of the same packet alone."""
+    accel = _quad(backend)
+    o = np.array([[0, 0, 1], [np.nan, 0, 1], [0, 0, 1], [0, 0, 1], [0.5, 0.5, 2]], np.float32)
+    d = np.array([[0, 0, -1], [0, 0, -1], [np.nan, 0, -1], [0, 0, 0], [0, 0, -1]], np.float32)
+    hits = accel.intersect(o, d)
+    assert np.array_equal(hits.prim == MISS, [False, True, True, True, False])
+    assert np.allclose(hits.t[[0, 4]], [1.0, 2.0]) and np.all(np.isinf(hits.t[1:4]))
+    assert np.array_equal(accel.occluded(o, d), [True, False, False, False, True])
