@@ -39,7 +39,9 @@ from renderer.envmap import env_args
 from renderer.kernels import (
     BY_SAMPLER,
     COMPILED_STRATEGIES,
+    SOBOL_DEPTH,
     add_rows,
+    bsdf_points,
     bsdf_stage,
     bsdf_step,
     camera_rays,
@@ -389,7 +391,7 @@ class PathTracer:
                 self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
                 B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
             )  # fmt: skip
-            self._draw_by_samplers(B, offsets, pass_index, depth, wave.key)
+            self._draw_by_samplers(B, offsets, pass_index, depth, wave.key, first)
             if self.ris:
                 r_bad, r_rays = self._ris_environment(
                     B, radiance, rows, pass_index, depth, n_s, offsets, wave.key
@@ -415,12 +417,14 @@ class PathTracer:
         return rays, bad
 
     def _draw_by_samplers(
-        self, B: Buffers, offsets: np.ndarray, pass_index: int, depth: int, wave: int
+        self, B: Buffers, offsets: np.ndarray, pass_index: int, depth: int, wave: int, first: int
     ) -> None:
         """The vertices of materials whose strategy has tables: their sampler objects evaluate ``f`` and the
         pdf at the light samples and draw the BRDF samples (with ``f``), in slices of at most
         ``SAMPLER_SLICE`` rows of one material, on the wavefront's thread. Each slice's draws are seeded by
-        ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads."""
+        ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads. Below
+        ``SOBOL_DEPTH`` their warps read the Sobol points the compiled strategies draw from
+        (:func:`~renderer.kernels.bsdf_points`), so every strategy's samples are placed alike."""
         jobs = []
         for m in range(len(offsets) - 1):
             a, b = int(offsets[m]), int(offsets[m + 1])
@@ -432,11 +436,16 @@ class PathTracer:
                     (sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k, wave))
                 )
 
+        placed = bool(jobs) and depth < SOBOL_DEPTH
+        if placed:
+            n_s = int(offsets[-1])
+            bsdf_points(0, n_s, self.width * self.height, first, self._seed_key, depth, B.s_path, B.points)
         for sampler, lo, hi, seed in jobs:
             if self.has_nee_lights:
                 sampler.eval_pdf_where(B.wo[lo:hi], B.l_wi_local[lo:hi], B.l_cand[lo:hi], B.l_f[lo:hi],
                                        B.l_pdf_brdf[lo:hi])  # fmt: skip
-            sampler.sample_into(B.wo[lo:hi], seed, B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi])
+            sampler.sample_into(B.wo[lo:hi], seed, B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi],
+                                points=B.points[lo:hi] if placed else None)  # fmt: skip
 
     def _ris_environment(
         self,

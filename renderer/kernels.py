@@ -60,10 +60,12 @@ _PAIR_PIXEL = 0
 _PAIR_LIGHT = 1
 _PAIR_BSDF = 1 << 16
 SOBOL_DEPTH = 2
-"""Vertices below this bounce draw their light points from Sobol pairs; deeper ones from independent uniforms
-(stratification pays where a pixel's variance comes from: the first bounces). BRDF samples always use
-independent uniforms: the strategies with tables draw theirs from their own generators, and a renderer built to
-compare BRDF samplers must not place one strategy's samples better than another's."""
+"""Vertices below this bounce draw their light points and their BRDF samples' two warp dimensions from Sobol
+pairs; deeper ones from independent uniforms (stratification pays where a pixel's variance comes from: the
+first bounces). Every strategy gets the same BRDF points, those with tables too (``Sampler.sample_into``'s
+``points``): a renderer built to compare BRDF samplers must not place one strategy's samples better than
+another's; how much of the stratification a strategy's warp keeps is its own (a rejection trial keeps it
+only when accepted at once)."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -482,6 +484,24 @@ def _eval(mid, wi, wo, prm, table):
     return r, g, b
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _bsdf_pair(p, n_pix, first_sample, seed_key, depth):
+    """The two uniforms of path ``p``'s BRDF sample at bounce ``depth``: an Owen-scrambled Sobol point of
+    the pixel's sample number below ``SOBOL_DEPTH``, deeper two independent hashes. Every strategy gets the
+    same ones (:func:`bsdf_stage`; :func:`bsdf_points` for the strategies with tables)."""
+    return pair(
+        first_sample + p // n_pix, key(key(seed_key, p % n_pix), _PAIR_BSDF + depth), depth < SOBOL_DEPTH
+    )
+
+
+@njit(nogil=True, cache=True)
+def bsdf_points(a, b, n_pix, first_sample, seed_key, depth, s_path, out):
+    """``out[s]`` = the BRDF sample's two uniforms (:func:`_bsdf_pair`) of surface vertices ``[a, b)``: what
+    a strategy with tables reads for its warp (``Sampler.sample_into``'s ``points``)."""
+    for s in range(a, b):
+        out[s, 0], out[s, 1] = _bsdf_pair(s_path[s], n_pix, first_sample, seed_key, depth)
+
+
 @njit(nogil=True, cache=True)
 def bsdf_stage(
     a, b, n_pix, first_sample, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, mat_tables,
@@ -491,7 +511,7 @@ def bsdf_stage(
     ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
     and the strategy's pdf at the light sample (if a candidate), and one BRDF sample with ``f`` there, the
     model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]`` (MERL tables:
-    ``mat_tables[m]``, float32; see :func:`_eval`), from independent uniforms (as every strategy's).
+    ``mat_tables[m]``, float32; see :func:`_eval`), from :func:`_bsdf_pair`'s uniforms (as every strategy's).
 
     The uniforms of a block of ``_BLOCK`` vertices are hashed first, in a loop of their own: there the hashes
     of independent paths overlap, where inside the long loop each vertex's chain of hashes waited for the
@@ -504,10 +524,7 @@ def bsdf_stage(
             if kind == BY_SAMPLER:
                 continue
             p = s_path[s]
-            # independent uniforms, as strategies with tables draw theirs: BRDF samplers compared on equal terms
-            blk[s - s0, 0], blk[s - s0, 1] = pair(
-                first_sample + p // n_pix, key(key(seed_key, p % n_pix), _PAIR_BSDF + depth), False
-            )
+            blk[s - s0, 0], blk[s - s0, 1] = _bsdf_pair(p, n_pix, first_sample, seed_key, depth)
             if kind == ANALYTIC:
                 blk[s - s0, 2] = uniform(key(key(pass_key, p), depth), _U_LOBE)
         for s in range(s0, s1):

@@ -90,6 +90,7 @@ class Buffers:
         self.l_delta, self.l_cand = np.empty(n, np.bool_), np.empty(n, np.bool_)
         self.wi_local, self.f = np.empty((n, 3), f64), np.empty((n, 3), f64)
         self.pdf = np.empty(n, f64)
+        self.points = np.empty((n, 2), f64)  # the BRDF samples' Sobol points, for the strategies with tables
         # shadow rays, and the numbers of next rays and shadow rays
         self.so32, self.sd32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
         self.st32 = np.empty(n, f32)

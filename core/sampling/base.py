@@ -79,6 +79,9 @@ class Sampler:
     """
 
     name = "base"
+    warp_dims: tuple[int, int] = (0, 1)
+    """The columns of the uniforms ``u (n, 3)`` that the strategy's two-dimensional warp reads: a caller's
+    stratified points go there (:meth:`sample_into`); the third column is its other choice (a lobe, a factor)."""
 
     def __init__(self, brdf: BRDF):
         self.brdf = brdf
@@ -120,10 +123,21 @@ class Sampler:
         whose density is made of ``f`` (the adaptive sampler's exact mode) computes both in one pass."""
         return self.eval(wo, wi), self.pdf(wo, wi)
 
-    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray) -> None:
+    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
+                    points: np.ndarray | None = None) -> None:  # fmt: skip
         """:meth:`sample_each` written into the caller's arrays (rows of ``wo``); a strategy whose kernels
-        can write there directly overrides it."""
-        drawn = self.sample_each(wo, seed=seed)
+        can write there directly overrides it.
+
+        ``points (n, 2)``: uniforms in ``[0, 1)^2`` placed by the caller (a renderer's low-discrepancy
+        points), read by the strategy's warp (:attr:`warp_dims`) instead of its own stream; its other
+        uniforms still come from ``seed``. Each row's density is unchanged: every point is uniform."""
+        if points is None:
+            drawn = self.sample_each(wo, seed=seed)
+        else:
+            wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+            u = np.random.default_rng(seed).random((wo.shape[0], 3))
+            u[:, list(self.warp_dims)] = points
+            drawn = self._sample_rows(wo, u)
         wi[:], pdf[:], f[:] = drawn.wi, drawn.pdf, drawn.f
 
     def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,

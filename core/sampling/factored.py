@@ -197,6 +197,7 @@ class FactoredSampler(Sampler):
     """Lawrence et al. 2004: sample the NMF factors of ``f cos``; exact mixture pdf."""
 
     name = "factored"
+    warp_dims = (1, 2)  # u[:, 0] chooses the term
 
     def __init__(
         self, brdf: BRDF, settings: FactorSettings | None = None, defensive: float = 1e-3, **options: Any

@@ -270,6 +270,30 @@ def _warp_in_leaf(corners, leaf, state):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _ramp_inverse(a, b, u):
+    """The point ``t`` of ``[0, 1]`` where the linear density from ``a`` to ``b`` (``a, b >= 0``, not both 0)
+    has CDF ``u``: the root of ``(b - a) t^2 + 2 a t = u (a + b)``, in the form without cancellation."""
+    return u * (a + b) / (a + math.sqrt(a * a + u * (b * b - a * a)))
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _warp_in_leaf_at(corners, leaf, r, v):
+    """A point ``(tx, ty)`` of the unit leaf from its bilinear density by inversion, the marginal of ``tx``
+    from ``r`` and then the conditional of ``ty`` from ``v``, and that density there: the density of
+    :func:`_warp_in_leaf`, continuous in ``(r, v)``, so stratified points stay stratified (a caller's
+    low-discrepancy points; :func:`sample_rows`)."""
+    v0 = np.float64(corners[leaf, 0])
+    v1 = np.float64(corners[leaf, 1])
+    v2 = np.float64(corners[leaf, 2])
+    v3 = np.float64(corners[leaf, 3])
+    tx = min(max(_ramp_inverse(v0 + v2, v1 + v3, r), 0.0), 1.0)
+    low = (1.0 - tx) * v0 + tx * v1
+    high = (1.0 - tx) * v2 + tx * v3
+    ty = min(max(_ramp_inverse(low, high, v), 0.0), 1.0) if low + high > 0.0 else v
+    return tx, ty, _bilinear_density(v0, v1, v2, v3, tx, ty)
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _leaf_density(corners, leaf, tx, ty, h):
     """The bilinear density of a leaf of side ``h`` at its point ``(tx, ty)`` (per unit square area; it
     integrates to 1 over the leaf), in the arithmetic of :func:`_warp_in_leaf`."""
@@ -314,19 +338,31 @@ def _g_scale(projection, z, jac):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _cosine_at(u1, u2):
+    r = math.sqrt(u1)
+    ph = TWO_PI * u2
+    return r * math.cos(ph), r * math.sin(ph), math.sqrt(max(0.0, 1.0 - u1))
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _cosine(state):
     state, u1 = next_u01(state)
     state, u2 = next_u01(state)
-    r = math.sqrt(u1)
-    ph = TWO_PI * u2
-    return state, r * math.cos(ph), r * math.sin(ph), math.sqrt(max(0.0, 1.0 - u1))
+    x, y, z = _cosine_at(u1, u2)
+    return state, x, y, z
 
 
 @njit(nogil=True, cache=True)
-def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, out_trials):
+def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, out_trials, points):
     """One draw per row of ``wo (n, 3)``, row ``i`` from random stream ``offset + i`` (so that chunks drawn on
     several threads give the draws of one call); writes ``out_wi``, ``out_pdf``, ``out_f`` (``f`` at the draw)
     and ``out_trials``; returns the number of trials that found ``g`` above its bound. Releases the GIL.
+
+    ``points (n, 2)`` (or ``(0, 2)``: none): a caller's uniforms for each row's first proposal: its leaf
+    from ``points[i, 0]``, its point in the leaf from what is left of that number inside the leaf's interval
+    and ``points[i, 1]`` (:func:`_warp_in_leaf_at`), or the cosine density's point from both. The density
+    of a proposal does not change (each point is uniform); the exact mode's acceptance test and every later
+    trial draw from the row's stream.
 
     The row's draw is written out in the loop, not in a function called per row: numba takes and drops a
     reference on every array handed to a function whose body it cannot prune (loops, branches), and the
@@ -341,6 +377,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     projection, leaf_base, leaf_cell = table.projection, table.leaf_base, table.leaf_cell
     cdf, guide, corners, total, cos_min = table.cdf, table.guide, table.corners, table.total, table.cos_min
     norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
+    placed = points.shape[0] > 0
     for i in range(wo.shape[0]):
         state = stream(seed, offset + i)
         wx = wo[i, 0]
@@ -383,17 +420,29 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
             z = 0.0
             jac = 0.0
             d = 0.25
+            first = placed and trials == 1
             if tree:
-                state, u = next_u01(state)
+                if first:
+                    u = points[i, 0]
+                else:
+                    state, u = next_u01(state)
                 leaf, prob = _pick_leaf(cdf, guide, start, end, u)
                 x0, y0, h = _leaf_box(leaf_cell, leaf)
-                state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
+                if first:
+                    # u's place inside the leaf's interval of the cdf: uniform, and as stratified as u
+                    lo = 0.0 if leaf == start else np.float64(np.int64(cdf[leaf - 1]))
+                    r = min(max((u * CDF_SCALE - lo) / (prob * CDF_SCALE), 0.0), 1.0)
+                    tx, ty, density = _warp_in_leaf_at(corners, leaf, r, points[i, 1])
+                else:
+                    state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
                 if mode == EXACT:
                     state, u4 = next_u01(state)
                 x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)
                 lx, ly, lz = _to_local(x, y, z, c, s, sx, sy)
                 if proj == HALF_VECTOR:
                     lx, ly, lz, d = _reflect(lx, ly, lz, wx, wy, wz)
+            elif first:
+                lx, ly, lz = _cosine_at(points[i, 0], points[i, 1])
             else:
                 state, lx, ly, lz = _cosine(state)
             r, g, b = eval_model(mid, (lx, ly, lz), (wx, wy, wz), p)

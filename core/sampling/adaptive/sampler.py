@@ -73,6 +73,8 @@ loop releases the GIL; a ``prange`` loop took 40 s more to compile, for the same
 _POOL: ThreadPoolExecutor | None = None
 
 _EVERY_ROW = np.zeros(0, dtype=np.bool_)
+_NO_POINTS = np.zeros((0, 2))
+"""``sample_rows``'s ``points`` when the caller places none: every uniform from the rows' streams."""
 """``pdf_rows``'s mask for every row."""
 
 _INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
@@ -403,10 +405,12 @@ class AdaptiveSampler(Sampler):
         """Like :meth:`sample_each`, with the number of rejection trials of every sample."""
         return self._draw(wo, seed)
 
-    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray) -> None:
+    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
+                    points: np.ndarray | None = None) -> None:  # fmt: skip
         """:meth:`sample_each` written into the caller's C-contiguous float64 arrays (a renderer's buffers:
-        no copies), the same draws."""
-        self._draw_into(wo, seed, wi, pdf, f, np.empty(wo.shape[0], dtype=np.int64))
+        no copies), the same draws; ``points (n, 2)``: the caller's uniforms for each row's first proposal
+        (:meth:`core.sampling.base.Sampler.sample_into`; the leaf and the point in it, ``draw.sample_rows``)."""
+        self._draw_into(wo, seed, wi, pdf, f, np.empty(wo.shape[0], dtype=np.int64), points)
 
     def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,
                        pdf: np.ndarray) -> None:  # fmt: skip
@@ -433,13 +437,19 @@ class AdaptiveSampler(Sampler):
         return SampleBatch(wi, pdf, f), trials
 
     def _draw_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
-                   trials: np.ndarray) -> None:  # fmt: skip
+                   trials: np.ndarray, points: np.ndarray | None = None) -> None:  # fmt: skip
         n = wo.shape[0]
+        if points is None:
+            points = _NO_POINTS
+        elif points.shape != (n, 2):
+            raise ValueError(f"points must be ({n}, 2), got {points.shape}")
+        else:
+            points = np.ascontiguousarray(points, dtype=np.float64)
         mode = EXACT if self.mode == "exact" else WARP
         table, mid, p, seed = self.table, self.brdf.model.id, self.brdf.params, int(seed) % (1 << 63)
         chunks = thread_budget() if self.threads and n >= PARALLEL_MIN else 1
         if chunks == 1:
-            v = sample_rows(table, mid, p, mode, wo, seed, 0, wi, pdf, f, trials)
+            v = sample_rows(table, mid, p, mode, wo, seed, 0, wi, pdf, f, trials, points)
         else:
             bounds = np.linspace(0, n, chunks + 1).astype(np.int64)
             pool = _pool()
@@ -457,6 +467,7 @@ class AdaptiveSampler(Sampler):
                     pdf[a:b],
                     f[a:b],
                     trials[a:b],
+                    points[a:b] if len(points) else points,
                 )  # fmt: skip
                 for a, b in zip(bounds[:-1], bounds[1:], strict=True)
             ]
