@@ -49,8 +49,6 @@ _BLOCK = 64
 """Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`)."""
 
 # roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
-_U_LIGHT_TYPE = 0
-_U_LIGHT_PICK = 1
 _U_ENV_JITTER = 2
 _U_RR = 4
 _U_LOBE = 5
@@ -76,6 +74,16 @@ def _mis(a, b, power):
         return a * a / s if s > 0.0 else 0.0
     s = a + b
     return a / s if s > 0.0 else 0.0
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _rescale(u, lo, hi):
+    """Where ``u`` lies in ``[lo, hi)``, as a number of ``[0, 1)``: uniform there when ``u`` is uniform and
+    fell in that interval, and as stratified as ``u`` was (one number makes a discrete choice, then a
+    continuous one)."""
+    if not hi > lo:
+        return 0.5
+    return min(max((u - lo) / (hi - lo), 0.0), 0.9999999999999999)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -320,7 +328,8 @@ def surface_stage(
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
     offset origin, and one light sample (light type by ``c_area``/``c_point``, then a light, then a point
-    on it from an Owen-scrambled Sobol pair). ``s_ns`` holds the shading normal (the frame's tangents are a
+    on it, all from one Owen-scrambled Sobol pair: the choices from its first coordinate, rescaled after
+    each, :func:`_rescale`). ``s_ns`` holds the shading normal (the frame's tangents are a
     function of it, :func:`_tangents`); ``l_wi`` the light sample's direction (float32: it only makes the
     shadow ray) and ``l_tmax`` its distance limit (float32, at most 1e30, as Embree takes it). ``l_cand``
     marks light samples worth a BRDF evaluation (positive pdf and radiance, above both surfaces)."""
@@ -365,8 +374,6 @@ def surface_stage(
             fb = frames[s - s0]
             tx, ty, tz, bx, by, bz, sx, sy, sz = fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8]
             vk = key(key(pass_key, p), depth)
-            u_type = uniform(vk, _U_LIGHT_TYPE)
-            u_pick = uniform(vk, _U_LIGHT_PICK)
             pixel = p % n_pix
             ux, uy = pair(
                 first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
@@ -375,8 +382,14 @@ def surface_stage(
             lr, lg, lb = 0.0, 0.0, 0.0
             pdf = 0.0
             t_max = np.inf
-            if u_type < c_area and n_emit > 0:
-                k = min(np.searchsorted(emit_cdf, u_pick, side="right"), n_emit - 1)
+            # the light type, then the light, from the point's first coordinate, each choice rescaling it to
+            # what is left inside the chosen interval: a pixel's samples split between the types (and the
+            # lights) in proportion, and each type's share is still spread over its lights' surfaces
+            u_type = ux
+            if ux < c_area and n_emit > 0:
+                ux = _rescale(ux, 0.0, c_area)
+                k = min(np.searchsorted(emit_cdf, ux, side="right"), n_emit - 1)
+                ux = _rescale(ux, emit_cdf[k - 1] if k > 0 else 0.0, emit_cdf[k] if k < n_emit - 1 else 1.0)
                 tri = emit_ids[k]
                 su = math.sqrt(ux)
                 b1 = su * (1.0 - uy)
@@ -393,7 +406,7 @@ def surface_stage(
                         pdf = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
                         t_max = dist * (1.0 - 1e-4)
             elif u_type < c_point and n_point > 0:
-                k = min(np.searchsorted(point_cdf, u_pick, side="right"), n_point - 1)
+                k = min(np.searchsorted(point_cdf, _rescale(ux, c_area, c_point), side="right"), n_point - 1)
                 qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
                 dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
                 wx, wy, wz = qx / dist, qy / dist, qz / dist
@@ -407,6 +420,7 @@ def surface_stage(
                 t_max = dist * (1.0 - 1e-4)
                 l_delta[s] = True
             elif env_kind != 0 and p_env > 0.0:
+                ux = _rescale(ux, c_point, 1.0)
                 wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
                     env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
                     env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,
