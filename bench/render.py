@@ -341,6 +341,9 @@ def main(argv: list[str] | None = None) -> int:
         help="also time every throughput strategy in a checkout of GIT_REV, side by side (seconds per spp)",
     )
     ap.add_argument("--rounds", type=int, default=3, help="A B rounds of --baseline (the fastest is kept)")
+    ap.add_argument(
+        "--seed", type=int, default=1, help="seed of the strategies' equal-time renders (default 1)"
+    )
     ap.add_argument("--measure-spp", help=argparse.SUPPRESS)
     ap.add_argument(
         "--material-sampler",
@@ -449,7 +452,7 @@ def run_strategies(  # type: ignore[no-untyped-def]
             sampler_options=options,
             width=args.size,
             height=args.size,
-            seed=1,
+            seed=args.seed,
             material_samplers=overrides.get(s),
             warm_up_sweep=True,  # every table built before the clock starts: equal time means equal rendering
         )
