@@ -85,3 +85,16 @@ def test_points_of_the_wrong_shape_are_refused():
     wi, pdf, f = np.empty((10, 3)), np.empty(10), np.empty((10, 3))
     with pytest.raises(ValueError, match=r"points must be \(10, 2\)"):
         sampler.sample_into(wo, 1, wi, pdf, f, points=np.zeros((9, 2)))
+
+
+def test_points_on_the_edges_of_the_square_give_finite_draws():
+    """Points at 0 (a Sobol point can be exactly 0) and just below 1, with corners that vanish on a leaf's
+    edge (the exact mode's leaves store them relative to the largest, so some are 0): every draw finite,
+    with a finite positive density."""
+    for mode in ("exact", "warp"):
+        sampler = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.05}), mode=mode)
+        edge = np.array([0.0, 1e-300, 0.5, 1.0 - 2.0**-53])
+        points = np.stack(np.meshgrid(edge, edge, indexing="ij"), -1).reshape(-1, 2)
+        for theta in (0.0, 45.0, 89.9):
+            wi, pdf = _draw(sampler, degrees_to_dir(theta, 0.0), points, seed=1)
+            assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)

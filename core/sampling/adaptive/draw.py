@@ -272,8 +272,10 @@ def _warp_in_leaf(corners, leaf, state):
 @njit(inline="always", nogil=True, cache=True)
 def _ramp_inverse(a, b, u):
     """The point ``t`` of ``[0, 1]`` where the linear density from ``a`` to ``b`` (``a, b >= 0``, not both 0)
-    has CDF ``u``: the root of ``(b - a) t^2 + 2 a t = u (a + b)``, in the form without cancellation."""
-    return u * (a + b) / (a + math.sqrt(a * a + u * (b * b - a * a)))
+    has CDF ``u``: the root of ``(b - a) t^2 + 2 a t = u (a + b)``, in the form without cancellation (0 at
+    ``u = 0``, also where ``a = 0``)."""
+    den = a + math.sqrt(a * a + u * (b * b - a * a))
+    return u * (a + b) / den if den > 0.0 else 0.0
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -73,9 +73,9 @@ loop releases the GIL; a ``prange`` loop took 40 s more to compile, for the same
 _POOL: ThreadPoolExecutor | None = None
 
 _EVERY_ROW = np.zeros(0, dtype=np.bool_)
+"""``pdf_rows``'s mask for every row."""
 _NO_POINTS = np.zeros((0, 2))
 """``sample_rows``'s ``points`` when the caller places none: every uniform from the rows' streams."""
-"""``pdf_rows``'s mask for every row."""
 
 _INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
          "capacity": (64, 1 << 16)}  # fmt: skip
