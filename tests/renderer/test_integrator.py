@@ -111,7 +111,7 @@ def test_plane_renders_its_albedo(tmp_path: Path, model: str, params: dict, samp
     assert np.all(np.abs(m - expected) <= Z * se + 2e-3), (m, se, expected)
 
 
-def _mixed_scene(tmp_path: Path, sampler: str, env: dict | None = None):
+def _mixed_scene(tmp_path: Path, sampler: str, env: dict | None = None, lights: list | None = None):
     sphere(tmp_path / "sphere.obj", subdivisions=2)
     quad(tmp_path / "floor.obj", size=3.0, y=-1.0)
     return make_scene(
@@ -126,7 +126,8 @@ def _mixed_scene(tmp_path: Path, sampler: str, env: dict | None = None):
                 {"path": "floor.obj", "material": "floor"},
                 {"path": "sphere.obj", "material": "ball", "smooth": True},
             ],
-            "lights": [
+            "lights": lights
+            or [
                 {
                     "type": "quad",
                     "corner": [-0.5, 2.5, -0.5],

@@ -12,38 +12,19 @@ import numpy as np
 
 from renderer.kernels import surface_stage
 from renderer.render import prepare
-from tests.renderer.scenes import make_scene, quad, sphere
+from tests.renderer.test_integrator import _mixed_scene
 
 _NAMES = list(inspect.signature(surface_stage.py_func).parameters)
 
 
 def _three_lights_scene(tmp_path: Path):
-    """A ball on a floor under a quad light that faces down, a point light and a constant sky."""
-    sphere(tmp_path / "sphere.obj", subdivisions=2)
-    quad(tmp_path / "floor.obj", size=3.0, y=-1.0)
-    return make_scene(
-        tmp_path,
-        {
-            "camera": {"position": [0, 0.5, 3.5], "target": [0, -0.2, 0], "fov_deg": 45},
-            "materials": [{"name": "floor", "model": "lambert"}, {"name": "ball", "model": "phong"}],
-            "meshes": [
-                {"path": "floor.obj", "material": "floor"},
-                {"path": "sphere.obj", "material": "ball", "smooth": True},
-            ],
-            "lights": [
-                {
-                    "type": "quad",
-                    "corner": [-0.5, 2.5, -0.5],
-                    "edge1": [1, 0, 0],
-                    "edge2": [0, 0, 1],
-                    "radiance": 6,
-                },
-                {"type": "point", "position": [2, 2, 2], "intensity": [3, 3, 3]},
-            ],
-            "environment": {"type": "constant", "radiance": 0.3},
-            "render": {"width": 16, "height": 16, "max_depth": 1, "sampler": "cosine"},
-        },
-    )
+    """The mixed test scene with its quad light turned to face the ball and the floor (its normal down), a
+    point light and a constant sky."""
+    lights = [
+        {"type": "quad", "corner": [-0.5, 2.5, -0.5], "edge1": [1, 0, 0], "edge2": [0, 0, 1], "radiance": 6},
+        {"type": "point", "position": [2, 2, 2], "intensity": [3, 3, 3]},
+    ]
+    return _mixed_scene(tmp_path, "cosine", lights=lights)
 
 
 def _light_choices_at_the_camera_vertex(job, spp: int) -> tuple[np.ndarray, np.ndarray]:
@@ -72,7 +53,7 @@ def _light_choices_at_the_camera_vertex(job, spp: int) -> tuple[np.ndarray, np.n
 
 
 def test_a_pixels_samples_split_between_the_light_types_in_proportion(tmp_path: Path) -> None:
-    job = prepare(_three_lights_scene(tmp_path), seed=5)
+    job = prepare(_three_lights_scene(tmp_path), seed=5, max_depth=1)
     tracer = job.tracer
     spp = 16
     path, kind = _light_choices_at_the_camera_vertex(job, spp)
