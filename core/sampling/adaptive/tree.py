@@ -1018,18 +1018,63 @@ def _fold_quadrature(n_keep, n, child, fine, fine_err):
             child[i] = -1
 
 
+_HILBERT_QUADRANT = np.array([[0, 2, 3, 1], [0, 1, 3, 2], [3, 1, 0, 2], [3, 2, 0, 1]], dtype=np.int64)
+"""The order in which a node of each of the Hilbert curve's four orientations visits its children (quadrant
+``qx + 2 qy``): orientation 0 goes (0, 0), (0, 1), (1, 1), (1, 0); 1 is its transpose, 2 its half turn, 3 the
+half turn's transpose."""
+_HILBERT_STATE = np.array([[1, 0, 0, 2], [0, 1, 1, 3], [3, 2, 2, 0], [2, 3, 3, 1]], dtype=np.int64)
+"""The orientation of each child, in that order: each child's curve starts next to where the last one ended."""
+
+
+_UNNUMBERED = -(2**31)
+"""A leaf's ``child`` while :func:`_number_leaves` walks the tree (no leaf number is that large)."""
+
+
+@njit(nogil=True, cache=True)
+def _number_leaves(n, child):
+    """Number the leaves (``child < 0``) of the tree rooted at node 0 along a Hilbert curve over the square,
+    as ``child = -1 - leaf``; returns their count. The leaves' order is the one a uniform number walks to
+    pick a leaf by the cumulative probabilities (``draw._pick_leaf``): along this curve consecutive leaves
+    touch, so a caller's stratified numbers stay spread over the square (the nodes' index order, the
+    numbering before, is breadth-first-like and jumps across it). A node the root does not reach (none is
+    expected) is numbered after the others, in index order."""
+    for i in range(n):
+        if child[i] < 0:
+            child[i] = _UNNUMBERED
+    stack_node = np.empty(256, np.int64)  # at most three pending siblings per level, 14 levels
+    stack_state = np.empty(256, np.int64)
+    stack_node[0] = 0
+    stack_state[0] = 0
+    top = 1
+    k = 0
+    while top > 0:
+        top -= 1
+        i = stack_node[top]
+        state = stack_state[top]
+        c = child[i]
+        if c < 0:
+            child[i] = -1 - k
+            k += 1
+            continue
+        for j in range(3, -1, -1):
+            stack_node[top] = c + _HILBERT_QUADRANT[state, j]
+            stack_state[top] = _HILBERT_STATE[state, j]
+            top += 1
+    for i in range(n):
+        if child[i] == _UNNUMBERED:
+            child[i] = -1 - k
+            k += 1
+    return k
+
+
 @njit(nogil=True, cache=True)
 def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, scales, weights):
-    """Leaf numbering, corner values (the cell's mixture, floor included), the views' integrals, errors and
-    chi^2, and the envelope."""
+    """Leaf numbering (:func:`_number_leaves`), corner values (the cell's mixture, floor included), the views'
+    integrals, errors and chi^2, and the envelope."""
     nv = stv.shape[1]
     floor = FLOOR
     mix = np.empty(9)
-    k = 0
-    for i in range(n):
-        if child[i] < 0:
-            child[i] = -1 - k
-            k += 1
+    k = _number_leaves(n, child)
     corners = np.empty((k, 4))
     bounds = np.empty(k)
     integrals = np.zeros(nv)
