@@ -436,11 +436,11 @@ class PathTracer:
                     (sampler, lo, min(b, lo + SAMPLER_SLICE), self._seed(pass_index, depth, m, k, wave))
                 )
 
-        placed = bool(jobs) and depth < SOBOL_DEPTH
-        if placed:
-            n_s = int(offsets[-1])
-            bsdf_points(0, n_s, self.width * self.height, first, self._seed_key, depth, B.s_path, B.points)
+        placed = depth < SOBOL_DEPTH
+        n_pix = self.width * self.height
         for sampler, lo, hi, seed in jobs:
+            if placed:
+                bsdf_points(lo, hi, n_pix, first, self._seed_key, depth, B.s_path, B.points)
             if self.has_nee_lights:
                 sampler.eval_pdf_where(B.wo[lo:hi], B.l_wi_local[lo:hi], B.l_cand[lo:hi], B.l_f[lo:hi],
                                        B.l_pdf_brdf[lo:hi])  # fmt: skip

@@ -386,8 +386,8 @@ def surface_stage(
             # what is left inside the chosen interval: a pixel's samples split between the types (and the
             # lights) in proportion, and each type's share is still spread over its lights' surfaces
             u_type = ux
-            if ux < c_area and n_emit > 0:
-                ux = _rescale(ux, 0.0, c_area)
+            if u_type < c_area and n_emit > 0:
+                ux = _rescale(u_type, 0.0, c_area)
                 k = min(np.searchsorted(emit_cdf, ux, side="right"), n_emit - 1)
                 ux = _rescale(ux, emit_cdf[k - 1] if k > 0 else 0.0, emit_cdf[k] if k < n_emit - 1 else 1.0)
                 tri = emit_ids[k]
@@ -406,7 +406,9 @@ def surface_stage(
                         pdf = p_area * emit_pmf_per_area[tri] * dist * dist / abs(cos_l)
                         t_max = dist * (1.0 - 1e-4)
             elif u_type < c_point and n_point > 0:
-                k = min(np.searchsorted(point_cdf, _rescale(ux, c_area, c_point), side="right"), n_point - 1)
+                k = min(
+                    np.searchsorted(point_cdf, _rescale(u_type, c_area, c_point), side="right"), n_point - 1
+                )
                 qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
                 dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
                 wx, wy, wz = qx / dist, qy / dist, qz / dist
@@ -420,7 +422,7 @@ def surface_stage(
                 t_max = dist * (1.0 - 1e-4)
                 l_delta[s] = True
             elif env_kind != 0 and p_env > 0.0:
-                ux = _rescale(ux, c_point, 1.0)
+                ux = _rescale(u_type, c_point, 1.0)
                 wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
                     env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
                     env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,

@@ -69,6 +69,17 @@ def check_direction(wo: np.ndarray) -> np.ndarray:
     return wo
 
 
+def check_points(points: np.ndarray, n: int) -> np.ndarray:
+    """``points`` as a C-contiguous ``(n, 2)`` float64 array of numbers in ``[0, 1)``, else
+    :class:`ParameterError` (a caller's uniforms for :meth:`Sampler.sample_into`)."""
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    if points.shape != (n, 2):
+        raise ParameterError(f"points must be ({n}, 2), got {points.shape}")
+    if not (np.all(points >= 0.0) and np.all(points < 1.0)):  # NaN fails both
+        raise ParameterError("points must be numbers in [0, 1)")
+    return points
+
+
 class Sampler:
     """Base class of the sampling strategies.
 
@@ -136,7 +147,7 @@ class Sampler:
         else:
             wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
             u = np.random.default_rng(seed).random((wo.shape[0], 3))
-            u[:, list(self.warp_dims)] = points
+            u[:, list(self.warp_dims)] = check_points(points, wo.shape[0])
             drawn = self._sample_rows(wo, u)
         wi[:], pdf[:], f[:] = drawn.wi, drawn.pdf, drawn.f
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from core.chi2 import chi2_test, sidak_alpha
+from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import make_brdf
 from core.sampling import make_sampler
@@ -99,3 +100,17 @@ def test_points_on_the_edges_of_the_square_give_finite_draws():
         for theta in (0.0, 45.0, 89.9):
             wi, pdf = _draw(sampler, degrees_to_dir(theta, 0.0), points, seed=1)
             assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
+
+
+@pytest.mark.parametrize("strategy", ["adaptive", "uniform_cdf"])
+@pytest.mark.parametrize("bad", [np.nan, -0.25, 1.0, np.inf])
+def test_points_outside_the_unit_square_are_refused(strategy, bad):
+    """NaN, negative, 1 or infinite: a clear error naming the range, and the caller's arrays untouched."""
+    sampler = make_sampler(strategy, make_brdf("phong"))
+    wo = np.tile(degrees_to_dir(30.0, 0.0), (10, 1))
+    wi, pdf, f = np.full((10, 3), -7.0), np.full(10, -7.0), np.full((10, 3), -7.0)
+    points = np.full((10, 2), 0.5)
+    points[3, 1] = bad
+    with pytest.raises(ParameterError, match=r"points must be numbers in \[0, 1\)"):
+        sampler.sample_into(wo, 1, wi, pdf, f, points=points)
+    assert np.all(wi == -7.0) and np.all(pdf == -7.0) and np.all(f == -7.0)

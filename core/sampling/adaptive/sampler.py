@@ -48,7 +48,14 @@ from core.sampling.adaptive.table import (
     save_table,
     table_cache_key,
 )
-from core.sampling.base import SampleBatch, Sampler, SamplerOption, check_direction, register_sampler
+from core.sampling.base import (
+    SampleBatch,
+    Sampler,
+    SamplerOption,
+    check_direction,
+    check_points,
+    register_sampler,
+)
 from core.threads import thread_budget
 
 _TABLES: dict[str, tuple[AdaptiveTable, TableReport]] = {}
@@ -439,12 +446,7 @@ class AdaptiveSampler(Sampler):
     def _draw_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
                    trials: np.ndarray, points: np.ndarray | None = None) -> None:  # fmt: skip
         n = wo.shape[0]
-        if points is None:
-            points = _NO_POINTS
-        elif points.shape != (n, 2):
-            raise ValueError(f"points must be ({n}, 2), got {points.shape}")
-        else:
-            points = np.ascontiguousarray(points, dtype=np.float64)
+        points = _NO_POINTS if points is None else check_points(points, n)
         mode = EXACT if self.mode == "exact" else WARP
         table, mid, p, seed = self.table, self.brdf.model.id, self.brdf.params, int(seed) % (1 << 63)
         chunks = thread_budget() if self.threads and n >= PARALLEL_MIN else 1
