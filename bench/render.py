@@ -36,7 +36,7 @@ import numpy as np
 
 from app.commands.render import demo_scene_path
 from core.sampling import sampler_names
-from core.scene import load_scene, scene_digest
+from core.scene import load_scene
 from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
 from renderer.render import prepare
 
@@ -165,6 +165,8 @@ def compare_seconds_per_spp(
 
 
 def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  # type: ignore[no-untyped-def]
+    from core.scene import scene_digest  # here: --baseline runs this file against older sources, without it
+
     key = scene_digest(scene, size, spp, seed)[:10]  # a changed mesh, map or table invalidates the reference
     path = out / f"render_reference_{size}_{spp}spp_{key}.exr"
     if path.is_file():

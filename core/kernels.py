@@ -51,6 +51,16 @@ def _eval_serial(mid, wi, wo, p, out):
         out[i, 2] = b
 
 
+@njit(nogil=True, cache=True)
+def _eval_where(mid, wi, wo, p, keep, out):
+    for i in range(wi.shape[0]):
+        if keep[i]:
+            r, g, b = eval_model(mid, (wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
+            out[i, 0] = r
+            out[i, 1] = g
+            out[i, 2] = b
+
+
 @njit(nogil=True, cache=True, parallel=True)
 def _eval_parallel(mid, wi, wo, p, out):
     for i in prange(wi.shape[0]):
@@ -100,6 +110,17 @@ def eval_batch(
     out = np.empty((wi.shape[0], 3), dtype=np.float64)
     (_eval_parallel if threads else _eval_serial)(model_index(model_or_id), wi, wo, _rows(p), out)
     return out
+
+
+def eval_into(model_id: int, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, out: np.ndarray,
+              where: np.ndarray | None = None) -> None:  # fmt: skip
+    """:func:`eval_batch` written into the caller's ``out (n, 3)``, at the rows where ``where (n,)`` holds
+    (all rows when None; the other rows are left as they are). Every array must already be C-contiguous
+    float64 (``where``: bool): a renderer's buffers, written without a copy."""
+    if where is None:
+        _eval_serial(model_id, wi, wo, p, out)
+    else:
+        _eval_where(model_id, wi, wo, p, where, out)
 
 
 def sample_batch(model_or_id: Model | int, wo: np.ndarray, p: np.ndarray, u: np.ndarray) -> DirectionSamples:

@@ -40,16 +40,18 @@ def _directions() -> tuple[np.ndarray, np.ndarray]:
 
 def _model_batches() -> int:
     """The batch drivers of :mod:`core.kernels` (one loop for all models), for every model id."""
-    from core.kernels import eval_batch, pdf_batch, sample_batch
+    from core.kernels import eval_batch, eval_into, pdf_batch, sample_batch
     from core.model import all_models
 
     wi, wo = _directions()
     u = np.full((2, 3), 0.5)
+    f, where = np.empty((2, 3)), np.array([True, False])
     models = all_models()
     for model in models:
         p = model.kernel_params()
         for threads in (False, True):
             eval_batch(model.id, wi, wo, p, threads=threads)
+        eval_into(model.id, wi, wo, p, f, where)
         sample_batch(model.id, wo, p, u)
         pdf_batch(model.id, wo, wi, p)
     return len(models)
@@ -113,6 +115,7 @@ def _tabulated_samplers() -> None:
             sampler = make_sampler(name, brdf, **options)
             drawn = sampler.sample_each(wo, seed=1)
             sampler.pdf(wo, drawn.wi)
+            sampler.eval_pdf_where(wo, drawn.wi, np.array([True, False]), drawn.f, drawn.pdf)
 
 
 def _adaptive_sampler() -> None:

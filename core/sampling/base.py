@@ -35,7 +35,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 
 from core.errors import ParameterError, UnknownNameError
-from core.kernels import DirectionSamples, eval_batch
+from core.kernels import DirectionSamples, eval_into
 from core.model import BRDF
 
 
@@ -136,28 +136,27 @@ class Sampler:
 
     def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
                     points: np.ndarray | None = None) -> None:  # fmt: skip
-        """:meth:`sample_each` written into the caller's arrays (rows of ``wo``); a strategy whose kernels
-        can write there directly overrides it.
+        """:meth:`sample_each`'s draws (the same uniforms for the same ``seed``) written into the caller's
+        C-contiguous float64 arrays ``wi (n, 3)``, ``pdf (n,)``, ``f (n, 3)``: a renderer's buffers, which the
+        strategy's compiled loops fill without copies.
 
         ``points (n, 2)``: uniforms in ``[0, 1)^2`` placed by the caller (a renderer's low-discrepancy
         points), read by the strategy's warp (:attr:`warp_dims`) instead of its own stream; its other
         uniforms still come from ``seed``. Each row's density is unchanged: every point is uniform."""
-        if points is None:
-            drawn = self.sample_each(wo, seed=seed)
-        else:
-            wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
-            u = np.random.default_rng(seed).random((wo.shape[0], 3))
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        u = np.random.default_rng(seed).random((wo.shape[0], 3))
+        if points is not None:
             u[:, list(self.warp_dims)] = check_points(points, wo.shape[0])
-            drawn = self._sample_rows(wo, u)
-        wi[:], pdf[:], f[:] = drawn.wi, drawn.pdf, drawn.f
+        self._directions_into(wo, u, wi, pdf)
+        self._f_into(wo, wi, pdf, f)
 
     def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,
                        pdf: np.ndarray) -> None:  # fmt: skip
-        """:meth:`eval_pdf` at the rows where ``mask`` holds, written into ``f (n, 3)`` and ``pdf (n,)``; the
-        other rows are left as they are."""
-        rows = np.flatnonzero(mask)
-        if len(rows):
-            f[rows], pdf[rows] = self.eval_pdf(wo[rows], wi[rows])
+        """:meth:`eval_pdf` at the rows where ``mask (n,)`` holds, written into ``f (n, 3)`` and ``pdf (n,)``;
+        the other rows are left as they are. Arrays C-contiguous (float64; ``mask`` bool), as in
+        :meth:`sample_into`."""
+        eval_into(self.brdf.model.id, wi, wo, self.brdf.params, f, mask)
+        self._pdf_where(wo, wi, mask, pdf)
 
     def compiled_equivalent(self) -> str | None:
         """The name of a strategy drawn in compiled code (``uniform``, ``cosine``, ``analytic``) whose density
@@ -193,12 +192,32 @@ class Sampler:
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
+    def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
+        """:meth:`_sample_directions` written into ``wi`` and ``pdf``; a strategy whose kernel can write there
+        directly overrides it."""
+        drawn = self._sample_directions(wo, u)
+        wi[:], pdf[:] = drawn.wi, drawn.pdf
+
+    def _pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, pdf: np.ndarray) -> None:
+        """:meth:`_pdf_rows` at the rows where ``mask`` holds, written into ``pdf``; a strategy whose kernel
+        can skip rows itself overrides it."""
+        rows = np.flatnonzero(mask)
+        if len(rows):
+            pdf[rows] = self._pdf_rows(wo[rows], wi[rows])
+
+    def _f_into(self, wo: np.ndarray, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray) -> None:
+        """The BRDF's value at the rows drawn (``pdf > 0``) into ``f``, 0 at the others: a row with no draw
+        (a placeholder direction) carries nothing. ``wo`` C-contiguous ``(n, 3)``."""
+        drawn = pdf > 0.0
+        f[~drawn] = 0.0
+        eval_into(self.brdf.model.id, wi, wo, self.brdf.params, f, drawn)
+
     def _with_f(self, wo: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> SampleBatch:
         """The batch of directions ``wi (n, 3)`` with densities ``pdf (n,)`` drawn for ``wo`` ((3,) or
-        (n, 3)), completed with the BRDF's value there (one compiled loop over the model's dispatch id)."""
-        wo = np.broadcast_to(np.asarray(wo, dtype=np.float64), wi.shape)
-        f = eval_batch(self.brdf.model.id, wi, wo, self.brdf.params)
-        f[~(pdf > 0.0)] = 0.0  # no draw was made there (a placeholder direction): it carries nothing
+        (n, 3)), completed with the BRDF's value there (:meth:`_f_into`)."""
+        wo = np.ascontiguousarray(np.broadcast_to(np.asarray(wo, dtype=np.float64), wi.shape))
+        f = np.empty(wi.shape)
+        self._f_into(wo, np.ascontiguousarray(wi), pdf, f)
         return SampleBatch(wi, pdf, f)
 
 

@@ -32,7 +32,7 @@ from core.errors import ParameterError
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
-from core.sampling.tabulated import bin_directions, bin_of, search_cdf
+from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, search_cdf
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -182,8 +182,12 @@ def _factored_sample_rows(
 
 
 @njit(nogil=True, cache=True)
-def _factored_pdf_rows(wo, wi, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
+def _factored_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
+    """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
+    every = mask.shape[0] == 0
     for i in range(wo.shape[0]):
+        if not (every or mask[i]):
+            continue
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
         if w[2] <= 0.0:
             out[i] = 0.0
@@ -302,23 +306,29 @@ class FactoredSampler(Sampler):
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
 
     def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        s = self.settings
         wi = np.empty_like(wo)
         pdf = np.empty(wo.shape[0])
+        self._directions_into(wo, u, wi, pdf)
+        return DirectionSamples(wi, pdf)
+
+    def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
+        s = self.settings
         _factored_sample_rows(
             wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
             self._v_cdf, self._v_pdf, wi, pdf,
         )  # fmt: skip
-        return DirectionSamples(wi, pdf)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-        s = self.settings
         out = np.empty(wo.shape[0])
-        _factored_pdf_rows(
-            wo, wi, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_pdf, self._v_pdf,
-            s.n_theta_p, s.n_phi_p, out,
-        )  # fmt: skip
+        self._pdf_where(wo, wi, EVERY_ROW, out)
         return out
+
+    def _pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, pdf: np.ndarray) -> None:
+        s = self.settings
+        _factored_pdf_rows(
+            wo, wi, mask, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_pdf, self._v_pdf,
+            s.n_theta_p, s.n_phi_p, pdf,
+        )  # fmt: skip
 
     def info(self) -> dict[str, Any]:
         s = self.settings

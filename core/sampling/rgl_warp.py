@@ -26,7 +26,7 @@ from numba import njit
 from core.kernels import DirectionSamples
 from core.model import BRDF
 from core.rgl.lookup import pdf_rgl, sample_rgl
-from core.sampling.base import SampleBatch, Sampler, SamplerOption, register_sampler
+from core.sampling.base import Sampler, SamplerOption, register_sampler
 
 
 @njit(cache=True, nogil=True)
@@ -71,12 +71,6 @@ class RGLWarpSampler(Sampler):
         pdf = np.empty(wo.shape[0])
         _sample_rows(wo, self.tables, u, wi, pdf)
         return DirectionSamples(wi, pdf)
-
-    def _sample_rows(self, wo: np.ndarray, u: np.ndarray) -> SampleBatch:
-        drawn = self._sample_directions(wo, u)
-        batch = self._with_f(wo, drawn.wi, drawn.pdf)
-        batch.f[drawn.pdf <= 0.0] = 0.0  # a draw not made carries nothing (its wi is a placeholder)
-        return batch
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])

@@ -8,7 +8,7 @@ segment) directions are uniform in solid angle (uniform in ``cos theta`` and ``p
 
 CompressCDF replaces each CDF curve by the Douglas-Peucker simplification of its polyline (abscissa
 ``-cos theta`` for the marginal, ``phi`` for the conditionals) with tolerance ``tol`` in CDF units; sampling is
-a binary search and a linear inversion. Both densities are exact: ``pdf`` evaluates the same piecewise
+a search (narrowed by a guide table per CDF) and a linear inversion. Both densities are exact: ``pdf`` evaluates the same piecewise
 constant density the sampler draws from.
 
 Unbiasedness: a cell whose sub-samples all miss a sharp peak would get zero probability while ``f > 0``
@@ -32,6 +32,9 @@ from core.sampling.base import Sampler, SamplerOption, register_sampler
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
+EVERY_ROW = np.zeros(0, dtype=np.bool_)  # a row mask that selects every row
+_MARGINAL_GUIDE = 64  # guide entries per marginal CDF (the default grid's rows), per conditional below
+_CONDITIONAL_GUIDE = 32
 
 
 def douglas_peucker(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
@@ -98,69 +101,133 @@ def search_cdf(cdf, lo, hi, u):
 
 
 @njit(nogil=True, cache=True)
-def _cdf_sample_rows(wo, u, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, wi_out, pdf_out):
-    """Draw one direction per row of ``wo``; the layout is explained in :class:`CDFSampler`."""
-    for i in range(wo.shape[0]):
-        w = (wo[i, 0], wo[i, 1], wo[i, 2])
-        if w[2] <= 0.0:
-            wi_out[i, 0] = 0.0
-            wi_out[i, 1] = 0.0
-            wi_out[i, 2] = 1.0
-            pdf_out[i] = 0.0
-            continue
-        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
-        lo = moff[b]
-        hi = moff[b + 1]
-        k = search_cdf(mf, lo, hi, u[i, 0])
-        dF = mf[k + 1] - mf[k]
-        dx = mx[k + 1] - mx[k]
-        x = mx[k] + (u[i, 0] - mf[k]) / dF * dx if dF > 0.0 else mx[k]
-        x = min(max(x, mx[k]), mx[k + 1])
-        cos_t = -x
-        theta = math.acos(min(1.0, max(0.0, cos_t)))
-        row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
-        c = b * n_rows + row
-        clo = coff[c]
-        chi = coff[c + 1]
-        j = search_cdf(cf, clo, chi, u[i, 1])
-        dG = cf[j + 1] - cf[j]
-        dphi = cx[j + 1] - cx[j]
-        phi = cx[j] + (u[i, 1] - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
-        phi += phi_ref
-        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-        wi_out[i, 0] = sin_t * math.cos(phi)
-        wi_out[i, 1] = sin_t * math.sin(phi)
-        wi_out[i, 2] = cos_t
-        pdf_out[i] = (dF / dx) * (dG / dphi)
+def cdf_guides(cdf, offsets, size):
+    """Guide rows for :func:`guided_search`: for CDF ``c`` (``cdf[offsets[c]:offsets[c+1]]``, from 0 to 1),
+    entry ``g`` of row ``c`` is :func:`search_cdf`'s answer at ``u = g / size``; ``(n_cdfs, size + 1)`` int32."""
+    out = np.empty((offsets.shape[0] - 1, size + 1), dtype=np.int32)
+    for c in range(offsets.shape[0] - 1):
+        lo = offsets[c]
+        hi = offsets[c + 1]
+        k = lo
+        for g in range(size + 1):
+            u = g / size
+            while k < hi - 2 and cdf[k + 1] <= u:
+                k += 1
+            out[c, g] = k
+    return out
+
+
+@njit(inline="always", nogil=True, cache=True)
+def guided_search(cdf, lo, hi, guide, u):
+    """:func:`search_cdf`'s answer (the same index) searched only between the answers at the guide's two
+    nearest ``u``: a step or two inside one or two cache lines instead of a search over the whole CDF."""
+    size = guide.shape[0] - 1
+    g = min(int(u * size), size - 1)
+    return search_cdf(cdf, guide[g], min(guide[g + 1] + 2, hi), u)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def walk_cdf(cdf, lo, hi, u, k):
+    """:func:`search_cdf`'s answer found by stepping from a guess ``k``: a few steps when the guess is close
+    (the cell a uniform grid computes), the same index for any increasing ``cdf``."""
+    k = min(max(k, lo), hi - 2)
+    while k > lo and cdf[k] > u:
+        k -= 1
+    while k < hi - 2 and cdf[k + 1] <= u:
+        k += 1
+    return k
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _cdf_draw(w, u0, u1, mguide, cguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff):
+    """One direction ``(x, y, z, pdf)`` for ``wo = w`` (above the horizon) from the uniforms ``u0, u1``; the
+    layout is explained in :class:`CDFSampler`."""
+    b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+    lo = moff[b]
+    hi = moff[b + 1]
+    k = guided_search(mf, lo, hi, mguide[b], u0)
+    dF = mf[k + 1] - mf[k]
+    dx = mx[k + 1] - mx[k]
+    x = mx[k] + (u0 - mf[k]) / dF * dx if dF > 0.0 else mx[k]
+    x = min(max(x, mx[k]), mx[k + 1])
+    cos_t = -x
+    theta = math.acos(min(1.0, max(0.0, cos_t)))
+    row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+    c = b * n_rows + row
+    clo = coff[c]
+    chi = coff[c + 1]
+    j = guided_search(cf, clo, chi, cguide[c], u1)
+    dG = cf[j + 1] - cf[j]
+    dphi = cx[j + 1] - cx[j]
+    phi = cx[j] + (u1 - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
+    phi += phi_ref
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    return sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t, (dF / dx) * (dG / dphi)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff):
+    """The density of :func:`_cdf_draw` at ``wi = d`` for ``wo = w`` (above the horizon). ``grid``: the
+    tables are the uniform grid itself (no simplification), so a cell's index is computed and checked
+    rather than searched for."""
+    # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
+    if d[2] < 0.0:
+        return 0.0
+    b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+    cos_t = min(1.0, d[2])
+    x = -cos_t
+    lo = moff[b]
+    hi = moff[b + 1]
+    theta = math.acos(cos_t)
+    row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+    k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
+    dx = mx[k + 1] - mx[k]
+    dF = mf[k + 1] - mf[k]
+    phi = math.atan2(d[1], d[0]) - phi_ref
+    phi = phi - TWO_PI * math.floor(phi / TWO_PI)
+    c = b * n_rows + row
+    clo = coff[c]
+    chi = coff[c + 1]
+    if grid:
+        j = walk_cdf(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
+    else:
+        j = search_cdf(cx, clo, chi, phi)
+    dphi = cx[j + 1] - cx[j]
+    dG = cf[j + 1] - cf[j]
+    return (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0
 
 
 @njit(nogil=True, cache=True)
-def _cdf_pdf_rows(wo, wi, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff, out):
+def _cdf_sample_rows(
+    wo, u, mguide, cguide, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, wi_out, pdf_out
+):
+    """One direction per row of ``wo`` from the uniforms ``u (n, >= 2)``, into ``wi_out`` and ``pdf_out``."""
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
-        # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
-        if w[2] <= 0.0 or wi[i, 2] < 0.0:
-            out[i] = 0.0
-            continue
-        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
-        cos_t = min(1.0, wi[i, 2])
-        x = -cos_t
-        lo = moff[b]
-        hi = moff[b + 1]
-        k = search_cdf(mx, lo, hi, x)
-        dx = mx[k + 1] - mx[k]
-        dF = mf[k + 1] - mf[k]
-        theta = math.acos(cos_t)
-        row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
-        phi = math.atan2(wi[i, 1], wi[i, 0]) - phi_ref
-        phi = phi - TWO_PI * math.floor(phi / TWO_PI)
-        c = b * n_rows + row
-        clo = coff[c]
-        chi = coff[c + 1]
-        j = search_cdf(cx, clo, chi, phi)
-        dphi = cx[j + 1] - cx[j]
-        dG = cf[j + 1] - cf[j]
-        out[i] = (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0
+        if w[2] <= 0.0:
+            x, y, z, pdf = 0.0, 0.0, 1.0, 0.0
+        else:
+            x, y, z, pdf = _cdf_draw(
+                w, u[i, 0], u[i, 1], mguide, cguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff
+            )
+        wi_out[i, 0] = x
+        wi_out[i, 1] = y
+        wi_out[i, 2] = z
+        pdf_out[i] = pdf
+
+
+@njit(nogil=True, cache=True)
+def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, out):
+    """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
+    every = mask.shape[0] == 0
+    for i in range(wo.shape[0]):
+        if every or mask[i]:
+            w = (wo[i, 0], wo[i, 1], wo[i, 2])
+            d = (wi[i, 0], wi[i, 1], wi[i, 2])
+            if w[2] <= 0.0:
+                out[i] = 0.0
+            else:
+                out[i] = _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff)
 
 
 class CDFSampler(Sampler):
@@ -263,12 +330,15 @@ class CDFSampler(Sampler):
         self._cx, self._cf = np.concatenate(cx), np.concatenate(cf)
         self._moff = np.asarray(moff, dtype=np.int64)
         self._coff = np.asarray(coff, dtype=np.int64)
+        self._mguide = cdf_guides(self._mf, self._moff, _MARGINAL_GUIDE)
+        self._cguide = cdf_guides(self._cf, self._coff, _CONDITIONAL_GUIDE)
 
     def _tables(self) -> tuple[Any, ...]:
         return (
             self.n_theta_o,
             self.n_phi_o,
             self.n_theta,
+            self.tol == 0.0,
             self._mx,
             self._mf,
             self._moff,
@@ -280,16 +350,23 @@ class CDFSampler(Sampler):
     def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
         wi = np.empty_like(wo)
         pdf = np.empty(wo.shape[0])
-        _cdf_sample_rows(wo, u, *self._tables(), wi, pdf)
+        self._directions_into(wo, u, wi, pdf)
         return DirectionSamples(wi, pdf)
+
+    def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
+        _cdf_sample_rows(wo, u, self._mguide, self._cguide, *self._tables(), wi, pdf)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])
-        _cdf_pdf_rows(wo, wi, *self._tables(), out)
+        self._pdf_where(wo, wi, EVERY_ROW, out)
         return out
 
+    def _pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, pdf: np.ndarray) -> None:
+        _cdf_pdf_rows(wo, wi, mask, *self._tables(), pdf)
+
     def memory_bytes(self) -> int:
-        return int(sum(a.nbytes for a in (self._mx, self._mf, self._cx, self._cf, self._moff, self._coff)))
+        arrays = (self._mx, self._mf, self._cx, self._cf, self._moff, self._coff, self._mguide, self._cguide)
+        return int(sum(a.nbytes for a in arrays))
 
     def info(self) -> dict[str, Any]:
         return {
@@ -329,7 +406,8 @@ def _table_bytes(brdf: BRDF, o: dict[str, Any]) -> float:
     (``substeps^2`` sub-samples a cell, each with its direction pair and RGB value)."""
     bins = o.get("n_theta_o", 32) * o.get("n_phi_o", 1 if brdf.model.isotropic else 8)
     cells = o.get("n_theta", 64) * (o.get("n_phi", 128) + 1)
-    return 16.0 * bins * cells + 120.0 * cells * o.get("substeps", 3) ** 2
+    guides = 4.0 * (_MARGINAL_GUIDE + 1 + o.get("n_theta", 64) * (_CONDITIONAL_GUIDE + 1))
+    return bins * (16.0 * cells + guides) + 120.0 * cells * o.get("substeps", 3) ** 2
 
 
 register_sampler(

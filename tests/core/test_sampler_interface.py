@@ -74,6 +74,42 @@ def test_a_draw_returns_the_brdf_value_and_the_pdf_at_its_directions(model, para
     assert np.any(each.f > 0.0)
 
 
+@pytest.mark.parametrize(("model", "params", "name"), _cases(F_BRDFS))
+def test_the_renderers_calls_write_into_its_buffers(model, params, name):
+    """What a renderer calls on a slice of its buffers: ``sample_into`` writes ``sample_each``'s draws (same
+    seed, same bits) and ``eval_pdf_where`` writes ``eval`` and ``pdf`` at the masked rows only; every row
+    outside the slice, and every unmasked row, keeps what it held (NaN here)."""
+    brdf = make_brdf(model, params)
+    sampler = make_sampler(name, brdf)
+    rng = np.random.default_rng(5)
+    n, lo, hi = 700, 100, 600
+    wo = rng.normal(size=(n, 3))
+    wo[:, 2] = np.abs(wo[:, 2])
+    wo[7, 2] = -0.2  # a view below the horizon: no draw, pdf 0, f 0
+    wo /= np.linalg.norm(wo, axis=1)[:, None]
+    wi, pdf, f = np.full((n, 3), np.nan), np.full(n, np.nan), np.full((n, 3), np.nan)
+    sampler.sample_into(wo[lo:hi], 11, wi[lo:hi], pdf[lo:hi], f[lo:hi])
+    each = sampler.sample_each(wo[lo:hi], seed=11)
+    np.testing.assert_array_equal(wi[lo:hi], each.wi)
+    np.testing.assert_array_equal(pdf[lo:hi], each.pdf)
+    np.testing.assert_array_equal(f[lo:hi], each.f)
+    for a in (wi, pdf, f):
+        assert np.all(np.isnan(a[:lo])) and np.all(np.isnan(a[hi:]))
+
+    light = rng.normal(size=(n, 3))  # light directions in both hemispheres, as a renderer's can be
+    light /= np.linalg.norm(light, axis=1)[:, None]
+    mask = rng.random(n) < 0.7
+    f_l, pdf_l = np.full((n, 3), np.nan), np.full(n, np.nan)
+    sampler.eval_pdf_where(wo[lo:hi], light[lo:hi], mask[lo:hi], f_l[lo:hi], pdf_l[lo:hi])
+    rows = lo + np.flatnonzero(mask[lo:hi])
+    np.testing.assert_array_equal(f_l[rows], sampler.eval(wo[rows], light[rows]))
+    np.testing.assert_allclose(pdf_l[rows], sampler.pdf(wo[rows], light[rows]), rtol=1e-12, atol=0)
+    untouched = np.ones(n, dtype=bool)
+    untouched[rows] = False
+    assert np.all(np.isnan(f_l[untouched])) and np.all(np.isnan(pdf_l[untouched]))
+    assert np.all(np.isfinite(f_l[rows])) and np.all(pdf_l[rows] >= 0.0)
+
+
 def test_unknown_sampler_is_a_user_error():
     assert "adaptive" in sampler_names()
     with pytest.raises(UnknownNameError, match="unknown sampler 'nope'"):
