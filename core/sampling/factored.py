@@ -32,7 +32,7 @@ from core.errors import ParameterError
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
-from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, search_cdf
+from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, search_cdf, table_azimuth
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -99,9 +99,9 @@ def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
 
 
 @njit(nogil=True, cache=True)
-def _pdf_at(wo, wi, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
+def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Density per unit solid angle of ``wi`` (either hemisphere) for ``wo`` (above the horizon, in bin ``b``,
-    table azimuth ``phi_ref``). Reparameterized, the sampler reflects ``wo`` about half vectors, which can send
+    table azimuth's cosine and sine ``c_ref, s_ref``). Reparameterized, the sampler reflects ``wo`` about half vectors, which can send
     ``wi`` below the horizon: the density is reported there too, so that it integrates to 1 over the sphere."""
     if reparam:
         hx = wi[0] + wo[0]
@@ -124,19 +124,17 @@ def _pdf_at(wo, wi, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
         d = (wi[0], wi[1], wi[2])
         jac = 1.0
     theta_p = math.acos(min(1.0, d[2]))
-    phi_p = math.atan2(d[1], d[0]) - phi_ref
-    phi_p = phi_p - TWO_PI * math.floor(phi_p / TWO_PI)
+    phi_p = table_azimuth(d, c_ref, s_ref)
     return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
 
 
 @njit(nogil=True, cache=True)
 def _factored_sample_rows(
-    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, wi_out, pdf_out
+    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, wi_out, pdf_out
 ):
     n_terms = u_cdf.shape[0]
     n_tp = u_cdf.shape[1] - 1
     n_pp = v_cdf.shape[1] - 1
-    d_theta = HALF_PI / n_tp
     d_phi = TWO_PI / n_pp
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
@@ -146,7 +144,7 @@ def _factored_sample_rows(
             wi_out[i, 2] = 1.0
             pdf_out[i] = 0.0
             continue
-        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+        b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
         t = search_cdf(term_cdf[b], 0, n_terms + 1, u[i, 0])
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
         v1 = u[i, 1]
@@ -155,8 +153,8 @@ def _factored_sample_rows(
         c1 = u_cdf[t, it + 1]
         frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
         frac = min(max(frac, 0.0), 1.0)
-        ca = math.cos(it * d_theta)
-        cb = math.cos((it + 1) * d_theta)
+        ca = cos_edges[it]
+        cb = cos_edges[it + 1]
         cos_p = ca + frac * (cb - ca)
         v2 = u[i, 2]
         ip = search_cdf(v_cdf[t], 0, n_pp + 1, v2)
@@ -165,8 +163,9 @@ def _factored_sample_rows(
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
         phi_p = (ip + min(max(fr2, 0.0), 1.0)) * d_phi
         sin_p = math.sqrt(max(0.0, 1.0 - cos_p * cos_p))
-        phi_w = phi_p + phi_ref
-        d = (sin_p * math.cos(phi_w), sin_p * math.sin(phi_w), cos_p)
+        cp = math.cos(phi_p)
+        sp = math.sin(phi_p)
+        d = (sin_p * (cp * c_ref - sp * s_ref), sin_p * (sp * c_ref + cp * s_ref), cos_p)
         if reparam:
             dh = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
             wi = (2.0 * dh * d[0] - w[0], 2.0 * dh * d[1] - w[1], 2.0 * dh * d[2] - w[2])
@@ -178,7 +177,7 @@ def _factored_sample_rows(
         # The density ``pdf`` reports at the direction returned, by the same routine: through the drawn h the
         # Jacobian differed from it by up to ~1e-8 relative near wi = -wo. A d rounded onto the horizon gets
         # density 0, as ``pdf`` gives it there: that draw is not returned (pdf 0, f 0).
-        pdf_out[i] = _pdf_at(w, wi, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+        pdf_out[i] = _pdf_at(w, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
 @njit(nogil=True, cache=True)
@@ -192,9 +191,9 @@ def _factored_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, reparam, term_cdf, u_pd
         if w[2] <= 0.0:
             out[i] = 0.0
             continue
-        b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+        b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
         d = (wi[i, 0], wi[i, 1], wi[i, 2])
-        out[i] = _pdf_at(w, d, b, phi_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+        out[i] = _pdf_at(w, d, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
 class FactoredSampler(Sampler):
@@ -302,6 +301,8 @@ class FactoredSampler(Sampler):
         edges = np.arange(s.n_theta_p + 1) * HALF_PI / s.n_theta_p
         d_cos = np.cos(edges[:-1]) - np.cos(edges[1:])
         self._u_pdf = U / d_cos[None, :]
+        # cos theta_p at the cells' edges, as the draw computed them (the same library cosine, the same bits)
+        self._cos_edges = np.array([math.cos(i * (HALF_PI / s.n_theta_p)) for i in range(s.n_theta_p + 1)])
         self._v_pdf = V / (TWO_PI / s.n_phi_p)
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
 
@@ -315,7 +316,7 @@ class FactoredSampler(Sampler):
         s = self.settings
         _factored_sample_rows(
             wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
-            self._v_cdf, self._v_pdf, wi, pdf,
+            self._v_cdf, self._v_pdf, self._cos_edges, wi, pdf,
         )  # fmt: skip
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:

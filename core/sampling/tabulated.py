@@ -35,6 +35,7 @@ TWO_PI = 2.0 * math.pi
 EVERY_ROW = np.zeros(0, dtype=np.bool_)  # a row mask that selects every row
 _MARGINAL_GUIDE = 64  # guide entries per marginal CDF (the default grid's rows), per conditional below
 _CONDITIONAL_GUIDE = 32
+_BLOCK = 64  # rows a draw loop takes at a time (see _cdf_sample_rows)
 
 
 def douglas_peucker(x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
@@ -73,17 +74,28 @@ def bin_directions(n_theta_o: int, n_phi_o: int) -> np.ndarray:
 
 @njit(inline="always", nogil=True, cache=True)
 def bin_of(wo, n_theta_o, n_phi_o):
-    """Bin index of ``wo`` and the azimuth the table is relative to (``phi_o`` for isotropic tables)."""
+    """Bin index of ``wo`` and the cosine and sine of the azimuth its table is relative to: ``phi_o`` for
+    isotropic tables (from ``wo``'s components, no arc tangent), 0 for anisotropic ones."""
     cz = min(1.0, max(-1.0, wo[2]))
-    theta = math.acos(cz)
+    it = min(int(math.acos(cz) / HALF_PI * n_theta_o), n_theta_o - 1)
+    if n_phi_o == 1:
+        r = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
+        if r > 0.0:
+            return it, wo[0] / r, wo[1] / r
+        return it, 1.0, 0.0
     phi = math.atan2(wo[1], wo[0])
     if phi < 0.0:
         phi += TWO_PI
-    it = min(int(theta / HALF_PI * n_theta_o), n_theta_o - 1)
-    if n_phi_o == 1:
-        return it, phi
     ip = min(int(phi / TWO_PI * n_phi_o), n_phi_o - 1)
-    return it * n_phi_o + ip, 0.0
+    return it * n_phi_o + ip, 1.0, 0.0
+
+
+@njit(inline="always", nogil=True, cache=True)
+def table_azimuth(d, c_ref, s_ref):
+    """The azimuth in ``[0, 2 pi)`` of ``d`` in a table turned by the azimuth whose cosine and sine are
+    ``c_ref, s_ref`` (:func:`bin_of`)."""
+    phi = math.atan2(d[1] * c_ref - d[0] * s_ref, d[0] * c_ref + d[1] * s_ref)
+    return phi + TWO_PI if phi < 0.0 else phi
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -139,10 +151,11 @@ def walk_cdf(cdf, lo, hi, u, k):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _cdf_draw(w, u0, u1, mguide, cguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff):
-    """One direction ``(x, y, z, pdf)`` for ``wo = w`` (above the horizon) from the uniforms ``u0, u1``; the
+def _cdf_marginal(w, u0, mguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff):
+    """The first half of a draw for ``wo = w`` (above the horizon) from the uniform ``u0``: the conditional
+    ``c`` to draw from, ``cos theta_i``, the marginal's density and the table's azimuth (:func:`bin_of`); the
     layout is explained in :class:`CDFSampler`."""
-    b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+    b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
     lo = moff[b]
     hi = moff[b + 1]
     k = guided_search(mf, lo, hi, mguide[b], u0)
@@ -153,16 +166,22 @@ def _cdf_draw(w, u0, u1, mguide, cguide, n_theta_o, n_phi_o, n_rows, mx, mf, mof
     cos_t = -x
     theta = math.acos(min(1.0, max(0.0, cos_t)))
     row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
-    c = b * n_rows + row
+    return b * n_rows + row, cos_t, dF / dx, c_ref, s_ref
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
+    """The second half: ``phi_i`` from conditional ``c`` and ``u1``; the direction and its density there."""
     clo = coff[c]
     chi = coff[c + 1]
     j = guided_search(cf, clo, chi, cguide[c], u1)
     dG = cf[j + 1] - cf[j]
     dphi = cx[j + 1] - cx[j]
     phi = cx[j] + (u1 - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
-    phi += phi_ref
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    return sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t, (dF / dx) * (dG / dphi)
+    cp = math.cos(phi)
+    sp = math.sin(phi)
+    return sin_t * (cp * c_ref - sp * s_ref), sin_t * (sp * c_ref + cp * s_ref), cos_t, dG / dphi
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -173,7 +192,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
     if d[2] < 0.0:
         return 0.0
-    b, phi_ref = bin_of(w, n_theta_o, n_phi_o)
+    b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
     cos_t = min(1.0, d[2])
     x = -cos_t
     lo = moff[b]
@@ -183,8 +202,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]
-    phi = math.atan2(d[1], d[0]) - phi_ref
-    phi = phi - TWO_PI * math.floor(phi / TWO_PI)
+    phi = table_azimuth(d, c_ref, s_ref)
     c = b * n_rows + row
     clo = coff[c]
     chi = coff[c + 1]
@@ -201,19 +219,37 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
 def _cdf_sample_rows(
     wo, u, mguide, cguide, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, wi_out, pdf_out
 ):
-    """One direction per row of ``wo`` from the uniforms ``u (n, >= 2)``, into ``wi_out`` and ``pdf_out``."""
-    for i in range(wo.shape[0]):
-        w = (wo[i, 0], wo[i, 1], wo[i, 2])
-        if w[2] <= 0.0:
-            x, y, z, pdf = 0.0, 0.0, 1.0, 0.0
-        else:
-            x, y, z, pdf = _cdf_draw(
-                w, u[i, 0], u[i, 1], mguide, cguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff, cx, cf, coff
-            )
-        wi_out[i, 0] = x
-        wi_out[i, 1] = y
-        wi_out[i, 2] = z
-        pdf_out[i] = pdf
+    """One direction per row of ``wo`` from the uniforms ``u (n, >= 2)``, into ``wi_out`` and ``pdf_out``.
+
+    In blocks of ``_BLOCK`` rows, each in two loops (every row's marginal, then every row's conditional):
+    a draw is two chains of dependent reads from tables larger than the cache, and in short loops over
+    independent rows the processor has several rows' reads in flight at once."""
+    cond = np.empty(_BLOCK, dtype=np.int64)
+    half = np.empty((_BLOCK, 4))
+    for i0 in range(0, wo.shape[0], _BLOCK):
+        i1 = min(wo.shape[0], i0 + _BLOCK)
+        for i in range(i0, i1):
+            w = (wo[i, 0], wo[i, 1], wo[i, 2])
+            if w[2] <= 0.0:
+                cond[i - i0] = -1
+                continue
+            c, cos_t, pdf_m, c_ref, s_ref = _cdf_marginal(w, u[i, 0], mguide, n_theta_o, n_phi_o, n_rows, mx,
+                                                          mf, moff)  # fmt: skip
+            h = half[i - i0]
+            cond[i - i0] = c
+            h[0], h[1], h[2], h[3] = cos_t, pdf_m, c_ref, s_ref
+        for i in range(i0, i1):
+            c = cond[i - i0]
+            if c < 0:
+                x, y, z, pdf = 0.0, 0.0, 1.0, 0.0
+            else:
+                h = half[i - i0]
+                x, y, z, pdf_c = _cdf_conditional(c, u[i, 1], h[0], h[2], h[3], cguide, cx, cf, coff)
+                pdf = h[1] * pdf_c
+            wi_out[i, 0] = x
+            wi_out[i, 1] = y
+            wi_out[i, 2] = z
+            pdf_out[i] = pdf
 
 
 @njit(nogil=True, cache=True)
@@ -326,8 +362,12 @@ class CDFSampler(Sampler):
                 cx.append(phi_edges[keep])
                 cf.append(G[keep])
                 coff.append(coff[-1] + len(keep))
-        self._mx, self._mf = np.concatenate(mx), np.concatenate(mf)
-        self._cx, self._cf = np.concatenate(cx), np.concatenate(cf)
+        # each knot's abscissa and CDF value side by side: a draw reads both of the knots it lands between,
+        # one cache line where two separate arrays cost two misses (the views below are strided)
+        self._m = np.stack([np.concatenate(mx), np.concatenate(mf)], axis=1)
+        self._c = np.stack([np.concatenate(cx), np.concatenate(cf)], axis=1)
+        self._mx, self._mf = self._m[:, 0], self._m[:, 1]
+        self._cx, self._cf = self._c[:, 0], self._c[:, 1]
         self._moff = np.asarray(moff, dtype=np.int64)
         self._coff = np.asarray(coff, dtype=np.int64)
         self._mguide = cdf_guides(self._mf, self._moff, _MARGINAL_GUIDE)
@@ -365,7 +405,7 @@ class CDFSampler(Sampler):
         _cdf_pdf_rows(wo, wi, mask, *self._tables(), pdf)
 
     def memory_bytes(self) -> int:
-        arrays = (self._mx, self._mf, self._cx, self._cf, self._moff, self._coff, self._mguide, self._cguide)
+        arrays = (self._m, self._c, self._moff, self._coff, self._mguide, self._cguide)
         return int(sum(a.nbytes for a in arrays))
 
     def info(self) -> dict[str, Any]:
