@@ -151,37 +151,37 @@ def walk_cdf(cdf, lo, hi, u, k):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _invert(xs, cdf, lo, hi, guide, u):
+    """Where the piecewise-linear CDF through the knots ``(xs, cdf)[lo:hi]`` reaches ``u``, and the density
+    (the slope) of the segment there."""
+    k = guided_search(cdf, lo, hi, guide, u)
+    dF = cdf[k + 1] - cdf[k]
+    dx = xs[k + 1] - xs[k]
+    x = xs[k] + (u - cdf[k]) / dF * dx if dF > 0.0 else xs[k]
+    return min(max(x, xs[k]), xs[k + 1]), dF / dx
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _cdf_marginal(w, u0, mguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff):
     """The first half of a draw for ``wo = w`` (above the horizon) from the uniform ``u0``: the conditional
     ``c`` to draw from, ``cos theta_i``, the marginal's density and the table's azimuth (:func:`bin_of`); the
     layout is explained in :class:`CDFSampler`."""
     b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
-    lo = moff[b]
-    hi = moff[b + 1]
-    k = guided_search(mf, lo, hi, mguide[b], u0)
-    dF = mf[k + 1] - mf[k]
-    dx = mx[k + 1] - mx[k]
-    x = mx[k] + (u0 - mf[k]) / dF * dx if dF > 0.0 else mx[k]
-    x = min(max(x, mx[k]), mx[k + 1])
+    x, pdf_m = _invert(mx, mf, moff[b], moff[b + 1], mguide[b], u0)
     cos_t = -x
     theta = math.acos(min(1.0, max(0.0, cos_t)))
     row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
-    return b * n_rows + row, cos_t, dF / dx, c_ref, s_ref
+    return b * n_rows + row, cos_t, pdf_m, c_ref, s_ref
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
     """The second half: ``phi_i`` from conditional ``c`` and ``u1``; the direction and its density there."""
-    clo = coff[c]
-    chi = coff[c + 1]
-    j = guided_search(cf, clo, chi, cguide[c], u1)
-    dG = cf[j + 1] - cf[j]
-    dphi = cx[j + 1] - cx[j]
-    phi = cx[j] + (u1 - cf[j]) / dG * dphi if dG > 0.0 else cx[j]
+    phi, pdf_c = _invert(cx, cf, coff[c], coff[c + 1], cguide[c], u1)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
     cp = math.cos(phi)
     sp = math.sin(phi)
-    return sin_t * (cp * c_ref - sp * s_ref), sin_t * (sp * c_ref + cp * s_ref), cos_t, dG / dphi
+    return sin_t * (cp * c_ref - sp * s_ref), sin_t * (sp * c_ref + cp * s_ref), cos_t, pdf_c
 
 
 @njit(inline="always", nogil=True, cache=True)
