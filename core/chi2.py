@@ -241,10 +241,9 @@ def _expected_probabilities(
     pdf: PdfFn, grid: _Grid, order: int, cell_tol: float, variable: Variable = "cos"
 ) -> np.ndarray:
     probs = integrate_cells(pdf, grid.phi_edges, grid.cos_edges, order, cell_tol, variable=variable)
-    if grid.below_cell:
-        lower = integrate_cells(
-            pdf, grid.phi_edges, np.linspace(-1.0, 0.0, 9), order, cell_tol, variable=variable
-        )
+    if grid.below_cell:  # one cell, integrated on the sphere grid's lower half (mass below can be sharp)
+        phi_edges, cos_edges = np.linspace(0.0, TWO_PI, 101), np.linspace(-1.0, 0.0, 26)
+        lower = integrate_cells(pdf, phi_edges, cos_edges, order, cell_tol, variable=variable)
         probs = np.concatenate([probs, [lower.sum()]])
     return probs
 

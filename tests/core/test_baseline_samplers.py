@@ -29,8 +29,15 @@ FAST_CASES = [
     ("blinn", "uniform_cdf", 89.0, "disk"),
 ]
 N_TESTS = len(FAST_CASES)
-# The densities are piecewise constant: a coarse per-cell tolerance (0.1 expected counts) is plenty.
+# The densities are piecewise constant: a coarse per-cell tolerance (0.1 expected counts) is plenty where the
+# rule's nodes see the steps, as in the fast cases (nodes even in cos theta, order 2: seconds a case).
 CHI2 = dict(n_samples=1_000_000, cell_tol=1e-7, order=2)
+# The sweep's cases include lobes at normal incidence and narrow compressed segments: the tables' cells are even
+# in theta (1.4 degrees in the first rows) and the chi-square grid's polar cells even in cos theta (~16 degrees
+# wide at the pole), so nodes even in cos missed the first rows at every level of refinement (a lobe at
+# normal incidence integrated up to 0.5 % off, 48 of the 240 cases failed); nodes even in theta
+# (core.chi2._cell_rule) of order 4 see them, to 1 expected count a cell (plenty against ~200 counts a cell).
+CHI2_SWEEP = dict(n_samples=1_000_000, cell_tol=1e-6, order=4, variable="theta")
 
 _cache: dict[tuple[str, str], object] = {}
 
@@ -66,7 +73,7 @@ def test_chi2_sweep(model, name, theta, domain):
         domain=domain,
         seed=12,
         n_tests=8 * 3 * 5 * 2,
-        **CHI2,
+        **CHI2_SWEEP,
     )
     assert r.passed, r.reason
 
