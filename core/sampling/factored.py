@@ -101,8 +101,9 @@ def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
 @njit(nogil=True, cache=True)
 def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Density per unit solid angle of ``wi`` (either hemisphere) for ``wo`` (above the horizon, in bin ``b``,
-    table azimuth's cosine and sine ``c_ref, s_ref``). Reparameterized, the sampler reflects ``wo`` about half vectors, which can send
-    ``wi`` below the horizon: the density is reported there too, so that it integrates to 1 over the sphere."""
+    its table's azimuth by cosine and sine ``c_ref, s_ref``). Reparameterized, the sampler reflects ``wo``
+    about half vectors, which can send ``wi`` below the horizon: the density is reported there too, so that
+    it integrates to 1 over the sphere."""
     if reparam:
         hx = wi[0] + wo[0]
         hy = wi[1] + wo[1]
@@ -301,7 +302,7 @@ class FactoredSampler(Sampler):
         edges = np.arange(s.n_theta_p + 1) * HALF_PI / s.n_theta_p
         d_cos = np.cos(edges[:-1]) - np.cos(edges[1:])
         self._u_pdf = U / d_cos[None, :]
-        # cos theta_p at the cells' edges, as the draw computed them (the same library cosine, the same bits)
+        # cos theta_p at the cells' edges: a draw reads two instead of calling the library cosine twice
         self._cos_edges = np.array([math.cos(i * (HALF_PI / s.n_theta_p)) for i in range(s.n_theta_p + 1)])
         self._v_pdf = V / (TWO_PI / s.n_phi_p)
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
