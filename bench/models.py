@@ -17,7 +17,6 @@ Prints a table and writes ``models.csv`` and ``models.png`` under ``--out`` (def
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import platform
 import sys
@@ -29,6 +28,7 @@ import numpy as np
 
 from core.analysis import albedo
 from core.geometry import spherical_to_dir
+from core.io import write_csv_rows
 from core.kernels import eval_batch
 from core.model import BRDF, all_models
 
@@ -129,10 +129,7 @@ def main(argv: list[str] | None = None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "models.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv_rows(out / "models.csv", rows)
     _plot(rows, out / "models.png")
     print(f"wrote {out / 'models.csv'} and {out / 'models.png'}")
     return 0

@@ -15,7 +15,6 @@ Writes ``placement.csv`` under ``--out``.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from core.geometry import degrees_to_dir
+from core.io import write_csv_rows
 from core.model import make_brdf
 from core.sampling import make_sampler
 
@@ -115,10 +115,7 @@ def main(argv: list[str] | None = None) -> int:
                   + f"{own:9.1f}{placed:9.1f}")  # fmt: skip
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "placement.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv_rows(out / "placement.csv", rows)
     print(f"wrote {out / 'placement.csv'}")
     return 0
 

@@ -21,7 +21,6 @@ Prints a table, writes ``rgl.csv``.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import tempfile
 import time
@@ -31,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from core.geometry import degrees_to_dir  # noqa: E402
+from core.io import write_csv_rows  # noqa: E402
 from core.model import LUMINANCE, make_brdf  # noqa: E402
 from core.rgl.export import eval_table, node_pairs, tabulate  # noqa: E402
 from core.rgl.material import kernel_vector, rgl_brdf, write_bsdf  # noqa: E402
@@ -137,10 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     print("|" + "---|" * len(rows[0]))
     for r in rows:
         print("| " + " | ".join(str(v) for v in r.values()) + " |")
-    with open(args.out / "rgl.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv_rows(args.out / "rgl.csv", rows)
     print(f"wrote {args.out / 'rgl.csv'}")
     return 0
 

@@ -13,7 +13,6 @@ come from one measurement.
 
 from __future__ import annotations
 
-import csv
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -474,15 +473,3 @@ def plot(rows: list[Row], out_dir: Path) -> dict[str, Path]:
         plt.close(fig)
         paths[f"error_vs_{xaxis}"] = path
     return paths
-
-
-def write_csv_rows(path: Path, rows: list[dict[str, Any]]) -> None:
-    """A small helper for benchmarks: rows of dicts to CSV (atomic)."""
-    import io
-
-    buf = io.StringIO()
-    if rows:
-        w = csv.DictWriter(buf, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
-    atomic_write_text(path, buf.getvalue())

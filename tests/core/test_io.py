@@ -8,7 +8,7 @@ import stat
 import pytest
 
 from core.errors import OutputError
-from core.io import atomic_write, atomic_write_text
+from core.io import atomic_write, atomic_write_text, write_csv_rows
 
 
 def test_replaces_whole_file_with_umask_permissions(tmp_path):
@@ -54,3 +54,13 @@ def test_user_files_are_synced_and_cache_entries_are_not(tmp_path, monkeypatch):
     assert cache.save("k", "bin0", {"a": np.arange(3.0)})
     assert len(synced) == 1
     np.testing.assert_array_equal(cache.load("k", "bin0")["a"], np.arange(3.0))
+
+
+def test_csv_rows_are_written_whole_with_the_first_rows_keys_as_header(tmp_path):
+    path = tmp_path / "table.csv"
+    path.write_text("old contents\n")
+    write_csv_rows(path, [{"a": 1, "b": 0.5}, {"a": 2, "b": "x"}])
+    assert path.read_text().splitlines() == ["a,b", "1,0.5", "2,x"]
+    assert [p.name for p in tmp_path.iterdir()] == ["table.csv"]  # no temporary file left beside it
+    write_csv_rows(path, [])
+    assert path.read_text() == ""
