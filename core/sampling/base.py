@@ -80,6 +80,24 @@ def check_points(points: np.ndarray, n: int) -> np.ndarray:
     return points
 
 
+# a buffer's columns (0: a vector) and dtype by its name; any other name is (n, 3) float64
+_BUFFER_KINDS = {"pdf": (0, np.float64), "mask": (0, np.bool_)}
+
+
+def check_buffers(n: int, **arrays: np.ndarray) -> None:
+    """:class:`ParameterError` unless every named array is a writable or readable buffer compiled loops may
+    index without bounds checks: C-contiguous, ``n`` rows, ``(n, 3)`` float64 for directions and values
+    (``wi``, ``f``), ``(n,)`` float64 for densities (``pdf``), ``(n,)`` bool for a row ``mask``."""
+    for name, a in arrays.items():
+        columns, dtype = _BUFFER_KINDS.get(name, (3, np.float64))
+        shape = (n,) if columns == 0 else (n, columns)
+        if not isinstance(a, np.ndarray) or a.shape != shape or a.dtype != dtype or not a.flags.c_contiguous:
+            got = f"{a.shape} {a.dtype}" if isinstance(a, np.ndarray) else type(a).__name__
+            raise ParameterError(
+                f"{name} must be a C-contiguous {shape} {np.dtype(dtype).name} array, got {got}"
+            )
+
+
 class Sampler:
     """Base class of the sampling strategies.
 
@@ -144,6 +162,7 @@ class Sampler:
         points), read by the strategy's warp (:attr:`warp_dims`) instead of its own stream; its other
         uniforms still come from ``seed``. Each row's density is unchanged: every point is uniform."""
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        check_buffers(wo.shape[0], wi=wi, pdf=pdf, f=f)
         u = np.random.default_rng(seed).random((wo.shape[0], 3))
         if points is not None:
             u[:, list(self.warp_dims)] = check_points(points, wo.shape[0])
@@ -155,6 +174,7 @@ class Sampler:
         """:meth:`eval_pdf` at the rows where ``mask (n,)`` holds, written into ``f (n, 3)`` and ``pdf (n,)``;
         the other rows are left as they are. Arrays C-contiguous (float64; ``mask`` bool), as in
         :meth:`sample_into`."""
+        check_buffers(len(wo), wo=wo, wi=wi, mask=mask, f=f, pdf=pdf)
         eval_into(self.brdf.model.id, wi, wo, self.brdf.params, f, mask)
         self._pdf_where(wo, wi, mask, pdf)
 

@@ -7,9 +7,9 @@ bins over ``(theta_o, phi_o)``) the luminance of ``f cos`` is tabulated on a gri
 segment) directions are uniform in solid angle (uniform in ``cos theta`` and ``phi``).
 
 CompressCDF replaces each CDF curve by the Douglas-Peucker simplification of its polyline (abscissa
-``-cos theta`` for the marginal, ``phi`` for the conditionals) with tolerance ``tol`` in CDF units; sampling is
-a search (narrowed by a guide table per CDF) and a linear inversion. Both densities are exact: ``pdf`` evaluates the same piecewise
-constant density the sampler draws from.
+``-cos theta`` for the marginal, ``phi`` for the conditionals) with tolerance ``tol`` in CDF units; sampling
+is a search (narrowed by a guide table per CDF) and a linear inversion. Both densities are exact: ``pdf``
+evaluates the same piecewise constant density the sampler draws from.
 
 Unbiasedness: a cell whose sub-samples all miss a sharp peak would get zero probability while ``f > 0``
 there. Every cell is floored at ``defensive`` times the mean cell value, so the density is positive wherever
@@ -186,7 +186,8 @@ def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
 
 @njit(inline="always", nogil=True, cache=True)
 def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff):
-    """The density of :func:`_cdf_draw` at ``wi = d`` for ``wo = w`` (above the horizon). ``grid``: the
+    """The density of a draw (:func:`_cdf_marginal`, :func:`_cdf_conditional`) at ``wi = d`` for ``wo = w``
+    (above the horizon). ``grid``: the
     tables are the uniform grid itself (no simplification), so a cell's index is computed and checked
     rather than searched for."""
     # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this

@@ -110,6 +110,24 @@ def test_the_renderers_calls_write_into_its_buffers(model, params, name):
     assert np.all(np.isfinite(f_l[rows])) and np.all(pdf_l[rows] >= 0.0)
 
 
+@pytest.mark.parametrize(("model", "params", "name"), _cases())
+def test_buffers_of_the_wrong_shape_or_type_are_refused(model, params, name):
+    """The in-place calls hand the caller's arrays to compiled loops without bounds checks: a wrong shape, type
+    or layout is a clear ParameterError, and nothing is written."""
+    sampler = make_sampler(name, make_brdf(model, params))
+    n = 8
+    wo = np.tile(degrees_to_dir(30.0, 10.0), (n, 1))
+    wi, pdf, f = np.zeros((n, 3)), np.zeros(n), np.zeros((n, 3))
+    for bad in ({"wi": np.zeros((n, 2))}, {"pdf": np.zeros(n + 1)}, {"f": np.zeros((n, 3), np.float32)},
+                {"wi": np.zeros((3, n)).T}):  # fmt: skip
+        args = {"wi": wi, "pdf": pdf, "f": f} | bad
+        with pytest.raises(ParameterError, match="must be a C-contiguous"):
+            sampler.sample_into(wo, 1, args["wi"], args["pdf"], args["f"])
+    with pytest.raises(ParameterError, match="mask must be"):
+        sampler.eval_pdf_where(wo, wo, np.ones(n, dtype=np.int64), f, pdf)
+    assert not wi.any() and not pdf.any() and not f.any()
+
+
 def test_unknown_sampler_is_a_user_error():
     assert "adaptive" in sampler_names()
     with pytest.raises(UnknownNameError, match="unknown sampler 'nope'"):

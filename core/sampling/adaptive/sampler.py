@@ -52,6 +52,7 @@ from core.sampling.base import (
     SampleBatch,
     Sampler,
     SamplerOption,
+    check_buffers,
     check_direction,
     check_points,
     register_sampler,
@@ -417,12 +418,14 @@ class AdaptiveSampler(Sampler):
         """:meth:`sample_each` written into the caller's C-contiguous float64 arrays (a renderer's buffers:
         no copies), the same draws; ``points (n, 2)``: the caller's uniforms for each row's first proposal
         (:meth:`core.sampling.base.Sampler.sample_into`; the leaf and the point in it, ``draw.sample_rows``)."""
+        check_buffers(len(wo), wo=wo, wi=wi, pdf=pdf, f=f)
         self._draw_into(wo, seed, wi, pdf, f, np.empty(wo.shape[0], dtype=np.int64), points)
 
     def eval_pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, f: np.ndarray,
                        pdf: np.ndarray) -> None:  # fmt: skip
         """:meth:`eval_pdf` at the rows where ``mask`` holds, written into ``f`` and ``pdf`` in place (the
         other rows are left as they are); all arrays C-contiguous, rows of one length."""
+        check_buffers(len(wo), wo=wo, wi=wi, mask=mask, f=f, pdf=pdf)
         mode = EXACT if self.mode == "exact" else WARP
         pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, mask, pdf, f)
 
