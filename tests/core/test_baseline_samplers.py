@@ -210,3 +210,26 @@ def test_the_narrowed_searches_find_the_binary_searchs_cell(steps, queries, size
         want = search_cdf(flat, lo, hi, u)
         assert guided_search(flat, lo, hi, guides[1], u) == want
         assert walk_cdf(flat, lo, hi, u, lo + guess) == want
+
+
+@pytest.mark.parametrize("name", BASELINES)
+@pytest.mark.parametrize(("model", "params"), [("phong", {"n": 1e4}), ("ward", {"sx": 0.01, "sy": 0.5})])
+def test_hard_views_draw_finite_samples_with_their_own_density(model, params, name):
+    """Views whose azimuth is (almost) undefined — exactly normal, x and y ~1e-160 or ~1e-300 (squares below the
+    smallest float) — and grazing ones (89.99 degrees, cos 1e-17), through the renderer's in-place calls: every
+    draw finite with a density equal to ``pdf`` there; views on or below the horizon draw nothing."""
+    s = make_sampler(name, make_brdf(model, params))
+    views = np.array([[0, 0, 1.0], [1e-160, 0, 1.0], [1e-300, 1e-300, 1.0], [1.0, 0, 1e-17],
+                      [np.sin(np.radians(89.99)), 0, np.cos(np.radians(89.99))], [0, -1.0, 0], [0.6, 0.8, -1e-12]])  # fmt: skip
+    views /= np.linalg.norm(views, axis=1)[:, None]
+    wo = np.repeat(views, 500, axis=0)
+    n = len(wo)
+    wi, pdf, f = np.empty((n, 3)), np.empty(n), np.empty((n, 3))
+    s.sample_into(wo, 3, wi, pdf, f, points=np.random.default_rng(0).random((n, 2)))
+    f_l, pdf_l = np.empty((n, 3)), np.empty(n)
+    s.eval_pdf_where(wo, wi, np.ones(n, dtype=bool), f_l, pdf_l)
+    for a in (wi, pdf, f, f_l, pdf_l):
+        assert np.all(np.isfinite(a))
+    above = wo[:, 2] > 0.0
+    assert np.all(pdf[above] > 0.0) and np.all(pdf[~above] == 0.0) and np.all(f[~above] == 0.0)
+    np.testing.assert_allclose(pdf_l[above], pdf[above], rtol=1e-9, atol=0)
