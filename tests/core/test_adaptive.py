@@ -436,24 +436,71 @@ def test_chi2_full_sweep(model, mode, n_max):
         assert np.all(sampler.acceptance(wo) >= 1.0 / n_max)
 
 
-def test_the_normalizers_fine_table_is_the_cubic_through_the_nearest_nodes():
-    """normalizer_table resamples the nodes' values by Lagrange cubics through the four nearest nodes: a cubic
-    in s is reproduced exactly (to rounding) anywhere, the nodes' own values at the nodes, with 1-3 nodes the
-    polynomial of their degree."""
-    from core.sampling.adaptive.layout import NORM_SAMPLES, THETA_END, norm_coordinate, normalizer_table
+def test_the_normalizers_table_is_the_cubic_through_the_nearest_nodes():
+    """normalizer_table resamples the nodes' values by Lagrange cubics in s through the four nearest nodes at
+    its rows' cos theta: a cubic in s is reproduced exactly (to rounding) at every row a view reads (down to
+    cos(THETA_END)), with 1-3 nodes the polynomial of their degree; the rows below continue the line through
+    the last node's value, so that cos(THETA_END) itself reads that value."""
+    from core.sampling.adaptive.layout import (
+        NORM_ROWS,
+        THETA_END,
+        norm_coordinate,
+        normalizer_grid,
+        normalizer_table,
+    )
 
     rng = np.random.default_rng(5)
+    mu = normalizer_grid()
+    read = mu >= np.cos(THETA_END)
     for k in (1, 2, 3, 4, 7, 23):
-        thetas = np.sort(rng.uniform(0.0, THETA_END, k))
+        thetas = np.sort(np.append(rng.uniform(0.0, THETA_END, k - 1), THETA_END))
         s = norm_coordinate(thetas)
         degree = min(k - 1, 3)
         coef = rng.normal(size=(degree + 1, 3))
         values = np.stack([np.polyval(c, s) for c in coef.T], axis=1)
-        table, ds = normalizer_table(thetas, values)
-        grid = np.arange(NORM_SAMPLES) * ds
-        expect = np.stack([np.polyval(c, grid) for c in coef.T], axis=1)
-        assert table.shape == (NORM_SAMPLES, 3)
-        np.testing.assert_allclose(table, expect, rtol=1e-8, atol=1e-8 * np.abs(expect).max())
+        table = normalizer_table(thetas, values)
+        expect = np.stack([np.polyval(c, -np.log(mu[read])) for c in coef.T], axis=1)
+        assert table.shape == (NORM_ROWS, 3)
+        np.testing.assert_allclose(table[read], expect, rtol=1e-8, atol=1e-8 * np.abs(expect).max())
+        r = int(np.flatnonzero(~read)[-1])
+        at_end = table[r] + (np.cos(THETA_END) - mu[r]) / (mu[r + 1] - mu[r]) * (table[r + 1] - table[r])
+        np.testing.assert_allclose(at_end, values[-1], rtol=1e-9, atol=1e-9 * np.abs(values).max())
+
+
+def test_the_normalizer_is_read_linearly_between_its_rows_in_cos_theta():
+    """normalizer_at finds a view's rows from the bits of cos theta (octave and step, no logarithm): at a row's
+    own cos theta it reads that row, halfway between two rows their mean, for every symmetry; the azimuth
+    enters through its unit vector (MIRROR: the series in cos 2 phi = c^2 - s^2; FULL: the periodic cubic at
+    phi); out of range (below the table, NaN, above 1) it reads the first or last row, finite."""
+    from core.sampling.adaptive.layout import (
+        FULL,
+        ISOTROPIC,
+        MIRROR,
+        NORM_ROWS,
+        normalizer_at,
+        normalizer_grid,
+    )
+
+    rng = np.random.default_rng(11)
+    mu = normalizer_grid()
+    table = rng.uniform(0.5, 2.0, (NORM_ROWS, 3))
+    rows = rng.integers(0, NORM_ROWS - 1, 400)
+    for r in rows:
+        assert normalizer_at(ISOTROPIC, table, 0, mu[r], 1.0, 0.0) == pytest.approx(table[r, 0], rel=1e-14)
+        mid = 0.5 * (mu[r] + mu[r + 1])
+        assert normalizer_at(ISOTROPIC, table, 0, mid, 1.0, 0.0) == pytest.approx(
+            0.5 * (table[r, 0] + table[r + 1, 0]), rel=1e-12
+        )
+        phi = rng.uniform(0.0, 0.5 * np.pi)
+        series = table[r, 0] + table[r, 1] * np.cos(2 * phi) + table[r, 2] * np.cos(4 * phi)
+        got = normalizer_at(MIRROR, table, 1, mu[r], np.cos(phi), np.sin(phi))
+        assert got == pytest.approx(np.exp(series), rel=1e-12)
+        at_node = normalizer_at(FULL, table, 0, mu[r], np.cos(2 * np.pi / 3), np.sin(2 * np.pi / 3))
+        assert at_node == pytest.approx(table[r, 1], rel=1e-12)
+    assert normalizer_at(ISOTROPIC, table, 0, 1.0, 1.0, 0.0) == pytest.approx(table[-1, 0], rel=1e-14)
+    assert normalizer_at(ISOTROPIC, table, 0, 1.0 + 2e-16, 1.0, 0.0) == pytest.approx(table[-1, 0], rel=1e-14)
+    for bad in (0.0, 1e-5, -0.5, np.nan):
+        assert normalizer_at(ISOTROPIC, table, 0, bad, 1.0, 0.0) == table[0, 0]
 
 
 def test_background_builds_can_be_dropped_but_the_kept_one():
@@ -553,3 +600,17 @@ def test_a_failed_background_build_keeps_the_coarse_table_and_is_not_queued_agai
     wo = np.repeat(_wo(40.0)[None, :], 500, axis=0)
     batch = sampler.sample_each(wo, seed=3)
     assert np.all(np.isfinite(batch.pdf)) and np.all(batch.pdf > 0)
+
+
+def test_a_flat_lobes_bounds_do_not_depend_on_its_scale():
+    """A Lambertian lobe meets its bounds at every probe to rounding: ties must not raise some leaves' bounds
+    and not others (tree.PROBE_TIE), so the exact tables of kd = 0.5 and 0.25 are the same, every leaf
+    bound alike."""
+    from core.sampling.adaptive.inspect import leaf_probabilities
+
+    a = make_sampler("adaptive", make_brdf("lambert", {"kd": 0.5}), cache=False).table
+    b = make_sampler("adaptive", make_brdf("lambert", {"kd": 0.25}), cache=False).table
+    np.testing.assert_array_equal(a.total, b.total)
+    assert np.ptp(a.total) <= 1e-12 * a.total[0]
+    for t in range(len(a.total)):
+        np.testing.assert_array_equal(leaf_probabilities(a, t), leaf_probabilities(b, t))

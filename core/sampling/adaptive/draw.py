@@ -378,7 +378,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
     projection, leaf_base, leaf_cell = table.projection, table.leaf_base, table.leaf_cell
     cdf, guide, corners, total, cos_min = table.cdf, table.guide, table.corners, table.total, table.cos_min
-    norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
+    norm_table, norm_log = table.norm, table.norm_log
     placed = points.shape[0] > 0
     for i in range(wo.shape[0]):
         state = stream(seed, offset + i)
@@ -402,9 +402,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
             if mode == WARP:
                 tree = wz > 0.0
             elif wz >= cos_min:
-                norm = normalizer_at(
-                    symmetry, norm_fine, norm_ds, norm_log, wz, _azimuth(symmetry, cos_o, sin_o)
-                )
+                norm = normalizer_at(symmetry, norm_table, norm_log, wz, cos_o, sin_o)
                 tree = norm > 0.0
         proj = projection[t]
         start = leaf_base[t]
@@ -496,7 +494,7 @@ def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
     edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
     projection, root, child, leaf_base = table.projection, table.root, table.child, table.leaf_base
     corners, cdf, cos_min = table.corners, table.cdf, table.cos_min
-    norm_fine, norm_ds, norm_log = table.norm, table.norm_ds, table.norm_log
+    norm_table, norm_log = table.norm, table.norm_log
     for i in range(wo.shape[0]):
         if not every and not mask[i]:
             continue
@@ -545,7 +543,7 @@ def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
             continue
         norm = 0.0
         if mode == EXACT and wz >= cos_min:
-            norm = normalizer_at(symmetry, norm_fine, norm_ds, norm_log, wz, _azimuth(symmetry, cos_o, sin_o))
+            norm = normalizer_at(symmetry, norm_table, norm_log, wz, cos_o, sin_o)
         if norm > 0.0:
             out_pdf[i] = max(luminance3(r, g, b), 0.0) * iz / norm if iz > 0.0 else 0.0
         else:
@@ -558,10 +556,7 @@ def normalizer_rows(table, wo, out):
     for i in range(wo.shape[0]):
         c, s, _, _ = _fold(table.symmetry, wo[i, 0], wo[i, 1])
         if wo[i, 2] >= table.cos_min:
-            phi = _azimuth(table.symmetry, c, s)
-            out[i] = max(
-                normalizer_at(table.symmetry, table.norm, table.norm_ds, table.norm_log, wo[i, 2], phi), 0.0
-            )
+            out[i] = max(normalizer_at(table.symmetry, table.norm, table.norm_log, wo[i, 2], c, s), 0.0)
         else:
             out[i] = 0.0
 

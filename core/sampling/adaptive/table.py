@@ -53,7 +53,7 @@ from core.sampling.adaptive.tree import (
 )
 from core.threads import thread_budget
 
-TABLE_FORMAT = 9
+TABLE_FORMAT = 10
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -176,11 +176,9 @@ class AdaptiveTable(NamedTuple):
     stored probabilities' rounding (the acceptance is ``1 / V``; a trial's envelope is ``V`` times its own
     density, see :mod:`~core.sampling.adaptive.draw`); 1 in a rejection-free table."""
     norm: np.ndarray
-    """``(M, J)``: the normalizer's fine table in ``s = -log(cos theta)`` (``log I``, or ``I`` when
-    ``norm_log`` is 0; MIRROR: cosine-series coefficients), see
-    :func:`~core.sampling.adaptive.layout.normalizer_at`."""
-    norm_ds: float
-    """The table's step in ``s``."""
+    """``(NORM_ROWS, J)``: the normalizer's table at the ``cos theta`` of
+    :func:`~core.sampling.adaptive.layout.normalizer_grid` (``log I``, or ``I`` when ``norm_log`` is 0;
+    MIRROR: cosine-series coefficients), see :func:`~core.sampling.adaptive.layout.normalizer_at`."""
     norm_log: int
     """1 when ``norm`` holds logarithms (every node's ``I > 0``)."""
     cos_min: float
@@ -520,8 +518,8 @@ def build_table(brdf: BRDF, options: TableOptions, threads: int | None = None,
             )
             norm = _norm_table(symmetry, norm_thetas, norm_values)
         else:
-            norm = (np.zeros((4, 1)), 1.0, 0)
-        norm_args = (norm[0], np.array([float(symmetry), norm[1], float(norm[2])]))
+            norm = (np.zeros((4, 1)), 0)
+        norm_args = (norm[0], np.array([float(symmetry), float(norm[1])]))
 
         def node_args(key: tuple[float, float, float, int]) -> tuple[Any, ...]:
             return (brdf, options, symmetry, key[0], (key[1], key[2]), float(phis[key[3]]),
@@ -725,18 +723,22 @@ PHI_EDGE_VIEWS = np.array([1, 2])
 """An anisotropic node's views on its cell's azimuth edges, at the node's theta (see :func:`_views`)."""
 
 
-def _norm_table(symmetry: int, thetas: np.ndarray, integrals: np.ndarray) -> tuple[np.ndarray, float, int]:
-    """The normalizer's fine table, its step and whether it holds logarithms (see
-    :func:`~core.sampling.adaptive.layout.normalizer_at`) from its values ``(K, J')`` at ``thetas``."""
+def _norm_table(symmetry: int, thetas: np.ndarray, integrals: np.ndarray) -> tuple[np.ndarray, int]:
+    """The normalizer's table and whether it holds logarithms (see
+    :func:`~core.sampling.adaptive.layout.normalizer_at`) from its values ``(K, J')`` at ``thetas``: the
+    cubic through the nodes is of ``log I`` where every value is positive, and an isotropic table then holds
+    its ``exp`` (read linearly in ``cos theta``: no exponential per view)."""
     norm_log = bool(np.all(integrals > 0.0))
     values = np.log(integrals) if norm_log else integrals
     norm = series_coefficients(values) if symmetry == MIRROR else values
-    norm_fine, norm_ds = normalizer_table(thetas, norm)
-    return np.ascontiguousarray(norm_fine, dtype=np.float64), float(norm_ds), int(norm_log)
+    table = normalizer_table(thetas, norm)
+    if norm_log and symmetry == ISOTROPIC:
+        table, norm_log = np.exp(table), False
+    return np.ascontiguousarray(table, dtype=np.float64), int(norm_log)
 
 
 def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.ndarray,
-          phi_edges: np.ndarray, grid: list[list[_Node]], norm: tuple[np.ndarray, float, int],
+          phi_edges: np.ndarray, grid: list[list[_Node]], norm: tuple[np.ndarray, int],
           exact: bool) -> AdaptiveTable:  # fmt: skip
     children, corners, cells, cdfs, guides, roots, projections, totals = [], [], [], [], [], [], [], []
     leaf_base = [0]
@@ -767,7 +769,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
             corners.append(corner16)
             projections.append(n.projection)
             leaf_base.append(leaf_base[-1] + len(weight))
-    norm_fine, norm_ds, norm_log = norm
+    norm_table, norm_log = norm
     cell_mu = -np.cos(theta_edges)
     starts = -1.0 + np.arange(CELL_LUT) / CELL_LUT
     lut = np.clip(np.searchsorted(cell_mu, starts, side="right") - 1, 0, len(thetas) - 1)
@@ -792,8 +794,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         cdf=np.concatenate(cdfs).astype(np.uint32),
         guide=np.concatenate(guides).astype(np.uint16),
         total=np.array(totals, dtype=np.float64),
-        norm=norm_fine,
-        norm_ds=float(norm_ds),
+        norm=norm_table,
         norm_log=int(norm_log),
         cos_min=float(math.cos(THETA_END)),
     )
@@ -940,7 +941,6 @@ def load_table(cache: TableCache, key: str) -> tuple[AdaptiveTable, TableReport]
         fields["norm_log"] = int(fields["norm_log"])
         fields["exact"] = int(fields["exact"])
         fields["cos_min"] = float(fields["cos_min"])
-        fields["norm_ds"] = float(fields["norm_ds"])
         table = AdaptiveTable(**fields)
     except (KeyError, ValueError, TypeError):
         return None

@@ -45,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from core.rng import next_u01, stream
-from core.sampling.adaptive.layout import FULL, TWO_PI, normalizer_at
+from core.sampling.adaptive.layout import normalizer_at
 from core.sampling.adaptive.maps import HALF_VECTOR, direction_to_square
 from core.sampling.adaptive.target import g_at, g_dir, square_point
 
@@ -390,18 +390,17 @@ def _leaf_mass(stv_i, scales, weights, x0, y0, h):
 @njit(nogil=True, cache=True)
 def inv_norm(norm, norm_meta, theta, phi):
     """``1 / c`` at the view ``(theta, phi)``, ``c`` the exact mode's normalizer exactly as the draws read it
-    (:func:`~core.sampling.adaptive.layout.normalizer_at` on the fine table ``norm``; ``norm_meta = (symmetry,
-    step, log)``), 0 where ``c`` is not positive. The bounds are on ``g / c``, the ratio the draws test: they
+    (:func:`~core.sampling.adaptive.layout.normalizer_at` on the table ``norm``; ``norm_meta = (symmetry,
+    log)``), 0 where ``c`` is not positive. The bounds are on ``g / c``, the ratio the draws test: they
     hold for the normalizer as it is, whatever its interpolation error. The trees' own integrals of their
     views (Simpson's rule on stencils fitted to the node's density) served before and were off by orders
     of magnitude for a view whose lobe the tree does not resolve (Cook-Torrance m = 0.005): the largest of
     their inverses over the cell, which the ridge and the probes used, covered that, and erred high by
     ``I``'s range across the cell (16x in a grazing cell of Schlick's, whose envelopes then filled their
     trees' capacity and still missed ``n_max``)."""
-    symmetry = int(norm_meta[0])
-    if symmetry == FULL:
-        phi = phi % TWO_PI
-    c = normalizer_at(symmetry, norm, norm_meta[1], int(norm_meta[2]), math.cos(theta), phi)
+    c = normalizer_at(
+        int(norm_meta[0]), norm, int(norm_meta[1]), math.cos(theta), math.cos(phi), math.sin(phi)
+    )
     return 1.0 / c if c > 0.0 else 0.0
 
 
@@ -813,6 +812,12 @@ as the horizon's boundary does through a half-vector disk at grazing angles)."""
 PROBE_MARGIN = 1.25
 """A bound that a probe finds short is raised to this times what the probe saw."""
 
+PROBE_TIE = 1e-9
+"""A bound is short only where a probe's ratio times the safety exceeds it by more than this, relatively: a
+flat lobe (Lambert) meets its bounds at every probe to rounding, and ties broken by rounding raised some
+leaves' bounds and not others, so that the tables of ``kd = 0.5`` and ``0.25`` differed (their bounds keep
+the safety factor: a shortfall of 1e-9 of it is no violation)."""
+
 
 @njit(nogil=True, cache=True)
 def _has_front(stv_i):
@@ -902,7 +907,7 @@ def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, le
             if g * top / qq * safety > m[i]:
                 worst = max(worst, g * rho * inv_norm(norm, norm_meta, theta, phi) / qq)
             evals += 1
-        if worst * safety > m[i]:
+        if worst * safety > m[i] * (1.0 + PROBE_TIE):
             m[i] = worst * PROBE_MARGIN
             raised += 1
     return raised, evals
