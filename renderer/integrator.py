@@ -63,6 +63,11 @@ PARALLEL_MIN = 16384
 LOAD_PASS = (1 << 62) + 0x10AD
 """The pass index of :meth:`PathTracer.load_kernels`' paths (no render numbers its passes this high)."""
 
+KEEP_RADIANCE_ROWS = 1 << 21
+"""Passes of at most this many paths (48 MB of radiance rows) keep their radiance rows from pass to pass
+(:meth:`PathTracer.reserve`); larger ones, whose page faults are a small part of a long pass, allocate
+their own."""
+
 
 def _key(a: int, b: int) -> np.uint64:
     """:func:`renderer.qmc.key` from Python (keys are 64-bit unsigned: numba would read a Python int as
@@ -156,6 +161,8 @@ class PathTracer:
         # one set of wavefront buffers per thread at work: a wavefront takes a free set and gives it back
         self._free: queue.SimpleQueue[Buffers] = queue.SimpleQueue()
         self.buffers: list[Buffers] = []
+        # a whole-image pass's radiance rows, kept from pass to pass (see reserve and render_pass)
+        self._radiance: np.ndarray | None = None
 
     def _strategies(self) -> None:
         """Per material index: whether its BRDF samples are drawn in compiled code (a strategy without
@@ -247,6 +254,7 @@ class PathTracer:
         spp: int = 1,
         first_sample: int | None = None,
         pixels: tuple[int, int] | None = None,
+        borrow: bool = False,
     ) -> np.ndarray:
         """``spp`` samples per pixel traced together; returns their mean per pixel, ``(height * width, 3)``,
         or for ``pixels = (p0, p1)`` the pixels ``p0 .. p1 - 1`` only (row-major: a band of whole rows is
@@ -258,6 +266,10 @@ class PathTracer:
         passes the number of samples it already has, so that no sample number is used twice). A range of
         pixels traces the very paths ``j`` the whole pass traces for them (only their radiance rows are kept):
         for strategies drawn in compiled code its pixels equal the whole pass's bit for bit.
+
+        ``borrow``: a whole-image pass of one sample per pixel may return the tracer's own rows (those
+        :meth:`reserve` mapped), valid until the next pass: for a caller that adds them to a film at once
+        (:meth:`renderer.render.RenderJob.passes`). Otherwise the array returned is the caller's.
         """
         first = pass_index * int(spp) if first_sample is None else int(first_sample)
         n_pix = self.width * self.height
@@ -265,7 +277,15 @@ class PathTracer:
         if not 0 <= p0 < p1 <= n_pix:
             raise ValueError(f"pixels {p0}..{p1} outside the image's 0..{n_pix}")
         band = p1 - p0
-        radiance = np.zeros((band * int(spp), 3))
+        rows = band * int(spp)
+        kept = self._radiance
+        if pixels is None and kept is not None and len(kept) == rows and (borrow or spp > 1):
+            # the rows reserve() mapped: a new array's pages are faulted in by the paths' first writes, in the
+            # first passes until the allocator reuses them (~15-25 ms of a first pass at 256² and 4 spp)
+            radiance = kept
+            radiance.fill(0.0)
+        else:
+            radiance = np.zeros((rows, 3))
         pass_key = _key(self._seed_key, pass_index)
         if pixels is None:
             plan = waves(0, n_pix * int(spp))
@@ -298,9 +318,7 @@ class PathTracer:
         self.stats.paths += sum(w.n for w in plan)
         self.stats.rays += sum(rays for rays, _ in done)
         self.stats.nonfinite += sum(bad for _, bad in done)
-        if (
-            spp == 1
-        ):  # one path a pixel: its rows are the mean (no sum, no division: 2 passes over 6 MB at 512²)
+        if spp == 1:  # one path a pixel: its rows are the mean (no sum, no division)
             return radiance
         return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
 
@@ -332,6 +350,10 @@ class PathTracer:
             B.touch()
             self.buffers.append(B)
             self._free.put(B)
+        self._radiance = None
+        if int(paths) <= KEEP_RADIANCE_ROWS:
+            self._radiance = np.empty((max(1, int(paths)), 3))
+            self._radiance.fill(0.0)
 
     def _wavefront(
         self,

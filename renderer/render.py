@@ -107,7 +107,9 @@ class RenderJob:
                 batch = max(1, min(batch, int(first_spp)))
             t0 = time.perf_counter()
             self.world.refresh_samplers()  # better tables built in the background, between passes only
-            radiance = self.tracer.render_pass(self.passes_done, batch, first_sample=self.film.spp)
+            radiance = self.tracer.render_pass(
+                self.passes_done, batch, first_sample=self.film.spp, borrow=True
+            )
             self.passes_done += 1
             self.film.add_pass(radiance, batch)
             self.elapsed += time.perf_counter() - t0

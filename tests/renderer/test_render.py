@@ -66,9 +66,9 @@ def _spy_passes(job) -> list[tuple[int | None, int]]:  # type: ignore[no-untyped
     used: list[tuple[int | None, int]] = []
     real = job.tracer.render_pass
 
-    def spy(pass_index, spp=1, first_sample=None):  # type: ignore[no-untyped-def]
+    def spy(pass_index, spp=1, first_sample=None, **kw):  # type: ignore[no-untyped-def]
         used.append((first_sample, spp))
-        return real(pass_index, spp, first_sample)
+        return real(pass_index, spp, first_sample, **kw)
 
     job.tracer.render_pass = spy  # type: ignore[method-assign]
     return used
@@ -314,6 +314,37 @@ def test_prepare_loads_the_kernels_and_buffers_a_pass_uses(scene_file: Path) -> 
     again = prepare(load_scene(scene_file), width=64, height=48, seed=4)
     again.tracer.load_kernels(paths=1000)
     assert np.array_equal(again.tracer.render_pass(0, 2), first)
+
+
+def test_a_pass_traces_into_the_reserved_radiance_rows_and_returns_the_callers_own(scene_file: Path) -> None:
+    """``reserve`` maps a whole-image pass's radiance rows once, and every pass of the job's size traces into
+    them (their pages are not faulted in by the first passes' paths). What ``render_pass`` returns stays the
+    caller's: the same image as a tracer without the rows, not changed by the next pass; only ``borrow=True``
+    at one sample per pixel hands out the rows themselves (``RenderJob.passes`` adds them to its film at
+    once), and a band of pixels never uses them."""
+    from core.scene import load_scene
+
+    job = prepare(load_scene(scene_file), width=64, height=48, seed=4)
+    tr = job.tracer
+    rows = tr._radiance
+    assert rows is not None and rows.shape == (64 * 48 * job.batch, 3)
+    first = tr.render_pass(0, job.batch)
+    kept = first.copy()
+    tr.render_pass(1, job.batch)
+    assert tr._radiance is rows and not np.shares_memory(first, rows)
+    np.testing.assert_array_equal(first, kept)
+    plain = prepare(load_scene(scene_file), width=64, height=48, seed=4)
+    plain.tracer._radiance = None
+    np.testing.assert_array_equal(plain.tracer.render_pass(0, job.batch), first)
+
+    tr.reserve(64 * 48)
+    own = tr.render_pass(2, 1)
+    borrowed = tr.render_pass(2, 1, borrow=True)
+    assert not np.shares_memory(own, tr._radiance) and borrowed is tr._radiance
+    np.testing.assert_array_equal(own, borrowed)
+    band = tr.render_pass(2, 1, pixels=(64, 640))
+    assert not np.shares_memory(band, tr._radiance)
+    np.testing.assert_array_equal(band, own[64:640])
 
 
 def test_embreex_fallback_renders_the_same_image(
