@@ -163,6 +163,7 @@ class PathTracer:
         self.buffers: list[Buffers] = []
         # a whole-image pass's radiance rows, kept from pass to pass (see reserve and render_pass)
         self._radiance: np.ndarray | None = None
+        self._mean: np.ndarray | None = None  # and their mean per pixel, when a pass has several samples
 
     def _strategies(self) -> None:
         """Per material index: whether its BRDF samples are drawn in compiled code (a strategy without
@@ -267,9 +268,10 @@ class PathTracer:
         pixels traces the very paths ``j`` the whole pass traces for them (only their radiance rows are kept):
         for strategies drawn in compiled code its pixels equal the whole pass's bit for bit.
 
-        ``borrow``: a whole-image pass of one sample per pixel may return the tracer's own rows (those
-        :meth:`reserve` mapped), valid until the next pass: for a caller that adds them to a film at once
-        (:meth:`renderer.render.RenderJob.passes`). Otherwise the array returned is the caller's.
+        ``borrow``: a whole-image pass may return the tracer's own rows (those :meth:`reserve` mapped: the
+        radiance of a pass of one sample per pixel, or the mean of several), valid until the next pass: for a
+        caller that adds them to a film at once (:meth:`renderer.render.RenderJob.passes`). Otherwise the
+        array returned is the caller's.
         """
         first = pass_index * int(spp) if first_sample is None else int(first_sample)
         n_pix = self.width * self.height
@@ -320,6 +322,9 @@ class PathTracer:
         self.stats.nonfinite += sum(bad for _, bad in done)
         if spp == 1:  # one path a pixel: its rows are the mean (no sum, no division)
             return radiance
+        if borrow and radiance is kept and self._mean is not None and len(self._mean) == band:
+            np.sum(radiance.reshape(int(spp), band, 3), axis=0, out=self._mean)
+            return np.divide(self._mean, spp, out=self._mean)
         return radiance.reshape(int(spp), band, 3).sum(axis=0) / spp
 
     def load_kernels(self, paths: int = 256) -> None:
@@ -350,10 +355,12 @@ class PathTracer:
             B.touch()
             self.buffers.append(B)
             self._free.put(B)
-        self._radiance = None
+        self._radiance = self._mean = None
         if int(paths) <= KEEP_RADIANCE_ROWS:
             self._radiance = np.empty((max(1, int(paths)), 3))
             self._radiance.fill(0.0)
+            self._mean = np.empty((self.width * self.height, 3))
+            self._mean.fill(0.0)
 
     def _wavefront(
         self,

@@ -294,6 +294,7 @@ def prepare(
     tracer.load_kernels()
     if not bands:  # a render in bands sizes its buffers by band
         tracer.reserve(tracer.width * tracer.height * job.batch)
+        job.film.reserve()
     report["kernel_load_seconds"] = round(time.perf_counter() - t0, 3)
     report["seconds"] = round(time.perf_counter() - t_prepare, 3)  # all of it: geometry, kernels, tables
     return job

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from renderer.film import Film
 from renderer.image_io import read_exr
 from renderer.render import prepare
 from tests.renderer.scenes import quad, sphere
@@ -336,6 +337,15 @@ def test_a_pass_traces_into_the_reserved_radiance_rows_and_returns_the_callers_o
     plain = prepare(load_scene(scene_file), width=64, height=48, seed=4)
     plain.tracer._radiance = None
     np.testing.assert_array_equal(plain.tracer.render_pass(0, job.batch), first)
+    mean = tr.render_pass(0, job.batch, borrow=True)  # the pass's mean, in the tracer's own rows too
+    assert mean is tr._mean
+    np.testing.assert_array_equal(mean, first)
+    film, plain_film = job.film, Film(64, 48)  # the reserved film adds passes as a new one does
+    assert film._sum is not None and film.spp == 0
+    for k, spp in enumerate((job.batch, 3)):
+        film.add_pass(tr.render_pass(k, spp, borrow=True), spp)
+        plain_film.add_pass(plain.tracer.render_pass(k, spp), spp)
+    np.testing.assert_array_equal(film.image(), plain_film.image())
 
     tr.reserve(64 * 48)
     own = tr.render_pass(2, 1)
