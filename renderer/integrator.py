@@ -11,7 +11,7 @@ Python runs a fixed number of calls per bounce and per material, whatever the nu
 go in interleaved wavefronts (:mod:`renderer.wavefront`) traced on the tracer's threads at once, each
 wavefront's stages and Embree queries on its own thread (the kernels release the GIL).
 
-NEE picks a light type with equal shares among those present (area, point, sky), then a light (emissive
+NEE picks a light type (area, point, sky) by shares a pilot of camera rays sets, then a light (emissive
 triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
 (area pdf converted to solid angle, environment-map pdf, uniform sphere for a constant sky) and the sampler's
 ``pdf(wo, wi)``; point lights are delta lights (no MIS). Optionally (``ris_candidates``) the sky's direct light
@@ -62,6 +62,11 @@ PARALLEL_MIN = 16384
 """Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 LOAD_PASS = (1 << 62) + 0x10AD
 """The pass index of :meth:`PathTracer.load_kernels`' paths (no render numbers its passes this high)."""
+
+SHARE_PILOT = 4096
+"""Camera rays of the pilot that sets NEE's light-type probabilities (:meth:`PathTracer._light_shares`)."""
+SHARE_FLOOR = 0.1
+"""The least probability of a light type present (before renormalizing)."""
 
 KEEP_RADIANCE_ROWS = 1 << 21
 """Passes of at most this many paths (48 MB of radiance rows) keep their radiance rows from pass to pass
@@ -138,14 +143,12 @@ class PathTracer:
         # from resampling M BRDF samples by f cos L (one shadow ray); the sky then leaves the light-type choice
         # of NEE, and BRDF-sampled rays that escape after a bounce add no sky radiance (no double counting).
         self.ris = int(ris_candidates) if world.env is not None else 0
-        shares = [len(world.emit_ids) > 0, len(world.point_pos) > 0, world.env is not None and not self.ris]
-        k = sum(shares)
-        self.p_area, self.p_point, self.p_env = (
-            ((1.0 / k if on else 0.0) for on in shares) if k else (0.0,) * 3
-        )
-        self.has_nee_lights = k > 0
         self.camera = Camera(world.scene, width, height)
         self.width, self.height = width, height
+        self.seed = seed
+        present = (len(world.emit_ids) > 0, len(world.point_pos) > 0, world.env is not None and not self.ris)
+        self.p_area, self.p_point, self.p_env = self._light_shares(present)
+        self.has_nee_lights = any(present)
         self.max_depth = max_depth
         self.rr_depth = rr_depth
         self.mis = mis
@@ -210,6 +213,96 @@ class PathTracer:
         """``stage(0, n, *args)`` on the calling thread (a wavefront's thread); what it returns (a count of
         dropped contributions), or 0. Every compiled stage of a wavefront goes through here."""
         return int(stage(0, n, *args) or 0)
+
+    # ------------------------------------------------------------------------------------------ light types
+    def _light_shares(self, present: tuple[bool, bool, bool]) -> tuple[float, float, float]:
+        """The probabilities of NEE's light types (area, point, sky) among those ``present``: with one type,
+        1; with several, from a pilot: at the first hits of :data:`SHARE_PILOT` camera rays through a
+        coarse grid of pixels, one light sample of each type, its shadow ray traced, and the estimate a
+        white Lambertian surface makes of it, ``X = lum(L) cos / (pi pdf)`` (0 where occluded); a type's
+        share is proportional to the square root of ``E[X^2]`` (what minimizes the variance of one sample of
+        a type chosen at random, ``sum E[X_k^2] / p_k``), at least :data:`SHARE_FLOOR` (a type the pilot
+        happened to miss keeps samples). Equal shares where the pilot finds nothing. Deterministic (the
+        pilot's numbers come from the seed); unbiased whatever the shares (MIS reads them)."""
+        k = sum(present)
+        if k <= 1:
+            return tuple(1.0 if on else 0.0 for on in present)  # type: ignore[return-value]
+        moments = self._light_moments(present)
+        if not np.all(np.isfinite(moments)) or moments.sum() <= 0.0:
+            return tuple(1.0 / k if on else 0.0 for on in present)  # type: ignore[return-value]
+        w = np.where(present, np.sqrt(moments), 0.0)
+        p = np.where(present, np.maximum(w / w.sum(), SHARE_FLOOR), 0.0)
+        p /= p.sum()
+        return float(p[0]), float(p[1]), float(p[2])
+
+    def _light_moments(self, present: tuple[bool, bool, bool]) -> np.ndarray:
+        """``E[X^2]`` per light type over the pilot's vertices (see :meth:`_light_shares`)."""
+        w = self.world
+        n_pix = self.width * self.height
+        pix = np.unique(np.linspace(0, n_pix - 1, min(SHARE_PILOT, n_pix)).astype(np.int64))
+        rng = np.random.default_rng([self.seed, 0x5A4E])
+        o, d = self.camera.rays(pix, rng.random((len(pix), 2)))
+        hits = w.accel.intersect(o, d)
+        keep = hits.prim >= 0
+        keep[keep] = w.tri_material[hits.prim[keep]] != NO_MATERIAL
+        out = np.zeros(3)
+        if not np.any(keep):
+            return out
+        o, d, t, bu, bv, prim = (x[keep] for x in (o, d, hits.t, hits.u, hits.v, hits.prim))
+        ng, ns, _, _, _, origin = surface_frames(
+            o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
+        )
+        n = len(origin)
+        for kind in range(3):
+            if not present[kind]:
+                continue
+            u = rng.random((n, 4))
+            if kind == 0:
+                tri = w.emit_ids[
+                    np.minimum(np.searchsorted(w.emit_cdf, u[:, 0], side="right"), len(w.emit_ids) - 1)
+                ]
+                su = np.sqrt(u[:, 1])
+                q = (
+                    w.v0[tri]
+                    + (su * (1 - u[:, 2]))[:, None] * w.e1[tri]
+                    + (su * u[:, 2])[:, None] * w.e2[tri]
+                )
+                q -= origin
+                dist = np.maximum(np.linalg.norm(q, axis=1), 1e-12)
+                wi = q / dist[:, None]
+                cos_l = -np.einsum("ij,ij->i", wi, w.tri_normal[tri])
+                facing = (cos_l > 0.0) | w.tri_two_sided[tri]
+                cos_l = np.where(facing, np.abs(cos_l), 0.0)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    pdf = np.where(cos_l > 1e-9, w.emit_pmf_per_area[tri] * dist * dist / cos_l, np.inf)
+                le = w.tri_emission[tri] @ LUMINANCE
+                t_max = dist * (1.0 - 1e-4)
+            elif kind == 1:
+                j = np.minimum(np.searchsorted(w.point_cdf, u[:, 0], side="right"), len(w.point_pos) - 1)
+                q = w.point_pos[j] - origin
+                dist = np.maximum(np.linalg.norm(q, axis=1), 1e-12)
+                wi = q / dist[:, None]
+                le = (w.point_intensity[j] @ LUMINANCE) / (dist * dist)
+                pdf = w.point_pmf[j]
+                t_max = dist * (1.0 - 1e-4)
+            else:
+                wi, rad, pdf = w.env.sample(u)
+                le = rad @ LUMINANCE
+                t_max = np.full(n, np.inf)
+            cos_s = np.einsum("ij,ij->i", wi, ns)
+            ok = (
+                (cos_s > 0.0)
+                & (np.einsum("ij,ij->i", wi, ng) > 0.0)
+                & (pdf > 0.0)
+                & np.isfinite(pdf)
+                & (le > 0.0)
+            )
+            x = np.zeros(n)
+            if np.any(ok):
+                seen = ~w.accel.occluded(origin[ok], wi[ok], np.minimum(t_max[ok], 1e30))
+                x[np.flatnonzero(ok)[seen]] = (le * cos_s / (np.pi * pdf))[ok][seen]
+            out[kind] = float(np.mean(x * x))
+        return out
 
     # ------------------------------------------------------------------------------------------ warm-up
     def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
