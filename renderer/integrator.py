@@ -364,7 +364,8 @@ class PathTracer:
         ``borrow``: a whole-image pass may return the tracer's own rows (those :meth:`reserve` mapped: the
         radiance of a pass of one sample per pixel, or the mean of several), valid until the next pass: for a
         caller that adds them to a film at once (:meth:`renderer.render.RenderJob.passes`). Otherwise the
-        array returned is the caller's.
+        array returned is the caller's. One pass at a time per tracer: a whole-image pass traces into those
+        rows whether it borrows them or not.
         """
         first = pass_index * int(spp) if first_sample is None else int(first_sample)
         n_pix = self.width * self.height
