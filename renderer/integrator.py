@@ -147,17 +147,16 @@ class PathTracer:
         self.width, self.height = width, height
         self.seed = seed
         present = (len(world.emit_ids) > 0, len(world.point_pos) > 0, world.env is not None and not self.ris)
-        self.p_area, self.p_point, self.p_env = self._light_shares(present)
         self.has_nee_lights = any(present)
         self.max_depth = max_depth
         self.rr_depth = rr_depth
         self.mis = mis
-        self.seed = seed
         self.stats = PassStats()
         self._seed_key = _key(seed % (1 << 64), 0x5EED)
         self._env = tuple(
             np.ascontiguousarray(x) if isinstance(x, np.ndarray) else x for x in env_args(world.env)
         )
+        self.p_area, self.p_point, self.p_env = self._light_shares(present)
         self._strategies()
         self.threads = max(1, int(getattr(world, "threads", 1)))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
@@ -236,7 +235,9 @@ class PathTracer:
         return float(p[0]), float(p[1]), float(p[2])
 
     def _light_moments(self, present: tuple[bool, bool, bool]) -> np.ndarray:
-        """``E[X^2]`` per light type over the pilot's vertices (see :meth:`_light_shares`)."""
+        """``E[X^2]`` per light type over the pilot's vertices (see :meth:`_light_shares`): each type's light
+        samples are the render's own (``surface_stage`` with that type's share set to 1), their shadow rays
+        traced by the render's occlusion query."""
         w = self.world
         n_pix = self.width * self.height
         pix = np.unique(np.linspace(0, n_pix - 1, min(SHARE_PILOT, n_pix)).astype(np.int64))
@@ -246,61 +247,38 @@ class PathTracer:
         keep = hits.prim >= 0
         keep[keep] = w.tri_material[hits.prim[keep]] != NO_MATERIAL
         out = np.zeros(3)
-        if not np.any(keep):
+        n = int(np.count_nonzero(keep))
+        if n == 0:
             return out
-        o, d, t, bu, bv, prim = (x[keep] for x in (o, d, hits.t, hits.u, hits.v, hits.prim))
-        ng, ns, _, _, _, origin = surface_frames(
-            o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
-        )
-        n = len(origin)
+        B = Buffers(n)
+        B.o[:], B.d[:], B.path[:] = o[keep], d[keep], pix[keep]
+        B.t[:], B.bu[:], B.bv[:], B.prim[:] = hits.t[keep], hits.u[keep], hits.v[keep], hits.prim[keep]
+        B.mat[:] = w.tri_material[B.prim]
+        B.order[:] = np.arange(n)
+        B.beta.fill(1.0)
+        pilot_key = _key(int(self._seed_key), 0x5A4E)
         for kind in range(3):
             if not present[kind]:
                 continue
-            u = rng.random((n, 4))
-            if kind == 0:
-                tri = w.emit_ids[
-                    np.minimum(np.searchsorted(w.emit_cdf, u[:, 0], side="right"), len(w.emit_ids) - 1)
-                ]
-                su = np.sqrt(u[:, 1])
-                q = (
-                    w.v0[tri]
-                    + (su * (1 - u[:, 2]))[:, None] * w.e1[tri]
-                    + (su * u[:, 2])[:, None] * w.e2[tri]
-                )
-                q -= origin
-                dist = np.maximum(np.linalg.norm(q, axis=1), 1e-12)
-                wi = q / dist[:, None]
-                cos_l = -np.einsum("ij,ij->i", wi, w.tri_normal[tri])
-                facing = (cos_l > 0.0) | w.tri_two_sided[tri]
-                cos_l = np.where(facing, np.abs(cos_l), 0.0)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    pdf = np.where(cos_l > 1e-9, w.emit_pmf_per_area[tri] * dist * dist / cos_l, np.inf)
-                le = w.tri_emission[tri] @ LUMINANCE
-                t_max = dist * (1.0 - 1e-4)
-            elif kind == 1:
-                j = np.minimum(np.searchsorted(w.point_cdf, u[:, 0], side="right"), len(w.point_pos) - 1)
-                q = w.point_pos[j] - origin
-                dist = np.maximum(np.linalg.norm(q, axis=1), 1e-12)
-                wi = q / dist[:, None]
-                le = (w.point_intensity[j] @ LUMINANCE) / (dist * dist)
-                pdf = w.point_pmf[j]
-                t_max = dist * (1.0 - 1e-4)
-            else:
-                wi, rad, pdf = w.env.sample(u)
-                le = rad @ LUMINANCE
-                t_max = np.full(n, np.inf)
-            cos_s = np.einsum("ij,ij->i", wi, ns)
-            ok = (
-                (cos_s > 0.0)
-                & (np.einsum("ij,ij->i", wi, ng) > 0.0)
-                & (pdf > 0.0)
-                & np.isfinite(pdf)
-                & (le > 0.0)
-            )
+            # the type's share 1 (thresholds c_area, c_point) and its probability 1: pdf is the type's own
+            c_area, c_point = (1.0, 1.0) if kind == 0 else (0.0, 1.0) if kind == 1 else (0.0, 0.0)
+            p = np.eye(3)[kind]
+            surface_stage(
+                0, n, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
+                w.tri_normal, w.tri_vnormals, w.tri_smooth, True, n_pix, 0, pilot_key, pilot_key, 0,
+                c_area, c_point, p[0], p[1], p[2],
+                w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
+                w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, *self._env,
+                B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
+                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
+            )  # fmt: skip
+            le = B.l_le @ LUMINANCE
+            ok = B.l_cand & np.isfinite(le) & np.isfinite(B.l_pdf)
             x = np.zeros(n)
             if np.any(ok):
-                seen = ~w.accel.occluded(origin[ok], wi[ok], np.minimum(t_max[ok], 1e30))
-                x[np.flatnonzero(ok)[seen]] = (le * cos_s / (np.pi * pdf))[ok][seen]
+                seen = ~w.accel.occluded(B.origin[ok], B.l_wi[ok], B.l_tmax[ok])
+                rows = np.flatnonzero(ok)[seen]
+                x[rows] = le[rows] * B.l_wi_local[rows, 2] / (np.pi * B.l_pdf[rows])
             out[kind] = float(np.mean(x * x))
         return out
 

@@ -76,3 +76,24 @@ def test_the_image_does_not_depend_on_the_shares(tmp_path: Path) -> None:
         means.append((passes.mean(), passes.std(ddof=1) / np.sqrt(len(passes))))
     (a, sa), (b, sb) = means
     assert abs(a - b) < 4.0 * np.hypot(sa, sb), (a, sa, b, sb)
+
+
+def test_a_pilot_that_finds_nothing_gives_equal_shares(tmp_path: Path) -> None:
+    """Camera rays that hit nothing (the camera looks away from every surface) leave every moment 0: the
+    types present share equally, none is dropped."""
+    scene = _mixed_scene(tmp_path, "cosine", lights=[_QUAD], env={"type": "constant", "radiance": 0.3})
+    scene.camera.target = (0.0, 10.0, 0.0)  # steeply up, past the light: no surface in view
+    t = prepare(scene, seed=2).tracer
+    assert (t.p_area, t.p_point, t.p_env) == (0.5, 0.0, 0.5)
+
+
+def test_lights_twenty_orders_apart_keep_finite_shares(tmp_path: Path) -> None:
+    """The brightest light a scene may hold (1e9) beside a sky of 1e-9: finite shares summing to 1, the bright
+    type nearly all of them and the dim one still its floor (its samples are not dropped)."""
+    scene = _mixed_scene(
+        tmp_path, "cosine", lights=[dict(_QUAD, radiance=1e9)], env={"type": "constant", "radiance": 1e-9}
+    )
+    t = prepare(scene, seed=2).tracer
+    shares = np.array([t.p_area, t.p_point, t.p_env])
+    assert np.all(np.isfinite(shares)) and abs(shares.sum() - 1.0) < 1e-12 and shares[1] == 0.0
+    assert shares[2] >= SHARE_FLOOR / (1.0 + SHARE_FLOOR) - 1e-12 and shares[0] > 0.85
