@@ -265,7 +265,7 @@ class PathTracer:
             p = np.eye(3)[kind]
             surface_stage(
                 0, n, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
-                w.tri_normal, w.tri_vnormals, w.tri_smooth, True, n_pix, 0, pilot_key, pilot_key, 0,
+                w.tri_normal, w.tri_vnormals, w.tri_smooth, True, n_pix, 0, pilot_key, 0,
                 c_area, c_point, p[0], p[1], p[2],
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, *self._env,
@@ -477,7 +477,7 @@ class PathTracer:
             self._run(
                 surface_stage, n_s, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
                 w.tri_normal, w.tri_vnormals, w.tri_smooth,
-                self.has_nee_lights, n_pix, first, self._seed_key, pass_key, depth,
+                self.has_nee_lights, n_pix, first, self._seed_key, depth,
                 self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,

@@ -49,7 +49,6 @@ _BLOCK = 64
 """Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`)."""
 
 # roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
-_U_ENV_JITTER = 2
 _U_RR = 4
 _U_LOBE = 5
 # pairs of low-discrepancy dimensions: the pixel, the light point at bounce k and the BRDF sample at bounce k
@@ -318,7 +317,7 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
 def surface_stage(
     a, b, order, mat, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
     # light sampling
-    nee, n_pix, first_sample, seed_key, pass_key, depth, c_area, c_point, p_area, p_point, p_env,
+    nee, n_pix, first_sample, seed_key, depth, c_area, c_point, p_area, p_point, p_env,
     emit_ids, emit_cdf, v0, e1, e2, tri_two_sided, tri_emission, emit_pmf_per_area,
     point_pos, point_intensity, point_cdf, point_pmf,
     env_kind, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_edges, env_pmf, env_image, env_rotation,
@@ -373,7 +372,6 @@ def surface_stage(
             gx, gy, gz = s_ng[s, 0], s_ng[s, 1], s_ng[s, 2]
             fb = frames[s - s0]
             tx, ty, tz, bx, by, bz, sx, sy, sz = fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8]
-            vk = key(key(pass_key, p), depth)
             pixel = p % n_pix
             ux, uy = pair(
                 first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
@@ -424,9 +422,9 @@ def surface_stage(
             elif env_kind != 0 and p_env > 0.0:
                 ux = _rescale(u_type, c_point, 1.0)
                 wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
-                    env_kind, ux, uy, uniform(vk, _U_ENV_JITTER), uniform(vk, _U_ENV_JITTER + 1), env_radiance,
-                    env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image, env_rotation, env_edges,
-                )  # fmt: skip
+                    env_kind, ux, uy, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image,
+                    env_rotation, env_edges,
+                )
                 pdf = p_env * pdf_e
             l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz
             lz = wx * sx + wy * sy + wz * sz

@@ -87,7 +87,7 @@ def test_sky_samples_pick_the_pixels_of_a_binary_search(rng: np.random.Generator
     """With the guide table the sky's samples pick the pixel the inverse CDFs give (a row by the row CDF,
     then a column by that row's CDF): the guide only changes where the searches start."""
     env = _map(rng)
-    u = np.concatenate([rng.random((20000, 4)), [[0.0, 0.0, 0.5, 0.5], [1 - 2**-53, 1 - 2**-53, 0.5, 0.5]]])
+    u = np.concatenate([rng.random((20000, 2)), [[0.0, 0.0], [1 - 2**-53, 1 - 2**-53]]])
     d, _, _ = env.sample(u)
     row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), env.h - 1)
     col = np.array(
@@ -96,11 +96,59 @@ def test_sky_samples_pick_the_pixels_of_a_binary_search(rng: np.random.Generator
     col = np.minimum(col, env.w - 1)
     theta = np.arccos(np.clip(d[:, 1], -1, 1))
     phi = (np.arctan2(d[:, 2], d[:, 0]) - env.rotation) % (2 * np.pi)
-    # the sample lies in its pixel (u2, u3 = 0.5: the pixel's centre for the two fixed rows)
-    assert np.array_equal(np.minimum((theta / np.pi * env.h).astype(int), env.h - 1), row)
-    assert np.array_equal(np.minimum((phi / (2 * np.pi) * env.w).astype(int), env.w - 1), col)
+    # the sample lies in its pixel (where it is not within rounding of the pixel's edge: the two fixed rows
+    # fall on the map's first and last edges)
+    u2, u3 = _in_pixel(env, u, row, col)
+    inside = (u2 > 1e-9) & (u2 < 1 - 1e-9) & (u3 > 1e-9) & (u3 < 1 - 1e-9)
+    assert inside.sum() > 19900
+    r = np.minimum((theta / np.pi * env.h).astype(int), env.h - 1)
+    c = np.minimum((phi / (2 * np.pi) * env.w).astype(int), env.w - 1)
+    assert np.array_equal(r[inside], row[inside]) and np.array_equal(c[inside], col[inside])
+    assert (row[-2], row[-1]) == (0, env.h - 1)
     guide = guide_table(env._row_cdf, env._col_cdf_flat, env.h, env.w)
     assert np.array_equal(guide, env._guide) and guide.dtype == np.int32
+
+
+def _in_pixel(env: EnvironmentMap, u: np.ndarray, row: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Where ``u[:, 0]`` and ``u[:, 1]`` fell inside the chosen row's and column's CDF intervals, in [0, 1]
+    (the column's in the shifted CDF the sampler searches, to round as it does)."""
+    flat = env._col_cdf_flat
+    lo = np.where(row > 0, env._row_cdf[np.maximum(row - 1, 0)], 0.0)
+    u2 = np.clip((u[:, 0] - lo) / (env._row_cdf[row] - lo), 0.0, 1.0)
+    k = row * env.w + col
+    lo = np.where(col > 0, flat[np.maximum(k - 1, 0)], row.astype(float))
+    u3 = np.clip((row + u[:, 1] - lo) / (flat[k] - lo), 0.0, 1.0)
+    return u2, u3
+
+
+def test_the_point_in_a_pixel_comes_from_the_pixel_choice(rng: np.random.Generator) -> None:
+    """No further uniforms: the point inside the pixel is where the two uniforms fell inside its CDF intervals,
+    so the in-pixel offsets are uniform (a Kolmogorov-Smirnov test at 1e-3 each) and a stratified pair (a
+    grid of 64 x 64 points) puts points in a pixel's sub-cells evenly: the brightest pixel, chosen ~1 % of
+    the time, has its offsets spread over the whole square."""
+    from scipy import stats
+
+    env = _map(rng)
+    u = rng.random((100000, 2))
+    row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), env.h - 1)
+    col = np.minimum(
+        [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)], env.w - 1
+    )
+    u2, u3 = _in_pixel(env, u, row, col)
+    assert stats.kstest(u2, "uniform").pvalue > 1e-3 and stats.kstest(u3, "uniform").pvalue > 1e-3
+    d, _, _ = env.sample(u)
+    theta = np.arccos(np.clip(d[:, 1], -1, 1)) / np.pi * env.h - row
+    assert np.all((theta > -1e-9) & (theta < 1 + 1e-9)) and np.abs(theta - u2).max() < 1e-9
+    g = (np.arange(64) + 0.5) / 64
+    grid = np.stack(np.meshgrid(g, g, indexing="ij"), axis=-1).reshape(-1, 2)
+    r = np.minimum(np.searchsorted(env._row_cdf, grid[:, 0], side="right"), env.h - 1)
+    c = np.minimum(
+        [np.searchsorted(env._col_cdf[i], x, side="right") for i, x in zip(r, grid[:, 1], strict=True)], env.w - 1
+    )
+    top = np.bincount(r * env.w + c).argmax()
+    a, b = _in_pixel(env, grid, r, c)
+    mine = r * env.w + c == top
+    assert mine.sum() >= 8 and np.ptp(a[mine]) > 0.5 and np.ptp(b[mine]) > 0.5
 
 
 def _pixel_by_angles(env: EnvironmentMap, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -135,7 +183,7 @@ def test_lookup_finds_the_pixel_of_the_angles(
     row, col = _pixel_by_angles(env, d)
     le, pdf = env.lookup(d)
     assert np.array_equal(le, env.image[row, col])
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - np.clip(d[:, 1], -1, 1) ** 2))
+    sin_t = np.hypot(d[:, 0], d[:, 2])  # sin(theta) of a unit vector, accurate at the poles too
     expected = np.where(
         sin_t > 1e-12, env._pixel_pmf[row, col] * (w * h) / (2 * np.pi**2) / np.maximum(sin_t, 1e-300), 0.0
     )
@@ -151,18 +199,19 @@ def test_samples_of_a_large_map_by_angle_addition(rng: np.random.Generator, rota
     h, w = SMALL_ANGLE_ROWS * 2, SMALL_ANGLE_COLUMNS * 2
     img = rng.random((h, w, 3)) ** 3 + 0.01
     env = EnvironmentMap(img, rotate_deg=rotate_deg)
-    u = np.concatenate([rng.random((20000, 4)), [[0.5, 0.5, 0.0, 0.0], [0.5, 0.5, 1 - 2**-53, 1 - 2**-53]]])
+    u = rng.random((20000, 2))
     d, le, pdf = env.sample(u)
     row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), h - 1)
     col = np.minimum(
         [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)], w - 1
     )
-    theta = (row + u[:, 2]) / h * np.pi
-    phi = (col + u[:, 3]) / w * 2 * np.pi + env.rotation
+    u2, u3 = _in_pixel(env, u, row, col)
+    theta = (row + u2) / h * np.pi
+    phi = (col + u3) / w * 2 * np.pi + env.rotation
     expected = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], axis=1)
     assert np.abs(d - expected).max() < 4e-15  # both sides round theta, phi and the edges: a few ulps
     assert np.abs(np.linalg.norm(d, axis=1) - 1.0).max() < 1e-15
-    inside = (u[:, 2] > 1e-9) & (u[:, 2] < 1 - 1e-9) & (u[:, 3] > 1e-9) & (u[:, 3] < 1 - 1e-9)
+    inside = (u2 > 1e-9) & (u2 < 1 - 1e-9) & (u3 > 1e-9) & (u3 < 1 - 1e-9)
     assert np.array_equal(env.image[row, col][inside], le[inside])
     # (at u2 or u3 within rounding of 1 the point rounds onto the next pixel's edge, as theta and phi did)
     assert np.allclose(pdf[inside], env.pdf(d)[inside], rtol=1e-9)
