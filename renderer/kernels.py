@@ -424,7 +424,7 @@ def surface_stage(
                 wx, wy, wz, lr, lg, lb, pdf_e = env_sample_one(
                     env_kind, ux, uy, env_radiance, env_row_cdf, env_col_cdf_flat, env_guide, env_pmf, env_image,
                     env_rotation, env_edges,
-                )
+                )  # fmt: skip
                 pdf = p_env * pdf_e
             l_wi[s, 0], l_wi[s, 1], l_wi[s, 2] = wx, wy, wz
             lz = wx * sx + wy * sy + wz * sz

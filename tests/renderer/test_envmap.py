@@ -132,7 +132,8 @@ def test_the_point_in_a_pixel_comes_from_the_pixel_choice(rng: np.random.Generat
     u = rng.random((100000, 2))
     row = np.minimum(np.searchsorted(env._row_cdf, u[:, 0], side="right"), env.h - 1)
     col = np.minimum(
-        [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)], env.w - 1
+        [np.searchsorted(env._col_cdf[r], x, side="right") for r, x in zip(row, u[:, 1], strict=True)],
+        env.w - 1,
     )
     u2, u3 = _in_pixel(env, u, row, col)
     assert stats.kstest(u2, "uniform").pvalue > 1e-3 and stats.kstest(u3, "uniform").pvalue > 1e-3
@@ -143,7 +144,8 @@ def test_the_point_in_a_pixel_comes_from_the_pixel_choice(rng: np.random.Generat
     grid = np.stack(np.meshgrid(g, g, indexing="ij"), axis=-1).reshape(-1, 2)
     r = np.minimum(np.searchsorted(env._row_cdf, grid[:, 0], side="right"), env.h - 1)
     c = np.minimum(
-        [np.searchsorted(env._col_cdf[i], x, side="right") for i, x in zip(r, grid[:, 1], strict=True)], env.w - 1
+        [np.searchsorted(env._col_cdf[i], x, side="right") for i, x in zip(r, grid[:, 1], strict=True)],
+        env.w - 1,
     )
     top = np.bincount(r * env.w + c).argmax()
     a, b = _in_pixel(env, grid, r, c)
