@@ -395,6 +395,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
         sx = 1.0
         sy = 1.0
         norm = 0.0
+        pi_over_norm = 0.0  # PI / norm, once a row: a trial multiplies
         if not flat:
             t, c, s, sx, sy, cos_o, sin_o = _tree_frame(
                 symmetry, follow, cell_lut, cell_mu, phis, edge_cos, edge_sin, wx, wy, wz
@@ -404,6 +405,8 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
             elif wz >= cos_min:
                 norm = normalizer_at(symmetry, norm_table, norm_log, wz, cos_o, sin_o)
                 tree = norm > 0.0
+                if tree:
+                    pi_over_norm = PI / norm
         proj = projection[t]
         start = leaf_base[t]
         end = leaf_base[t + 1]
@@ -456,13 +459,14 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
                 lum = luminance3(r, g, b)
                 if not lum > 0.0 or z <= 0.0:
                     continue
-                gn = PI * lum * scale / norm
-                # the trial's own density on the square times V: K_L q up to the rounding of the stored leaf
-                # probabilities, and exactly the envelope the trials were drawn under
-                bound = envelope * prob * density / (h * h)
-                if gn > bound:
+                # g / c against the trial's own density on the square times V (K_L q up to the rounding of the
+                # stored leaf probabilities, and exactly the envelope the trials were drawn under), both times
+                # the leaf's area h^2: a power of 2, so the comparisons are those of bound = V p q / h^2
+                gn_area = lum * scale * pi_over_norm * (h * h)
+                bound_area = envelope * prob * density
+                if gn_area > bound_area:
                     violations += 1
-                if not u4 * bound < gn:
+                if not u4 * bound_area < gn_area:
                     continue
                 pdf = lum * lz / norm
             elif tree:
