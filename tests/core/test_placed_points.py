@@ -85,8 +85,9 @@ def test_points_of_the_wrong_shape_are_refused():
     sampler = make_sampler("adaptive", make_brdf("phong"), mode="warp")
     wo = np.tile(degrees_to_dir(30.0, 0.0), (10, 1))
     wi, pdf, f = np.empty((10, 3)), np.empty(10), np.empty((10, 3))
-    with pytest.raises(ValueError, match=r"points must be \(10, 2\)"):
-        sampler.sample_into(wo, 1, wi, pdf, f, points=np.zeros((9, 2)))
+    for bad in (np.zeros((9, 2)), np.zeros((10, 3)), np.zeros((10, 1)), np.zeros(10)):
+        with pytest.raises(ValueError, match=r"points must be \(10, 2\)"):
+            sampler.sample_into(wo, 1, wi, pdf, f, points=bad)
 
 
 def test_points_on_the_edges_of_the_square_give_finite_draws():
