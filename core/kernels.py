@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit, prange
 
 from core.dispatch import eval_model, pdf_model, sample_model
+from core.jit import kernel
 
 if TYPE_CHECKING:
     from core.model import Model
@@ -42,7 +43,7 @@ def _rows(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _eval_serial(mid, wi, wo, p, out):
     for i in range(wi.shape[0]):
         r, g, b = eval_model(mid, (wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p)
@@ -51,7 +52,7 @@ def _eval_serial(mid, wi, wo, p, out):
         out[i, 2] = b
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _eval_where(mid, wi, wo, p, keep, out):
     for i in range(wi.shape[0]):
         if keep[i]:
@@ -70,7 +71,7 @@ def _eval_parallel(mid, wi, wo, p, out):
         out[i, 2] = b
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _sample_serial(mid, wo, p, u, wi_out, pdf_out):
     for i in range(wo.shape[0]):
         x, y, z, pdf = sample_model(mid, (wo[i, 0], wo[i, 1], wo[i, 2]), p, u[i, 0], u[i, 1], u[i, 2])
@@ -80,7 +81,7 @@ def _sample_serial(mid, wo, p, u, wi_out, pdf_out):
         pdf_out[i] = pdf
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _pdf_serial(mid, wo, wi, p, out):
     for i in range(wo.shape[0]):
         out[i] = pdf_model(mid, (wo[i, 0], wo[i, 1], wo[i, 2]), (wi[i, 0], wi[i, 1], wi[i, 2]), p)

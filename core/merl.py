@@ -46,6 +46,7 @@ from numba import njit
 from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
 from core.errors import FileFormatError
 from core.io import atomic_write
+from core.jit import kernel
 from core.measured import FileBRDF
 from core.model import BRDF, Model, Traits
 
@@ -111,7 +112,7 @@ def merl_index(wi, wo):
     return ip + N_PHI_D * (id_ + N_THETA_D * ih)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_merl_nearest(wi, wo, p):
     """``f_r`` from the containing cell, as MERL's reference reader; missing cells read as 0.
 
@@ -221,7 +222,7 @@ def _add_corner(p, k, w, acc):
     return (acc[0] + wr * r, acc[1] + wg * g, acc[2] + wb * b, acc[3] + wr, acc[4] + wg, acc[5] + wb)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_merl(wi, wo, p):
     """``f_r`` by trilinear interpolation between cell centres in index space (``sqrt(theta_h)``,
     ``theta_d``, ``phi_d``; periodic in ``phi_d`` with period pi). Exact at cell centres and continuous;
@@ -412,7 +413,7 @@ def _pair_from_cell(u_h, u_d, u_p):
     return wi, wo
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _tabulate(mid, p, scales, sub, out):
     """``out (3, N_CELLS)``: the raw values of model ``mid`` (a :mod:`core.dispatch` id) with kernel
     parameters ``p`` at the cell centres (see the module docstring)."""

@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
+
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
@@ -26,7 +28,7 @@ def _mix(z: np.uint64) -> np.uint64:
     return z ^ (z >> _S31)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def stream(seed: int, index: int) -> np.uint64:
     """Initial state of the stream for sample ``index`` of a call seeded with ``seed``."""
     s = np.uint64(seed) * _GOLDEN + np.uint64(0x632BE59BD9B4E019)

@@ -270,7 +270,7 @@ class PathTracer:
                 w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, *self._env,
                 B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
-                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
+                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.frames,
             )  # fmt: skip
             le = B.l_le @ LUMINANCE
             ok = B.l_cand & np.isfinite(le) & np.isfinite(B.l_pdf)
@@ -483,14 +483,14 @@ class PathTracer:
                 w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
                 env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot,
                 B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
-                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand,
+                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.frames,
             )  # fmt: skip
             # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
             # the others by their sampler objects, material by material, on contiguous slices
             self._run(
                 bsdf_stage, n_s, n_pix, first, self._seed_key, pass_key, depth, self.has_nee_lights,
                 self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
-                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f,
+                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f, B.blk,
             )  # fmt: skip
             self._draw_by_samplers(B, offsets, pass_index, depth, wave.key, first)
             if self.ris:

@@ -16,7 +16,10 @@ A bounce is six loops over the live paths, each one pass over contiguous arrays 
    :func:`shadow_stage` adds the unblocked contributions.
 
 Every stage takes a row range ``[a, b)`` and releases the GIL, so the integrator runs wavefronts on several
-threads at once (each wavefront's stages on its thread). Contributions are added to a per-path radiance array
+threads at once (each wavefront's stages on its thread). The stages allocate nothing (their scratch rows are
+the wavefront's, :class:`renderer.wavefront.Buffers`) and are compiled without numba's reference counting
+(:func:`core.jit.kernel`): the sky's light sample and lookup, inlined into the loops, took and dropped a
+count on each of their arrays per vertex, ~20 % of a pass. Contributions are added to a per-path radiance array
 (one row per path; a path belongs to one wavefront), so threads never write the same memory. Random numbers
 come from :mod:`renderer.qmc` by key, never from arrays. These kernels do not depend on the material models:
 they compile once and are cached.
@@ -31,6 +34,7 @@ from numba import njit
 
 from core import merl
 from core.dispatch import MERL, MERL_NEAREST, eval_model, pdf_model, sample_model
+from core.jit import kernel
 from core.models.lobes import cosine_hemisphere_pdf
 from renderer.envmap import env_eval_one, env_sample_one
 from renderer.qmc import key, pair, sobol2, uniform
@@ -45,8 +49,9 @@ COSINE = 2
 ANALYTIC = 3
 COMPILED_STRATEGIES = {"uniform": UNIFORM, "cosine": COSINE, "analytic": ANALYTIC}
 INV_TWO_PI = 0.15915494309189535
-_BLOCK = 64
-"""Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`)."""
+BLOCK = 64
+"""Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`), and whose frames
+:func:`surface_stage` keeps for their light samples: the rows of the wavefront's scratch arrays."""
 
 # roles of a path vertex's random numbers (the key of a vertex is key(path key, bounce))
 _U_RR = 4
@@ -133,7 +138,7 @@ def camera_rays(pixels, jitter, width, height, origin, forward, right, up, tan_h
     return o, d
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def camera_stage(
     a, b, j0, block, step, n_pix, first_sample, seed_key, width, height, origin, forward, right, up, tan_half,
     aspect, o, d, o32, d32, beta, path, prev_pdf,
@@ -180,7 +185,7 @@ def camera_stage(
         prev_pdf[r] = 0.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def hit_stage(
     a, b, d, prim, t, beta, path, prev_pdf, radiance, row_offset, mat_out, at_last_bounce, power, p_env, p_area,
     ris, tri_normal, tri_material, tri_emission, tri_emissive, tri_two_sided, emit_pmf_per_area,
@@ -313,7 +318,7 @@ def surface_frames(o, d, t, prim, bu, bv, tri_normal, tri_vnormals, tri_smooth, 
     return ng, ns, tb, bb, wo_l, origin
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def surface_stage(
     a, b, order, mat, o, d, t, prim, bu, bv, beta, path, eps, tri_normal, tri_vnormals, tri_smooth,
     # light sampling
@@ -324,6 +329,8 @@ def surface_stage(
     # outputs, one row per surface vertex (sorted order)
     s_mat, s_ng, s_ns, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand,
+    # scratch: (BLOCK, 9), the block's frames for its light samples
+    frames,
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
     offset origin, and one light sample (light type by ``c_area``/``c_point``, then a light, then a point
@@ -334,11 +341,10 @@ def surface_stage(
     marks light samples worth a BRDF evaluation (positive pdf and radiance, above both surfaces)."""
     n_emit = emit_ids.shape[0]
     n_point = point_pos.shape[0]
-    frames = np.empty((_BLOCK, 9))  # the block's frames, for its light samples
-    # blocks of _BLOCK vertices, each in two short loops (the frames, then the light samples from the frames'
+    # blocks of BLOCK vertices, each in two short loops (the frames, then the light samples from the frames'
     # rows, still in L1): the light sample's long chain of dependent steps overlaps across vertices there
-    for s0 in range(a, b, _BLOCK):
-        s1 = min(b, s0 + _BLOCK)
+    for s0 in range(a, b, BLOCK):
+        s1 = min(b, s0 + BLOCK)
         for s in range(s0, s1):
             i = order[s]
             gx, gy, gz, sx, sy, sz, tx, ty, tz, bx, by, bz = _shading_frame(
@@ -516,10 +522,10 @@ def bsdf_points(a, b, n_pix, first_sample, seed_key, depth, s_path, out):
         out[s, 0], out[s, 1] = _bsdf_pair(s_path[s], n_pix, first_sample, seed_key, depth)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def bsdf_stage(
     a, b, n_pix, first_sample, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, mat_tables,
-    s_mat, s_path, s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f,
+    s_mat, s_path, s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, blk,
 ):  # fmt: skip
     """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
     ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
@@ -527,12 +533,11 @@ def bsdf_stage(
     model reached by its dispatch id ``mat_model[m]`` with parameters ``mat_params[m]`` (MERL tables:
     ``mat_tables[m]``, float32; see :func:`_eval`), from :func:`_bsdf_pair`'s uniforms (as every strategy's).
 
-    The uniforms of a block of ``_BLOCK`` vertices are hashed first, in a loop of their own: there the hashes
+    The uniforms of a block of ``BLOCK`` vertices are hashed first, in a loop of their own: there the hashes
     of independent paths overlap, where inside the long loop each vertex's chain of hashes waited for the
     previous vertex's evaluations (81 -> 68 ns a Lambert vertex in isolation; the same numbers)."""
-    blk = np.empty((_BLOCK, 3))
-    for s0 in range(a, b, _BLOCK):
-        s1 = min(b, s0 + _BLOCK)
+    for s0 in range(a, b, BLOCK):
+        s1 = min(b, s0 + BLOCK)
         for s in range(s0, s1):
             kind = mat_strategy[s_mat[s]]
             if kind == BY_SAMPLER:
@@ -597,7 +602,7 @@ def _throughput(x, y, z, tx, ty, tz, bx, by, bz, sx, sy, sz, gx, gy, gz, p, r, g
     return wx, wy, wz, br, bg, bb, br > 0.0 or bg > 0.0 or bb > 0.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def continue_stage(
     a, b, power, rr, rr_key, s_ng, s_ns, s_beta, s_path, s_origin, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, l_contrib, o, d, o32, d32, beta, path, prev_pdf, so32, sd32, st32,
@@ -659,7 +664,7 @@ def continue_stage(
     counts[1] = k
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def shadow_stage(a, b, blocked, shadow_slot, s_path, l_contrib, radiance, row_offset):
     """Add the contributions of the shadow rays ``[a, b)`` that nothing blocked to ``radiance`` row ``path -
     row_offset``; returns the number of non-finite ones dropped."""

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from renderer.kernels import BLOCK
+
 WAVEFRONT = 1 << 18
 """Paths traced together at most (a group of ``WAVES`` wavefronts): a pass of a large image runs several groups
 one after the other, so the per-path buffers (~500 bytes a path) stay within ~130 MB whatever the image size."""
@@ -96,6 +98,8 @@ class Buffers:
         self.st32 = np.empty(n, f32)
         self.shadow_slot = np.empty(n, i64)
         self.counts = np.zeros(2, i64)
+        # the stages' scratch rows: a block's frames (surface stage) and uniforms (BRDF stage)
+        self.frames, self.blk = np.empty((BLOCK, 9), f64), np.empty((BLOCK, 3), f64)
 
     def __len__(self) -> int:
         return len(self.path)

@@ -21,8 +21,10 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 
-@njit(nogil=True, cache=True)
+
+@kernel
 def _fresnel_complex(cos_theta, eta):
     """Unpolarized reflectance for ``cos_theta`` in [0, 1] and complex relative index ``eta``."""
     c = min(max(cos_theta, 0.0), 1.0)
@@ -41,7 +43,7 @@ def _fresnel_complex(cos_theta, eta):
     return min(max(r, 0.0), 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def fresnel_conductor(cos_theta, n, k):
     """Fresnel reflectance of a conductor with complex index ``n + i k`` (``n > 0``, ``k >= 0``) seen from air.
 
@@ -80,7 +82,7 @@ def fresnel_conductor(cos_theta, n, k):
     return min(max(0.5 * (rs + rp), 0.0), 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def fresnel_dielectric(cos_theta, eta):
     """Fresnel reflectance of a dielectric interface with relative index ``eta = n_inside / n_outside``.
 

@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
+
 INV_SQRT_PI = 0.5641895835477563
 TWO_SQRT_TWO_PI = 5.0132565492620005  # 2 sqrt(2 pi)
 LOG_TWO_SQRT_TWO_PI = math.log(TWO_SQRT_TWO_PI)
@@ -68,7 +70,7 @@ def _lagrange6(t):
     )
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def shadow_over_cos(c, s, tau_over_2sigma, sigma_over_tau):
     """``S(theta) / cos(theta)`` of He et al. (Smith's shadowing for a Gaussian surface), finite at grazing.
 
@@ -85,7 +87,7 @@ def shadow_over_cos(c, s, tau_over_2sigma, sigma_over_tau):
     return n / (c * n + sigma_over_tau * s * e * INV_SQRT_PI)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def log_k(c, s, tau_over_2sigma):
     """``ln K(theta)`` with ``K = tan(theta) erfc(tau cot(theta) / (2 sigma))``; ``-inf`` at normal incidence."""
     if s <= 0.0:
@@ -100,7 +102,7 @@ def log_k(c, s, tau_over_2sigma):
     return math.log(s) - math.log(c) + le
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def direction_k(c, s, tau_over_2sigma, sigma_over_tau):
     """``(K, S / cos)`` of one direction (:func:`log_k`'s ``K`` itself and :func:`shadow_over_cos`): both read
     ``mu = tau cot(theta) / (2 sigma)`` and ``erfc(mu)``, computed once here; the kernel adds the two
@@ -118,7 +120,7 @@ def direction_k(c, s, tau_over_2sigma, sigma_over_tau):
     return s * ec / c, n / (c * n + sigma_over_tau * s * e * INV_SQRT_PI)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _initial_log_u(log_c):
     """A start for :func:`_halley_u2`: ``ln C - C^2 / 2`` (the small-``C`` expansion ``u = C - C^3/2 + ...``)
     when ``ln C < -1``, ``ln C`` up to 0 and ``ln(2 ln C + 1) / 2`` beyond."""
@@ -129,7 +131,7 @@ def _initial_log_u(log_c):
     return 0.5 * math.log(2.0 * log_c + 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _halley_u2(log_c, t):
     """``u^2`` with ``u exp(u^2/2) = C`` by Halley's method on ``t = ln u`` from ``t`` (see
     :func:`effective_roughness_ratio`)."""
@@ -147,7 +149,7 @@ def _halley_u2(log_c, t):
     return u2
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def effective_roughness_ratio(log_ki, log_kr):
     """``sigma_0 / sigma = (1 + z0^2 / sigma^2)^(-1/2)`` from He et al.'s equation for ``z0``:
 
@@ -190,7 +192,7 @@ def _ratio_table():
 # RATIO_TABLE (of _ratio_table) is read from the tables' file with the series' tables: see load_tables below
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def log_roughness_ratio_of_k(k_sum):
     """``ln(sigma_0 / sigma)`` (:func:`effective_roughness_ratio`'s logarithm) from ``K_i + K_r`` itself (of
     :func:`direction_k`): ``-ln(1 + u^2) / 2`` read from ``RATIO_TABLE`` by six-node Lagrange interpolation in
@@ -213,7 +215,7 @@ def log_roughness_ratio_of_k(k_sum):
 HALF_LOG_TWO_PI = 0.9189385332046728
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _log_term(m, log_g, g, a):
     """``ln(g^m e^-g / (m! m) exp(-a/m))``; Stirling's series for ``ln m!`` when ``m >= 10`` (error below
     1e-12, and it reuses ``ln m``), ``lgamma`` below."""
@@ -232,7 +234,7 @@ def _log_term(m, log_g, g, a):
     return m * log_g - g - log_fact - lm - a / m
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def diffuse_series(g, a):
     """``sum_{m>=1} g^m e^{-g} / (m! m) * exp(-a/m)`` to full double precision, for any ``g >= 0, a >= 0``.
 
@@ -532,7 +534,7 @@ def _interpolate(table, x0, step_y, log_g, a):
     return math.exp(s)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def tabulated_series(g, a):
     """:func:`tabulated_series_log` of ``ln g`` (0 for ``g <= 0``)."""
     if g <= 0.0:
@@ -540,7 +542,7 @@ def tabulated_series(g, a):
     return tabulated_series_log(math.log(g), a)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def tabulated_series_log(log_g, a):
     """:func:`diffuse_series` of ``g = exp(log_g)`` within ``TABLE_TOL`` (relative): interpolated in
     ``ROUGH_TABLE`` or ``SMOOTH_TABLE`` where ``(g, a)`` is in their domain, else the sum itself.

@@ -18,11 +18,13 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
+
 PI = math.pi
 TWO_PI = 2.0 * math.pi
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def reflect_about(wo, hx, hy, hz):
     """``wo`` reflected about the unit vector ``h``: ``2 (wo.h) h - wo``."""
     d2 = 2.0 * (wo[0] * hx + wo[1] * hy + wo[2] * hz)
@@ -49,7 +51,7 @@ def upper_half_vector(wo, wi):
     return sx / norm, sy / norm, sz / norm, norm
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def beckmann_d(m, hx, hy, hz):
     """Isotropic Beckmann ``D`` at the half vector ``h``, given unnormalized (only its direction enters):
     ``exp(-tan^2(theta_h) / m^2) / (pi m^2 cos^4(theta_h))``; 0 for ``h.z <= 0`` or where it underflows."""
@@ -64,7 +66,7 @@ def beckmann_d(m, hx, hy, hz):
     return math.exp(-e) / (math.pi * m * m * cos2 * cos2)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def beckmann_sample_h(ax, ay, u1, u2):
     """A half vector (upper hemisphere) whose slopes ``(-h.x/h.z, -h.y/h.z)`` are Gaussian with variances
     ``ax^2 / 2``, ``ay^2 / 2``: density ``D(h) cos(theta_h)`` per unit solid angle of ``h`` (anisotropic
@@ -77,7 +79,7 @@ def beckmann_sample_h(ax, ay, u1, u2):
     return -sx * inv, -sy * inv, inv
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def beckmann_pdf_h(hx, hy, hz, ax, ay):
     """Density of :func:`beckmann_sample_h` per unit solid angle at unit ``h`` with ``hz > 0``:
     the slope density ``exp(-(x^2/ax^2 + y^2/ay^2)) / (pi ax ay)`` times ``d(slope) / d(omega_h) =
@@ -90,7 +92,7 @@ def beckmann_pdf_h(hx, hy, hz, ax, ay):
     return math.exp(-e) / (PI * ax * ay * hz * hz * hz)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def beckmann_reflection_pdf(wo, wi, ax, ay):
     """Density per unit solid angle of ``wi`` = ``wo`` reflected about a :func:`beckmann_sample_h` half
     vector (see :func:`upper_half_vector` for the Jacobian); 0 at ``wi = -wo`` (measure zero)."""

@@ -31,6 +31,7 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._microfacet import reflect_about, upper_half_vector
 from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
@@ -57,7 +58,7 @@ def _pow_cos(hz, e):
     return hz**e
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_ashikhmin_shirley(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -86,7 +87,7 @@ def eval_ashikhmin_shirley(wi, wo, p):
     )
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _half_vector_sample(nu, nv, u1, u2):
     xi = TWO_PI * u1
     phi = math.atan2(math.sqrt(nu + 1.0) * math.sin(xi), math.sqrt(nv + 1.0) * math.cos(xi))
@@ -98,7 +99,7 @@ def _half_vector_sample(nu, nv, u1, u2):
     return sin_t * cp, sin_t * sp, cos_t
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _lobe_pdf(wo, wi, nu, nv):
     hx, hy, hz, norm = upper_half_vector(wo, wi)  # the sampled half vector is the upper one
     if hz <= 0.0:  # also at wi = -wo, where norm = 0
@@ -112,14 +113,14 @@ def _lobe_probability(p):
     return lobe_probability(luminance_at(p, 2), luminance_at(p, 5))  # ks, kd
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_ashikhmin_shirley(wo, wi, p):
     ps = _lobe_probability(p)
     lobe = _lobe_pdf(wo, wi, p[0], p[1]) if ps > 0.0 else 0.0
     return mixture_pdf(ps, lobe, wi[2])
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_ashikhmin_shirley(wo, p, u1, u2, u3):
     if u3 < _lobe_probability(p):
         hx, hy, hz = _half_vector_sample(p[0], p[1], u1, u2)

@@ -54,8 +54,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
 
@@ -63,7 +62,7 @@ INV_PI = 0.3183098861837907
 COS_FLOOR = 1e-6
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_beard_maxwell(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0

@@ -19,6 +19,7 @@ from __future__ import annotations
 from numba import njit
 
 from core.geometry import half_vector
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
     half_vector_mixture_pdf,
@@ -31,7 +32,7 @@ INV_PI = 0.3183098861837907
 EIGHT_PI = 25.132741228718345
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_blinn(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -55,12 +56,12 @@ def _lobe_probability(wo, p):
     )
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_blinn(wo, wi, p):
     return half_vector_mixture_pdf(wo, p[0], _lobe_probability(wo, p), wi)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_blinn(wo, p, u1, u2, u3):
     return half_vector_mixture_sample(wo, p[0], _lobe_probability(wo, p), u1, u2, u3)
 

@@ -29,6 +29,7 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import upper_half_vector
@@ -38,7 +39,7 @@ PI = math.pi
 INV_PI = 1.0 / math.pi
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_cook_torrance(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -65,12 +66,12 @@ def _lobe_probability(p):
     return lobe_probability(luminance_at(p, 3), luminance_at(p, 6))  # ks, kd
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_cook_torrance(wo, wi, p):
     return beckmann_mixture_pdf(wo, wi, p[0], p[0], _lobe_probability(p))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_cook_torrance(wo, p, u1, u2, u3):
     return beckmann_mixture_sample(wo, p[0], p[0], _lobe_probability(p), u1, u2, u3)
 

@@ -41,6 +41,7 @@ import math
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._kelemen_albedo import N_TABLE, albedo_tables, hemispherical_average, table_map
 from core.models._microfacet import beckmann_d, reflect_about
@@ -91,7 +92,7 @@ def _albedo(p, channel, table_a, table_b):
     return min(p[_R0 + channel] * table_a + table_b, 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_coupled(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -130,7 +131,7 @@ def eval_coupled(wi, wo, p):
     return out_r, out_g, out_b
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _specular_probability(wo, p):
     """Probability of the specular lobe for view ``wo``: luminance share of its albedo."""
     if wo[2] <= 0.0:
@@ -150,7 +151,7 @@ def _specular_probability(wo, p):
     return lobe_probability(spec, max(matte, 0.0))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _specular_pdf(wo, wi, m):
     """Density of ``wi`` when ``H ~ P(H) (N.H)`` (upper hemisphere) and ``wi`` mirrors ``wo`` about ``H``."""
     hx = wi[0] + wo[0]
@@ -168,7 +169,7 @@ def _specular_pdf(wo, wi, m):
     return beckmann_d(m, hx, hy, hz) * cos_h / (4.0 * cos_vh)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_coupled(wo, wi, p):
     ps = _specular_probability(wo, p)
     pdf = (1.0 - ps) * cosine_hemisphere_pdf(wi[2])
@@ -177,7 +178,7 @@ def pdf_coupled(wo, wi, p):
     return pdf
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_coupled(wo, p, u1, u2, u3):
     ps = _specular_probability(wo, p)
     if u3 < ps:

@@ -30,6 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import reflect_about, upper_half_vector
@@ -66,7 +67,7 @@ def smith_g1_over_cos(v, alpha):
     return 2.0 / (z + math.sqrt(z * z + alpha * alpha * (v[0] * v[0] + v[1] * v[1])))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_ggx(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -81,7 +82,7 @@ def eval_ggx(wi, wo, p):
     )
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def visible_normal(wo, alpha, u1, u2):
     """Heitz (2018): a microfacet normal from ``D_v`` for ``wo.z >= 0``, by stretching to the unit-roughness
     configuration, sampling the projected hemisphere there, and unstretching."""
@@ -119,7 +120,7 @@ def visible_normal(wo, alpha, u1, u2):
     return hx * inv, hy * inv, hz * inv
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _lobe_pdf(wo, wi, alpha):
     # Visible normals face wo, so wo.h = |wi + wo| / 2 > 0 always holds for h = (wi + wo) / |wi + wo|;
     # D is 0 below the horizon, so pairs with (wi + wo).z <= 0 have density 0 (no flip to the upper side).
@@ -129,7 +130,7 @@ def _lobe_pdf(wo, wi, alpha):
     return 0.25 * smith_g1_over_cos(wo, alpha) * ggx_d(hx, hy, hz, alpha)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_ggx(wo, wi, p):
     if wo[2] < 0.0:
         return cosine_hemisphere_pdf(wi[2])
@@ -138,7 +139,7 @@ def pdf_ggx(wo, wi, p):
     return mixture_pdf(ps, lobe, wi[2])
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_ggx(wo, p, u1, u2, u3):
     if wo[2] >= 0.0 and u3 < p[P_LOBE]:
         hx, hy, hz = visible_normal(wo, p[0], u1, u2)

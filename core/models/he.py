@@ -73,8 +73,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
 from core.models._he_series import (
@@ -101,12 +101,12 @@ def derive_he(p: np.ndarray) -> np.ndarray:
     return np.concatenate([p, [k, tau / (2.0 * sigma), sigma / tau, tau * tau * k * k / 16.0]])
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _sin_from_cos(c):
     return math.sqrt(max(0.0, 1.0 - c * c))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_he(wi, wo, p):
     ci = wi[2]
     co = wo[2]
@@ -163,7 +163,7 @@ def specular_weight(params: np.ndarray, theta_i: float) -> np.ndarray:
     return np.asarray(_specular_weight(np.asarray(params, dtype=np.float64), float(theta_i)))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _specular_weight(p, theta_i):
     c = math.cos(theta_i)
     if c <= 0.0:

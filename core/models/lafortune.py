@@ -28,6 +28,7 @@ import math
 from numba import njit
 
 from core.geometry import normalize
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
@@ -40,7 +41,7 @@ INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_lafortune(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -75,13 +76,13 @@ def _lobe_probability(axis, length, p):
     return lobe_probability_clamped(w_lobe, luminance_at(p, 7))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_lafortune(wo, wi, p):
     axis, length = _lobe_axis(wo, p)
     return cosine_lobe_mixture_pdf(axis, p[3], _lobe_probability(axis, length, p), wi)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_lafortune(wo, p, u1, u2, u3):
     axis, length = _lobe_axis(wo, p)
     return cosine_lobe_mixture_sample(axis, p[3], _lobe_probability(axis, length, p), u1, u2, u3)

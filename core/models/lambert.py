@@ -6,28 +6,27 @@
 
 from __future__ import annotations
 
-from numba import njit
-
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
 
 INV_PI = 0.3183098861837907
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_lambert(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
     return p[0] * INV_PI, p[1] * INV_PI, p[2] * INV_PI
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_lambert(wo, p, u1, u2, u3):
     x, y, z = cosine_hemisphere(u1, u2)
     return x, y, z, cosine_hemisphere_pdf(z)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_lambert(wo, wi, p):
     return cosine_hemisphere_pdf(wi[2])
 

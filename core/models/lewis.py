@@ -19,6 +19,7 @@ from __future__ import annotations
 from numba import njit
 
 from core.geometry import dot, mirror
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
@@ -31,7 +32,7 @@ INV_PI = 0.3183098861837907
 INV_TWO_PI = 0.15915494309189535
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_lewis(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -53,12 +54,12 @@ def _lobe_probability(wo, p):
     return lobe_probability_clamped(luminance_at(p, 1) * max(wo[2], 0.0), luminance_at(p, 4))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_lewis(wo, wi, p):
     return cosine_lobe_mixture_pdf(mirror(wo), p[0], _lobe_probability(wo, p), wi)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_lewis(wo, p, u1, u2, u3):
     return cosine_lobe_mixture_sample(mirror(wo), p[0], _lobe_probability(wo, p), u1, u2, u3)
 

@@ -28,8 +28,7 @@ its own; the generic cosine-weighted sampler applies.
 
 from __future__ import annotations
 
-from numba import njit
-
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 
 INV_PI = 0.3183098861837907
@@ -37,7 +36,7 @@ COS_FLOOR = 1e-6
 """Cosines below this (but above 0) are raised to it before the power: see the module docstring."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_minnaert(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0

@@ -45,8 +45,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 
 INV_PI = 0.3183098861837907
@@ -55,7 +54,7 @@ SIGMA_MAX = 0.66
 """Largest slope deviation (radians) for which the published formula is non-negative everywhere."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _cos_azimuth_difference(wi, wo):
     s_i = math.sqrt(wi[0] * wi[0] + wi[1] * wi[1])
     s_o = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
@@ -65,7 +64,7 @@ def _cos_azimuth_difference(wi, wo):
     return min(max(c, -1.0), 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_oren_nayar(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0

@@ -22,6 +22,7 @@ from __future__ import annotations
 from numba import njit
 
 from core.geometry import dot, mirror
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
@@ -37,7 +38,7 @@ COS_THETA_I_FLOOR = 1e-6
 bounded by ``ks * 1e6`` instead of overflowing to Inf as ``cos(theta_i) -> 0``."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_phong(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -59,12 +60,12 @@ def _lobe_probability(p):
     return lobe_probability_clamped(luminance_at(p, 1) * TWO_PI / (p[0] + 1.0), luminance_at(p, 4))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_phong(wo, wi, p):
     return cosine_lobe_mixture_pdf(mirror(wo), p[0], _lobe_probability(p), wi)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_phong(wo, p, u1, u2, u3):
     return cosine_lobe_mixture_sample(mirror(wo), p[0], _lobe_probability(p), u1, u2, u3)
 

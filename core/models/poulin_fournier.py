@@ -60,8 +60,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 
 INV_PI = 0.3183098861837907
@@ -82,7 +82,7 @@ def derive_poulin_fournier(p: np.ndarray) -> np.ndarray:
     return np.concatenate([p, [math.sqrt(h * (2.0 - h)), math.acos(1.0 - h)]])
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _visible_cap(gamma, d, h, w, beta_m):
     """Interval ``[lo, hi]`` of cap normal angles facing the direction and not blocked by the neighbour."""
     g = abs(gamma)
@@ -96,7 +96,7 @@ def _visible_cap(gamma, d, h, w, beta_m):
     return max(-beta_m, gamma - reach), min(beta_m, gamma + HALF_PI)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _visible_groove(gamma, beta_m):
     """Interval of groove normal angles facing the direction and not blocked by the groove's own wall.
 
@@ -111,7 +111,7 @@ def _visible_groove(gamma, beta_m):
     return lo, hi
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _visible_flat(gamma, d, h, w, beta_m):
     """Interval ``[lo, hi]`` of the flat part (``y`` from the left cylinder's axis) seen from the direction."""
     g = abs(gamma)
@@ -124,14 +124,14 @@ def _visible_flat(gamma, d, h, w, beta_m):
     return max(w, d - y_star), d - w
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _phong(cos_alpha, n):
     if cos_alpha <= 0.0:
         return 0.0
     return cos_alpha**n
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_poulin_fournier(wi, wo, p):
     ci = wi[2]
     co = wo[2]

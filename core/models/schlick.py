@@ -57,6 +57,7 @@ import math
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_schlick
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
@@ -94,7 +95,7 @@ def _smith(v, r):
     return v / (r - r * v + v)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def schlick_directional(t, v, vp, w, has_azimuth, r, p):
     """The non-impulsive directional factor ``a/pi + b/(4 pi v v') B`` of one layer."""
     a, b = _split(r)
@@ -107,7 +108,7 @@ def schlick_directional(t, v, vp, w, has_azimuth, r, p):
     return out
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_schlick(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -153,7 +154,7 @@ def _azimuth_density(psi, p):
     return 0.25 * TWO_OVER_PI * p * p / (q * math.sqrt(q))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _lobe_sample(wo, r, p, u1, u2):
     t2 = u1 / (r - r * u1 + u1)
     t = math.sqrt(t2)
@@ -174,7 +175,7 @@ def _lobe_sample(wo, r, p, u1, u2):
     return 2.0 * c * h[0] - wo[0], 2.0 * c * h[1] - wo[1], 2.0 * c * h[2] - wo[2]
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _lobe_pdf(wo, wi, r, p):
     hx = wi[0] + wo[0]
     hy = wi[1] + wo[1]
@@ -193,7 +194,7 @@ def _lobe_pdf(wo, wi, r, p):
     return 2.0 * t * _zenith(t, r) * _azimuth_density(psi, p) / (4.0 * c)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_schlick(wo, wi, p):
     out = p[_W_COS] * cosine_hemisphere_pdf(wi[2])
     if p[_W_TOP] > 0.0:
@@ -203,7 +204,7 @@ def pdf_schlick(wo, wi, p):
     return out
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_schlick(wo, p, u1, u2, u3):
     # A lobe is drawn only if its weight is positive (a layer with b = 0 has no lobe, and r = 0 would make
     # the inversion 0/0); rounding in the cumulative weights falls back to the cosine strategy.

@@ -43,6 +43,7 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 
 INV_PI = 0.3183098861837907
@@ -74,7 +75,7 @@ def _normalized_angle(w):
     return min(max(TWO_OVER_PI * math.atan2(sin_theta, w[2]), 0.0), 1.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_strauss(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0

@@ -33,6 +33,7 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models.lobes import beckmann_mixture_pdf, beckmann_mixture_sample, lobe_probability, luminance_at
 
@@ -40,7 +41,7 @@ PI = math.pi
 INV_PI = 1.0 / math.pi
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_ward(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
@@ -68,12 +69,12 @@ def _lobe_probability(p):
     return lobe_probability(luminance_at(p, 2), luminance_at(p, 5))  # ks, kd
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_ward(wo, wi, p):
     return beckmann_mixture_pdf(wo, wi, p[0], p[1], _lobe_probability(p))
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_ward(wo, p, u1, u2, u3):
     return beckmann_mixture_sample(wo, p[0], p[1], _lobe_probability(p), u1, u2, u3)
 

@@ -27,6 +27,7 @@ import math
 
 from numba import njit
 
+from core.jit import kernel
 from core.rgl.marginal import bilinear, slice_weights, warp_invert, warp_sample
 
 MAGIC = 2018.0
@@ -134,7 +135,7 @@ def _frame(p, wo, wi):
     return True, sl, ux_m, uy_m, ux_o, uy_o, sin_m, o_dot_m
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def eval_rgl(wi, wo, p):
     """``f_r(wi, wo)`` as RGB from an RGL kernel vector ``p`` (0 below the horizon; stored values clamped at
     0 as pbrt-v4 does)."""
@@ -161,7 +162,7 @@ def eval_rgl(wi, wo, p):
     return max(r * scale, 0.0), max(g * scale, 0.0), max(b * scale, 0.0)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_rgl(wo, p, u1, u2, u3):
     """The luminance warp over the VNDF parameterization: ``(x, y, z, pdf_solid_angle)`` for outgoing ``wo``;
     ``pdf = 0`` when nothing could be drawn (``wo`` below the horizon). The density integrates to 1 over the
@@ -198,7 +199,7 @@ def sample_rgl(wo, p, u1, u2, u3):
     return ix / n * fx, iy / n * fy, iz / n, pdf
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_rgl(wo, wi, p):
     """The density of :func:`sample_rgl` per unit solid angle at any unit ``wi`` (either hemisphere)."""
     if wo[2] <= 0.0 or p.shape[0] < HEADER or p[H_MAGIC] != MAGIC:

@@ -8,9 +8,9 @@ base class for the directions drawn.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from core.errors import UnknownNameError
+from core.jit import kernel
 from core.kernels import DirectionSamples, pdf_batch, sample_batch
 from core.model import BRDF
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
@@ -19,7 +19,7 @@ from core.sampling.base import Sampler, register_sampler
 INV_TWO_PI = 0.15915494309189535
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_uniform_rows(u, wi_out, pdf_out):
     """``wi_out (n, 3)``, ``pdf_out (n,)``: directions uniform over the upper hemisphere from ``u (n, 3)``."""
     for i in range(u.shape[0]):
@@ -30,7 +30,7 @@ def sample_uniform_rows(u, wi_out, pdf_out):
         pdf_out[i] = INV_TWO_PI
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_uniform_rows(wi, out):
     """``out (n,)``: the uniform hemisphere density at every row of ``wi (n, 3)`` (0 below the horizon; the
     horizon itself, where ``u = 0`` puts a draw, is included)."""
@@ -38,7 +38,7 @@ def pdf_uniform_rows(wi, out):
         out[i] = INV_TWO_PI if wi[i, 2] >= 0.0 else 0.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_cosine_rows(u, wi_out, pdf_out):
     """``wi_out (n, 3)``, ``pdf_out (n,)``: cosine-weighted directions over the upper hemisphere."""
     for i in range(u.shape[0]):
@@ -49,7 +49,7 @@ def sample_cosine_rows(u, wi_out, pdf_out):
         pdf_out[i] = cosine_hemisphere_pdf(z)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_cosine_rows(wi, out):
     """``out (n,)``: the cosine-weighted density ``cos(theta_i) / pi`` (0 below the horizon)."""
     for i in range(wi.shape[0]):

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from core.errors import ParameterError
+from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
@@ -85,7 +85,7 @@ def nmf(Y: np.ndarray, rank: int, iterations: int = 300, seed: int = 0) -> tuple
     return W, H
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
     n_terms = u_pdf.shape[0]
@@ -98,7 +98,7 @@ def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     return total
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Density per unit solid angle of ``wi`` (either hemisphere) for ``wo`` (above the horizon, in bin ``b``,
     its table's azimuth by cosine and sine ``c_ref, s_ref``). Reparameterized, the sampler reflects ``wo``
@@ -129,7 +129,7 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
     return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _factored_sample_rows(
     wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, wi_out, pdf_out
 ):
@@ -181,7 +181,7 @@ def _factored_sample_rows(
         pdf_out[i] = _pdf_at(w, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _factored_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp, out):
     """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
     every = mask.shape[0] == 0

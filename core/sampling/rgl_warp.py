@@ -21,15 +21,15 @@ import time
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from core.jit import kernel
 from core.kernels import DirectionSamples
 from core.model import BRDF
 from core.rgl.lookup import pdf_rgl, sample_rgl
 from core.sampling.base import Sampler, SamplerOption, register_sampler
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _sample_rows(wo, p, u, wi, pdf):
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
@@ -42,7 +42,7 @@ def _sample_rows(wo, p, u, wi, pdf):
         pdf[i] = pdf_rgl(w, (x, y, z), p) if q > 0.0 else 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _pdf_rows(wo, wi, p, out):
     for i in range(wo.shape[0]):
         out[i] = pdf_rgl((wo[i, 0], wo[i, 1], wo[i, 2]), (wi[i, 0], wi[i, 1], wi[i, 2]), p)

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from core.errors import ParameterError
+from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
@@ -253,7 +254,7 @@ def _cdf_sample_rows(
             pdf_out[i] = pdf
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, out):
     """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
     every = mask.shape[0] == 0

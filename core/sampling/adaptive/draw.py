@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from core.dispatch import eval_model
+from core.jit import kernel
 from core.rng import next_u01, stream
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, MIRROR, TWO_PI, normalizer_at
 from core.sampling.adaptive.maps import (
@@ -63,7 +64,7 @@ MAX_TRIALS = 100_000
 reached with an envelope that accepts ``>= 1 / n_max``)."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _eval(mid, wi, wo, p):
     """The model switch, compiled once for every draw kernel here (inlined, its four call sites in
     :func:`sample_rows` made each kernel four copies of the switch: minutes of compiling, ~5 ns a call
@@ -354,7 +355,7 @@ def _cosine(state):
     return state, x, y, z
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, out_trials, points):
     """One draw per row of ``wo (n, 3)``, row ``i`` from random stream ``offset + i`` (so that chunks drawn on
     several threads give the draws of one call); writes ``out_wi``, ``out_pdf``, ``out_f`` (``f`` at the draw)
@@ -375,7 +376,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     violations = 0
     flat, symmetry, follow = table.flat, table.symmetry, table.follow
     cell_lut, cell_mu, phis = table.cell_lut, table.cell_mu, table.phis
-    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
+    edge_cos, edge_sin = table.edge_cos, table.edge_sin
     projection, leaf_base, leaf_cell = table.projection, table.leaf_base, table.leaf_cell
     cdf, guide, corners, total, cos_min = table.cdf, table.guide, table.corners, table.total, table.cos_min
     norm_table, norm_log = table.norm, table.norm_log
@@ -487,7 +488,7 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     return violations
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
     """``pdf(wo[i], wi[i])`` per unit solid angle, and ``f`` there (the loop written out as in
     :func:`sample_rows`), at the rows where ``mask`` (bool) holds; an empty ``mask`` means every row (rows
@@ -495,7 +496,7 @@ def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
     every = mask.shape[0] == 0
     flat, symmetry, follow = table.flat, table.symmetry, table.follow
     cell_lut, cell_mu, phis = table.cell_lut, table.cell_mu, table.phis
-    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
+    edge_cos, edge_sin = table.edge_cos, table.edge_sin
     projection, root, child, leaf_base = table.projection, table.root, table.child, table.leaf_base
     corners, cdf, cos_min = table.corners, table.cdf, table.cos_min
     norm_table, norm_log = table.norm, table.norm_log
@@ -554,7 +555,7 @@ def pdf_rows(table, mid, p, mode, wo, wi, mask, out_pdf, out_f):
             out_pdf[i] = cosine
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def normalizer_rows(table, wo, out):
     """The exact mode's ``I(wo)`` per row (0 where it draws the cosine density)."""
     for i in range(wo.shape[0]):
@@ -565,10 +566,10 @@ def normalizer_rows(table, wo, out):
             out[i] = 0.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def acceptance_rows(table, wo, out):
     """The exact mode's acceptance ``I(wo) / (c V)`` per row: ``1 / V`` of the tree serving it (``c = I``)."""
-    edge_cos, edge_sin = np.cos(table.phi_edges), np.sin(table.phi_edges)
+    edge_cos, edge_sin = table.edge_cos, table.edge_sin
     for i in range(wo.shape[0]):
         t, _, _, _, _, _, _ = _tree_frame(
             table.symmetry, table.follow, table.cell_lut, table.cell_mu, table.phis, edge_cos, edge_sin,

@@ -88,11 +88,14 @@ def series_coefficients(values: np.ndarray) -> np.ndarray:
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _periodic_cubic(values, phi):
-    """Cubic Lagrange interpolation of ``values`` at equally spaced azimuths over the whole circle."""
-    j = values.shape[0]
+def _periodic_cubic(table, row, frac, phi):
+    """Cubic Lagrange interpolation at ``phi`` through values at equally spaced azimuths over the whole
+    circle: the values ``table[row] + frac (table[row + 1] - table[row])`` (a row of the normalizer's table
+    read linearly in ``cos theta``), formed where they are needed (no array: the draws' kernels allocate
+    nothing, :mod:`core.jit`)."""
+    j = table.shape[1]
     if j == 1:
-        return values[0]
+        return table[row, 0] + frac * (table[row + 1, 0] - table[row, 0])
     t = phi / TWO_PI * j
     i = int(math.floor(t))
     x = t - i
@@ -102,7 +105,8 @@ def _periodic_cubic(values, phi):
         for b in range(-1, 3):
             if b != a:
                 w *= (x - b) / (a - b)
-        s += w * values[(i + a) % j]
+        k = (i + a) % j
+        s += w * (table[row, k] + frac * (table[row + 1, k] - table[row, k]))
     return s
 
 
@@ -250,10 +254,7 @@ def normalizer_at(symmetry, table, log_scale, cos_theta, c, s):
         phi = math.atan2(s, c)
         if phi < 0.0:
             phi += TWO_PI
-        row = np.empty(j)
-        for k in range(j):
-            row[k] = table[i, k] + t * (table[i + 1, k] - table[i, k])
-        v = _periodic_cubic(row, phi)
+        v = _periodic_cubic(table, i, t, phi)
     return math.exp(v) if log_scale else v
 
 

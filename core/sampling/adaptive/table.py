@@ -53,7 +53,7 @@ from core.sampling.adaptive.tree import (
 )
 from core.threads import thread_budget
 
-TABLE_FORMAT = 10
+TABLE_FORMAT = 11
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -142,6 +142,10 @@ class AdaptiveTable(NamedTuple):
     lookup and a step or two instead of a binary search)."""
     phi_edges: np.ndarray
     """``(J + 1,)`` cells in phi."""
+    edge_cos: np.ndarray
+    """``(J + 1,)``: ``cos(phi_edges)``, and ``edge_sin`` their sines: the draws find ``wo``'s azimuth cell
+    from its unit vector without trigonometry (and, allocating nothing, take them from the table)."""
+    edge_sin: np.ndarray
     projection: np.ndarray
     """``(K * J,)`` int64: each tree's disk projection."""
     exact: int
@@ -784,6 +788,8 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         cell_mu=cell_mu,
         cell_lut=lut.astype(np.int32),
         phi_edges=np.ascontiguousarray(phi_edges, dtype=np.float64),
+        edge_cos=np.cos(np.ascontiguousarray(phi_edges, dtype=np.float64)),
+        edge_sin=np.sin(np.ascontiguousarray(phi_edges, dtype=np.float64)),
         projection=np.array(projections, dtype=np.int64),
         exact=int(exact),
         root=np.array(roots, dtype=np.int64),

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from core.dispatch import eval_model
+from core.jit import kernel
 from core.sampling.adaptive.maps import HALF_VECTOR, ORTHOGRAPHIC, PI, square_to_direction
 
 LUM_R = 0.2126
@@ -72,7 +73,7 @@ def square_point(a, b, projection):
     return x, y, z, PI * z / jac
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def g_dir(mid, p, x, y, z, w, view, projection):
     """``g`` of the view at the tree-frame direction ``(x, y, z)`` with factor ``w`` (see
     :func:`square_point`); not divided by the view's scale. For HALF_VECTOR the direction is the half vector

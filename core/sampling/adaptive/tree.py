@@ -44,6 +44,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from core.jit import kernel
 from core.rng import next_u01, stream
 from core.sampling.adaptive.layout import normalizer_at
 from core.sampling.adaptive.maps import HALF_VECTOR, direction_to_square
@@ -124,7 +125,7 @@ def _point(x0, y0, h, k):
     return x0 + 0.5 * h * (k % 3), y0 + 0.5 * h * (k // 3)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _stencil(mid, p, projection, view, x0, y0, h, out):
     for k in range(9):
         a, b = _point(x0, y0, h, k)
@@ -153,7 +154,7 @@ inside the parent are its earlier siblings' (16 new points a split, not 20)."""
 SPLIT_EVALUATIONS = 16
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _child_stencil(mid, p, projection, view, st, parent, first, q, x0, y0, h):
     """The stencil of child ``q`` (node ``first + q``) from its parent's corners, its earlier siblings'
     shared points (:func:`_shared_point`) and new evaluations."""
@@ -196,7 +197,7 @@ def _on_diagonal(x0, y0, h):
     return x0 == y0 or x0 + y0 + h == 1.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _rule(st, x0, y0, h):
     """The integral of ``g`` over the node from its stencil: Simpson's rule, or where a diagonal of the square
     crosses the node, the quadratic rule on each of the two triangles it makes (their edges' midpoints are
@@ -210,14 +211,14 @@ def _rule(st, x0, y0, h):
     return s * area
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _trapezoids(st, area):
     """The four quarter-squares' trapezoid rules (what the stencil gives without Simpson's weights)."""
     s = st[0] + st[2] + st[6] + st[8] + 2.0 * (st[1] + st[3] + st[5] + st[7]) + 4.0 * st[4]
     return s * area / 16.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _warp_error(st, area, floor):
     """``int_L (g - q)^2 / q`` by Simpson's rule on the stencil (``q`` the corners' bilinear interpolant)."""
     e = 0.0
@@ -230,7 +231,7 @@ def _warp_error(st, area, floor):
     return e * area
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _children(i, n, child, x0, y0, level):
     """Make nodes ``n .. n + 3`` the children of leaf ``i`` (their squares and levels); returns their side."""
     h = 0.5 ** (level[i] + 1)
@@ -244,7 +245,7 @@ def _children(i, n, child, x0, y0, level):
     return h
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _split(mid, p, projection, view, i, n, child, x0, y0, level, st):
     """Split leaf ``i`` into nodes ``n .. n + 3`` (node-view stencils included); returns the new count."""
     h = _children(i, n, child, x0, y0, level)
@@ -275,7 +276,7 @@ def _split_worst(mid, p, projection, view, errs, excess, max_level, n, child, x0
     return n, split, evals
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _leaf_holding(child, x0, y0, level, a, b):
     """The leaf (node index) holding square point ``(a, b)``."""
     i = 0
@@ -286,7 +287,7 @@ def _leaf_holding(child, x0, y0, level, a, b):
     return i
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _chase_peak(mid, p, projection, view, max_level, n, child, x0, y0, level, st):
     """Split the leaf holding the view's mirror direction (the normal, for half-vector trees) while the
     bilinear interpolant of its corners is far below ``g`` there: a lobe much narrower than the leaves the
@@ -365,7 +366,7 @@ def grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y
     return n, integral, evals
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _max_curvature(st):
     """The largest second difference along the stencil's rows, columns and diagonals: a function resolved
     by the stencil rises between two of its points by at most an eighth of it (a parabola's)."""
@@ -468,7 +469,7 @@ def _mirror_point(view, projection):
     return a, b
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _peak(n, child, x0, y0, level, st):
     """The square point of the largest ``g`` at the node view among the leaves' stencil points."""
     best = -1.0
@@ -520,7 +521,7 @@ RIDGE_MAX_STEPS = 65
 more there than on ``f`` (Ashikhmin-Shirley nu=10 nv=200's exact table: 7.8 s of CPU)."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _view_row(theta, phi, follow, out):
     """A view row (:func:`core.sampling.adaptive.target.make_view`)."""
     st = math.sin(theta)
@@ -570,7 +571,7 @@ def make_ridge(cell, projection, view0, width, norm, norm_meta, safety):
     return out, scales, motion / (steps - 1)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _view_stencils(mid, p, projection, views, i, x0, y0, level, st, stv):
     """Node ``i``'s stencils at every view (view 0's is ``st[i]``): each point's direction is made once
     for all the views. Returns the evaluations made."""
@@ -590,7 +591,7 @@ def _point_at_views(mid, p, projection, views, x0, y0, h, k, stv, i):
         stv[i, v, k] = g_dir(mid, p, x, y, z, w, views[v], projection)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _child_view_stencils(mid, p, projection, views, parent, q, c, x0, y0, level, st, stv):
     """Child ``c`` (quarter ``q`` of ``parent``)'s stencils at every view: its corners are stencil points of
     its parent's and the middles of the edges inside the parent its earlier siblings' (as in
@@ -676,7 +677,7 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
     return ridge, rho, evals
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _mixture(stv_i, scales, weights, x0, y0, h, out):
     """The cell's mixture on a node's stencil: ``sum_v w_v g_v / I_v`` (it integrates to 1), its corners on
     the square's edge lifted (:func:`_rim_lift`)."""
@@ -819,7 +820,7 @@ leaves' bounds and not others, so that the tables of ``kd = 0.5`` and ``0.25`` d
 the safety factor: a shortfall of 1e-9 of it is no violation)."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _has_front(stv_i):
     """Whether ``g`` is 0 at some of the leaf's stencil points (at some view): a front where ``g`` starts
     (the horizon's boundary through a half-vector disk, which turns with ``wo``'s azimuth) may cross the
@@ -839,7 +840,7 @@ INV_NORM_MARGIN = 1.25
 """Factor on the largest ``1 / c`` read on that grid: the cubic between its points rises far less."""
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _inv_norm_top(norm, norm_meta, cell):
     """An upper bound of ``1 / c`` (:func:`inv_norm`) over the cell ``theta_lo, theta_hi, phi_lo, phi_hi``:
     the largest value on a grid finer than the normalizer's table, times :data:`INV_NORM_MARGIN`."""
@@ -1009,7 +1010,7 @@ def quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, 
     return n, evals
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _fold_quadrature(n_keep, n, child, fine, fine_err):
     """Fold the quadrature's cells (nodes ``n_keep ..``) into the sampling tree's leaves: a leaf's ``fine``
     becomes the sum over its cells; the leaves are made leaves again."""
@@ -1126,7 +1127,7 @@ def summarize(n, child, x0, y0, level, st, stv, m, fine, fine_err, scales, weigh
     return corners, bounds, integrals, errors, chi2, envelope
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _lobe_width(projection, view0, child, x0, y0, level):
     """The side of the leaf holding the node view's mirror point (:func:`make_ridge`)."""
     ma, mb = _mirror_point(view0, projection)
