@@ -217,17 +217,17 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     return (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _cdf_sample_rows(
-    wo, u, mguide, cguide, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, wi_out, pdf_out
-):
+    wo, u, mguide, cguide, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, wi_out, pdf_out, cond,
+    half,
+):  # fmt: skip
     """One direction per row of ``wo`` from the uniforms ``u (n, >= 2)``, into ``wi_out`` and ``pdf_out``.
 
     In blocks of ``_BLOCK`` rows, each in two loops (every row's marginal, then every row's conditional):
     a draw is two chains of dependent reads from tables larger than the cache, and in short loops over
-    independent rows the processor has several rows' reads in flight at once."""
-    cond = np.empty(_BLOCK, dtype=np.int64)
-    half = np.empty((_BLOCK, 4))
+    independent rows the processor has several rows' reads in flight at once. ``cond (_BLOCK,)`` int64 and
+    ``half (_BLOCK, 4)`` are the block's scratch (the caller's: a kernel allocates nothing, core.jit)."""
     for i0 in range(0, wo.shape[0], _BLOCK):
         i1 = min(wo.shape[0], i0 + _BLOCK)
         for i in range(i0, i1):
@@ -396,7 +396,8 @@ class CDFSampler(Sampler):
         return DirectionSamples(wi, pdf)
 
     def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
-        _cdf_sample_rows(wo, u, self._mguide, self._cguide, *self._tables(), wi, pdf)
+        cond, half = np.empty(_BLOCK, dtype=np.int64), np.empty((_BLOCK, 4))
+        _cdf_sample_rows(wo, u, self._mguide, self._cguide, *self._tables(), wi, pdf, cond, half)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])

@@ -380,15 +380,15 @@ def _max_curvature(st):
     return d
 
 
-@njit(nogil=True, cache=True)
-def _leaf_mass(stv_i, scales, weights, x0, y0, h):
-    """The leaf's mass under the rejection-free density (its mixture corners, floor included)."""
-    mix = np.empty(9)
+@kernel
+def _leaf_mass(stv_i, scales, weights, x0, y0, h, mix):
+    """The leaf's mass under the rejection-free density (its mixture corners, floor included); ``mix (9,)``
+    is scratch."""
     _mixture(stv_i, scales, weights, x0, y0, h, mix)
     return h * h * (0.25 * (mix[0] + mix[2] + mix[6] + mix[8]) + FLOOR)
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def inv_norm(norm, norm_meta, theta, phi):
     """``1 / c`` at the view ``(theta, phi)``, ``c`` the exact mode's normalizer exactly as the draws read it
     (:func:`~core.sampling.adaptive.layout.normalizer_at` on the table ``norm``; ``norm_meta = (symmetry,
@@ -405,22 +405,22 @@ def inv_norm(norm, norm_meta, theta, phi):
     return 1.0 / c if c > 0.0 else 0.0
 
 
-@njit(nogil=True, cache=True)
-def _leaf_bound(
-    mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0, level, stv, safety
-):
+@kernel
+def _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0, level, stv,
+                safety, work):  # fmt: skip
     """``K_L``, a bound of ``(g_v / c_v) / q`` on leaf ``i`` for every view of the cell (``bscales[v] =
     1 / c_v``, :func:`inv_norm`), ``q`` the leaf's bilinear density (its stencils at every view must be in
-    ``stv[i]``); returns ``(K, evaluations)`` (``(1, 0)`` when ``safety`` is 0: a table without bounds)."""
+    ``stv[i]``); returns ``(K, evaluations)`` (``(1, 0)`` when ``safety`` is 0: a table without bounds).
+    ``work (3, 9)`` is scratch."""
     if safety <= 0.0:
         return 1.0, 0
     h = 0.5 ** level[i]
-    mix = np.empty(9)
+    mix = work[0]
     _mixture(stv[i], scales, weights, x0[i], y0[i], h, mix)
-    q = np.empty(9)
+    q = work[1]
     for k in range(9):
         q[k] = _bilinear_at_stencil(mix, k, FLOOR)
-    ratio = np.empty(9)
+    ratio = work[2]
     m = 0.0
     for v in range(views.shape[0]):
         top = 0.0
@@ -669,10 +669,11 @@ def bound(mid, p, projection, views, ridge_views, weights, n, child, x0, y0, lev
         rscales[r] *= rho
     ridge = _ridge(projection, views, ridge_views, pa, pb, rscales, step)
     evals = 0
+    work = np.empty((3, 9))
     for i in range(n):
         if child[i] == -1:
             m[i], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, i, x0, y0,
-                                  level, stv, safety)  # fmt: skip
+                                  level, stv, safety, work)  # fmt: skip
             evals += e
     return ridge, rho, evals
 
@@ -729,6 +730,7 @@ def refine_warp(mid, p, projection, views, scales, bscales, weights, ridge, ridg
     cap = child.shape[0]
     evals = 0
     mix = np.empty(9)
+    work = np.empty((3, 9))
     errs = np.zeros(cap)
     for _ in range(64):
         total = 0.0
@@ -751,7 +753,7 @@ def refine_warp(mid, p, projection, views, scales, bscales, weights, ridge, ridg
                 c = child[i] + q
                 evals += _child_view_stencils(mid, p, projection, views, i, q, c, x0, y0, level, st, stv)
                 m[c], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, c, x0,
-                                      y0, level, stv, safety)  # fmt: skip
+                                      y0, level, stv, safety, work)  # fmt: skip
                 evals += e
         if split == 0:
             break
@@ -769,13 +771,14 @@ def refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_vie
     target = n_max / (1.0 + ACCEPT_MARGIN)
     evals = 0
     excess = np.zeros(cap)
+    work = np.empty((3, 9))
     for _ in range(64):
         total = 0.0
         worst = 0.0
         for i in range(n):
             excess[i] = 0.0
             if child[i] == -1:
-                q = _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i])
+                q = _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i], work[0])
                 vol = m[i] * q
                 total += vol
                 if level[i] < max_level:
@@ -794,14 +797,14 @@ def refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_vie
                     evals += _child_view_stencils(mid, p, projection, views, i, c - (n - 4), c, x0, y0, level, st,
                                                   stv)  # fmt: skip
                     m[c], e = _leaf_bound(mid, p, projection, views, scales, bscales, weights, ridge, ridge_views, c,
-                                          x0, y0, level, stv, safety)  # fmt: skip
+                                          x0, y0, level, stv, safety, work)  # fmt: skip
                     evals += e
         if n == end:
             break
     total = 0.0
     for i in range(n):
         if child[i] == -1:
-            total += m[i] * _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i])
+            total += m[i] * _leaf_mass(stv[i], scales, weights, x0[i], y0[i], 0.5 ** level[i], work[0])
     return n, total, evals
 
 
@@ -928,7 +931,7 @@ def _richardson_divisor(x0, y0, h):
     return 15.0
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_level, trial):
     """The rule on leaf ``i``'s four children (made in slots ``n .. n + 3`` and dropped again, their stencils
     kept in ``trial[i]`` for a split for good, :func:`_split_tried`): returns the extrapolated integral, its
@@ -941,18 +944,20 @@ def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_l
     s = 0.0
     for c in range(n, end):
         s += _rule(st[c], x0[c], y0[c], 0.5 * h)
-        trial[i, c - n] = st[c]
+        for k in range(9):
+            trial[i, c - n, k] = st[c, k]
     child[i] = -1
     divisor = _richardson_divisor(x0[i], y0[i], h)
     return s + (s - coarse) / divisor, abs(s - coarse) / divisor, SPLIT_EVALUATIONS
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def _split_tried(i, n, child, x0, y0, level, st, trial):
     """:func:`_split` of a leaf split on trial before: its children's stencils are those the trial made."""
     _children(i, n, child, x0, y0, level)
     for q in range(4):
-        st[n + q] = trial[i, q]
+        for k in range(9):
+            st[n + q, k] = trial[i, q, k]
     return n + 4
 
 
