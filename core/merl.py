@@ -45,6 +45,7 @@ from numba import njit
 
 from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
 from core.errors import FileFormatError
+from core.fastmath import atan2
 from core.io import atomic_write
 from core.jit import kernel
 from core.measured import FileBRDF
@@ -135,60 +136,13 @@ def _bracket(u, n):
     return i, u - i
 
 
-# Coefficients of (atan(t) / t - 1) / t^2 as a polynomial in u = t^2 on [0, tan(pi/8)^2]: a Chebyshev fit of
-# degree 10 to the series (error below 4e-16 there; atan's own below 1e-17 absolute).
-_ATAN = (
-    -0.3333333333333335, 0.19999999999996815, -0.14285714284955728, 0.11111111039382242, -0.09090905577789848,
-    0.07692206606588207, -0.06664841459947057, 0.058610027663728734, -0.05100269245681807, 0.03965572205667133,
-    -0.019690822004180538,
-)  # fmt: skip
-_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7, _A8, _A9, _A10 = _ATAN
-_TAN_PI_8 = 0.41421356237309503
-_QUARTER_PI = 0.25 * math.pi
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _atan_unit(t):
-    """``atan(t)`` for ``t`` in ``[0, 1]`` (within 5e-16): above ``tan(pi/8)`` by ``pi/4 + atan((t - 1) / (t + 1))``,
-    then the polynomial :data:`_ATAN` by Estrin's scheme. A few multiply-adds where the library's ``atan2`` costs
-    ~20 ns, and a lookup makes three."""
-    off = 0.0
-    if t > _TAN_PI_8:
-        t = (t - 1.0) / (t + 1.0)
-        off = _QUARTER_PI
-    u = t * t
-    u2 = u * u
-    u4 = u2 * u2
-    u8 = u4 * u4
-    f = (
-        ((_A0 + _A1 * u) + u2 * (_A2 + _A3 * u))
-        + u4 * ((_A4 + _A5 * u) + u2 * (_A6 + _A7 * u))
-        + u8 * ((_A8 + _A9 * u) + u2 * _A10)
-    )
-    return off + (t + t * u * f)
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _atan2(y, x):
-    """``atan2(y, x)`` by :func:`_atan_unit` (within 5e-16 of the library's)."""
-    ay = abs(y)
-    ax = abs(x)
-    if ay <= ax:
-        a = _atan_unit(ay / ax) if ax > 0.0 else 0.0
-    else:
-        a = HALF_PI - _atan_unit(ax / ay)
-    if x < 0.0:
-        a = math.pi - a
-    return -a if y < 0.0 else a
-
-
 @njit(inline="always", nogil=True, cache=True)
 def _lookup_angles(wi, wo):
     """``(theta_h, theta_d, phi_d)`` of a pair as :func:`half_diff_angles` (to ~1e-14), ``phi_d`` folded into
     ``[0, pi]``, without normalizing ``h`` or turning ``wi`` into its frame: with ``h = wi + wo`` unnormalized,
     ``r = |h_xy|`` and ``n = |h|``, the vector ``d`` of :func:`half_diff_angles` times ``r n`` is
     ``(a h_z - wi_z r^2, n (wi_y h_x - wi_x h_y), r (a + wi_z h_z))``, ``a = wi_x h_x + wi_y h_y``, and the
-    three angles are arc tangents of ratios (no divisions before them); the arc tangents are :func:`_atan2`."""
+    three angles are arc tangents of ratios (no divisions before them); the arc tangents are :func:`core.fastmath.atan2`."""
     hx = wi[0] + wo[0]
     hy = wi[1] + wo[1]
     hz = wi[2] + wo[2]
@@ -202,11 +156,11 @@ def _lookup_angles(wi, wo):
         dz = r * (a + wi[2] * hz)
     else:  # h along the normal: its frame is the local one
         dx, dy, dz = wi[0], wi[1], wi[2]
-    theta_h = _atan2(r, hz)
-    theta_d = _atan2(math.sqrt(dx * dx + dy * dy), dz)
+    theta_h = atan2(r, hz)
+    theta_d = atan2(math.sqrt(dx * dx + dy * dy), dz)
     if dy < 0.0:  # reciprocity: phi_d and phi_d + pi are the same cell
         dx, dy = -dx, -dy
-    return theta_h, theta_d, _atan2(dy, dx)
+    return theta_h, theta_d, atan2(dy, dx)
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from core import fastmath
 from core.errors import ParameterError
 from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
@@ -124,7 +125,7 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
             return 0.0
         d = (wi[0], wi[1], wi[2])
         jac = 1.0
-    theta_p = math.acos(min(1.0, d[2]))
+    theta_p = fastmath.acos(min(1.0, d[2]))
     phi_p = table_azimuth(d, c_ref, s_ref)
     return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
 
@@ -164,8 +165,7 @@ def _factored_sample_rows(
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
         phi_p = (ip + min(max(fr2, 0.0), 1.0)) * d_phi
         sin_p = math.sqrt(max(0.0, 1.0 - cos_p * cos_p))
-        cp = math.cos(phi_p)
-        sp = math.sin(phi_p)
+        sp, cp = fastmath.sin_cos(phi_p)
         d = (sin_p * (cp * c_ref - sp * s_ref), sin_p * (sp * c_ref + cp * s_ref), cos_p)
         if reparam:
             dh = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from core import fastmath
 from core.errors import ParameterError
 from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
@@ -78,13 +79,13 @@ def bin_of(wo, n_theta_o, n_phi_o):
     """Bin index of ``wo`` and the cosine and sine of the azimuth its table is relative to: ``phi_o`` for
     isotropic tables (from ``wo``'s components, no arc tangent), 0 for anisotropic ones."""
     cz = min(1.0, max(-1.0, wo[2]))
-    it = min(int(math.acos(cz) / HALF_PI * n_theta_o), n_theta_o - 1)
+    it = min(int(fastmath.acos(cz) / HALF_PI * n_theta_o), n_theta_o - 1)
     if n_phi_o == 1:
         r = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
         if r > 0.0:
             return it, wo[0] / r, wo[1] / r
         return it, 1.0, 0.0
-    phi = math.atan2(wo[1], wo[0])
+    phi = fastmath.atan2(wo[1], wo[0])
     if phi < 0.0:
         phi += TWO_PI
     ip = min(int(phi / TWO_PI * n_phi_o), n_phi_o - 1)
@@ -95,7 +96,7 @@ def bin_of(wo, n_theta_o, n_phi_o):
 def table_azimuth(d, c_ref, s_ref):
     """The azimuth in ``[0, 2 pi)`` of ``d`` in a table turned by the azimuth whose cosine and sine are
     ``c_ref, s_ref`` (:func:`bin_of`)."""
-    phi = math.atan2(d[1] * c_ref - d[0] * s_ref, d[0] * c_ref + d[1] * s_ref)
+    phi = fastmath.atan2(d[1] * c_ref - d[0] * s_ref, d[0] * c_ref + d[1] * s_ref)
     return phi + TWO_PI if phi < 0.0 else phi
 
 
@@ -170,7 +171,7 @@ def _cdf_marginal(w, u0, mguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff):
     b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
     x, pdf_m = _invert(mx, mf, moff[b], moff[b + 1], mguide[b], u0)
     cos_t = -x
-    theta = math.acos(min(1.0, max(0.0, cos_t)))
+    theta = fastmath.acos(min(1.0, max(0.0, cos_t)))
     row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
     return b * n_rows + row, cos_t, pdf_m, c_ref, s_ref
 
@@ -180,8 +181,7 @@ def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
     """The second half: ``phi_i`` from conditional ``c`` and ``u1``; the direction and its density there."""
     phi, pdf_c = _invert(cx, cf, coff[c], coff[c + 1], cguide[c], u1)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    cp = math.cos(phi)
-    sp = math.sin(phi)
+    sp, cp = fastmath.sin_cos(phi)
     return sin_t * (cp * c_ref - sp * s_ref), sin_t * (sp * c_ref + cp * s_ref), cos_t, pdf_c
 
 
@@ -199,7 +199,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     x = -cos_t
     lo = moff[b]
     hi = moff[b + 1]
-    theta = math.acos(cos_t)
+    theta = fastmath.acos(cos_t)
     row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
     k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
     dx = mx[k + 1] - mx[k]

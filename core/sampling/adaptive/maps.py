@@ -35,6 +35,8 @@ import math
 
 from numba import njit
 
+from core.fastmath import sincos_small
+
 PI = math.pi
 HALF_PI = 0.5 * math.pi
 QUARTER_PI = 0.25 * math.pi
@@ -44,36 +46,6 @@ ORTHOGRAPHIC = 0
 EQUAL_AREA = 1
 HALF_VECTOR = 2
 PROJECTIONS = ("orthographic", "equal_area", "half_vector")
-
-
-# Taylor coefficients of sin(t) / t and cos(t) in t^2, to degree 16-17 in t
-_S1, _S2, _S3, _S4 = -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0
-_S5, _S6, _S7, _S8 = -1.0 / 39916800.0, 1.0 / 6227020800.0, -1.0 / 1307674368000.0, 1.0 / 355687428096000.0
-_C1, _C2, _C3, _C4 = -0.5, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0
-_C5, _C6, _C7, _C8 = -1.0 / 3628800.0, 1.0 / 479001600.0, -1.0 / 87178291200.0, 1.0 / 20922789888000.0
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _sincos(t):
-    """``(sin t, cos t)`` for ``|t| <= pi/4`` by their Taylor polynomials to degree 16-17 (error below 2e-17,
-    under rounding): a few multiply-adds where the library's sin and cos cost ~20 ns each, and the draws
-    make one pair per sample. Evaluated by Estrin's scheme (pairs of terms, then pairs of pairs): a chain of
-    5 dependent operations where Horner's rule has 16."""
-    t2 = t * t
-    t4 = t2 * t2
-    t8 = t4 * t4
-    t16 = t8 * t8
-    s = (
-        ((1.0 + _S1 * t2) + t4 * (_S2 + _S3 * t2))
-        + t8 * ((_S4 + _S5 * t2) + t4 * (_S6 + _S7 * t2))
-        + t16 * _S8
-    )
-    c = (
-        ((1.0 + _C1 * t2) + t4 * (_C2 + _C3 * t2))
-        + t8 * ((_C4 + _C5 * t2) + t4 * (_C6 + _C7 * t2))
-        + t16 * _C8
-    )
-    return t * s, c
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -87,7 +59,7 @@ def square_to_disk(a, b):
     wide = abs(u) > abs(v)  # phi = pi/4 v/u; else phi = pi/2 - pi/4 u/v
     big = u if wide else v
     small = v if wide else u
-    sn, cs = _sincos(QUARTER_PI * (small / big))
+    sn, cs = sincos_small(QUARTER_PI * (small / big))
     first = cs if wide else sn
     second = sn if wide else cs
     return big * first, big * second
