@@ -857,19 +857,17 @@ def _inv_norm_top(norm, norm_meta, cell):
     return top * INV_NORM_MARGIN
 
 
-@njit(nogil=True, cache=True)
+@kernel
 def probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, seed, probed, safety,
-          norm, norm_meta, rho):  # fmt: skip
+          norm, norm_meta, rho, mix, view):  # fmt: skip
     """Step 3b: every leaf's bound checked at ``PROBES`` random points, each at a random view of the cell
     (``cell = theta_lo, theta_hi, phi_lo, phi_hi, follow``): between the stencils' points and between the
     views, where no rule covers it. A bound found short is raised to ``PROBE_MARGIN`` times the ratio seen
     (against ``rho g / c`` at the probe's view, :func:`inv_norm`, ``rho`` from :func:`bound`; ``1 / c`` is
     read only where the cell's largest could raise the bound). Returns the number of bounds raised and the
-    evaluations made."""
+    evaluations made. ``mix (9,)`` and ``view (6,)`` are scratch."""
     raised = 0
     evals = 0
-    mix = np.empty(9)
-    view = np.empty(6)
     view[5] = 1.0
     azimuths = cell[3] > cell[2]
     follow = cell[4] > 0.5
@@ -1221,7 +1219,7 @@ def add_bounds(mid, p, projection, views, weights, cell, n_max, max_level, capac
         if r == rounds - 1:  # the last step is a refinement: the acceptance holds for the bounds as raised
             break
         raised, e = probe(mid, p, projection, views, cell, scales, weights, n, child, x0, y0, level, stv, m, mid,
-                          probed, safety, norm, norm_meta, rho)  # fmt: skip
+                          probed, safety, norm, norm_meta, rho, np.empty(9), np.empty(6))  # fmt: skip
         evals += e
         if raised == 0:
             break
