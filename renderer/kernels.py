@@ -329,7 +329,7 @@ def surface_stage(
     # outputs, one row per surface vertex (sorted order)
     s_mat, s_ng, s_ns, s_wo, s_origin, s_beta, s_path, l_wi, l_wi_local, l_le, l_pdf, l_tmax, l_delta,
     l_cand,
-    # scratch: (BLOCK, 9), the block's frames for its light samples
+    # scratch: (BLOCK, 11), the block's frames and its light samples' Sobol points
     frames,
 ):  # fmt: skip
     """Surface vertices ``[a, b)`` of the material-sorted ``order``: the shading frame, ``wo`` in it, the
@@ -341,8 +341,10 @@ def surface_stage(
     marks light samples worth a BRDF evaluation (positive pdf and radiance, above both surfaces)."""
     n_emit = emit_ids.shape[0]
     n_point = point_pos.shape[0]
-    # blocks of BLOCK vertices, each in two short loops (the frames, then the light samples from the frames'
-    # rows, still in L1): the light sample's long chain of dependent steps overlaps across vertices there
+    # blocks of BLOCK vertices, each in two short loops (the frames and the light samples' Sobol points, then
+    # the light samples from the frames' rows, still in L1): the light sample's long chain of dependent steps
+    # overlaps across vertices there, and the points' hashes do in the first loop (a cosine pass's surface
+    # stage 30.2 / 30.5 -> 26.1 / 27.7 ms, one thread, 2026-12-04)
     for s0 in range(a, b, BLOCK):
         s1 = min(b, s0 + BLOCK)
         for s in range(s0, s1):
@@ -354,6 +356,13 @@ def surface_stage(
             s_ns[s, 0], s_ns[s, 1], s_ns[s, 2] = sx, sy, sz
             fb = frames[s - s0]
             fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8] = tx, ty, tz, bx, by, bz, sx, sy, sz
+            if nee:
+                p = path[i]
+                fb[9], fb[10] = pair(
+                    first_sample + p // n_pix,
+                    key(key(seed_key, p % n_pix), _PAIR_LIGHT + depth),
+                    depth < SOBOL_DEPTH,
+                )
             s_wo[s, 0] = -(d[i, 0] * tx + d[i, 1] * ty + d[i, 2] * tz)
             s_wo[s, 1] = -(d[i, 0] * bx + d[i, 1] * by + d[i, 2] * bz)
             s_wo[s, 2] = -(d[i, 0] * sx + d[i, 1] * sy + d[i, 2] * sz)
@@ -378,10 +387,7 @@ def surface_stage(
             gx, gy, gz = s_ng[s, 0], s_ng[s, 1], s_ng[s, 2]
             fb = frames[s - s0]
             tx, ty, tz, bx, by, bz, sx, sy, sz = fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8]
-            pixel = p % n_pix
-            ux, uy = pair(
-                first_sample + p // n_pix, key(key(seed_key, pixel), _PAIR_LIGHT + depth), depth < SOBOL_DEPTH
-            )
+            ux, uy = fb[9], fb[10]
             wx, wy, wz = 0.0, 0.0, 1.0
             lr, lg, lb = 0.0, 0.0, 0.0
             pdf = 0.0

@@ -98,8 +98,8 @@ class Buffers:
         self.st32 = np.empty(n, f32)
         self.shadow_slot = np.empty(n, i64)
         self.counts = np.zeros(2, i64)
-        # the stages' scratch rows: a block's frames (surface stage) and uniforms (BRDF stage)
-        self.frames, self.blk = np.empty((BLOCK, 9), f64), np.empty((BLOCK, 3), f64)
+        # the stages' scratch rows: a block's frames and light points (surface stage) and uniforms (BRDF stage)
+        self.frames, self.blk = np.empty((BLOCK, 11), f64), np.empty((BLOCK, 3), f64)
 
     def __len__(self) -> int:
         return len(self.path)
