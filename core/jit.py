@@ -14,8 +14,10 @@ A function compiled with ``_nrt=False`` (numba's option to compile without its r
 counts at all: its arguments are borrowed from its caller, which holds them for the call. It may not
 allocate, create or return an array it did not receive (numba refuses to compile such a function: "NRT
 required but not enabled", found when the kernel is first compiled, at setup); it may read and write the
-arrays it is given, make views of them and call any other compiled function. The kernels here take their
-scratch space from their caller (:class:`renderer.wavefront.Buffers`).
+arrays it is given, make views of them and call any other compiled function. Kernels that need scratch
+rows take them from their caller (the render stages from :class:`renderer.wavefront.Buffers`, the trees'
+leaf bounds and probes from the construction step that calls them). ``tests/core/test_jit.py`` checks that
+the hot loops keep the option.
 """
 
 from __future__ import annotations
