@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
+from core.fastmath import sincos_small
 from core.model import LUMINANCE
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
@@ -233,18 +234,8 @@ def pixel_edges(h: int, w: int, rotation: float) -> np.ndarray:
 
 SMALL_ANGLE_ROWS, SMALL_ANGLE_COLUMNS = 32, 64
 """Maps with at least this many rows and columns (pixels at most pi / 32 ~ 0.098 rad on a side) place a sample
-inside its pixel by angle addition from the pixel's edges (:func:`_sin_cos_small`); smaller maps call ``sin``
+inside its pixel by angle addition from the pixel's edges (:func:`core.fastmath.sincos_small`); smaller maps call ``sin``
 and ``cos``."""
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _sin_cos_small(x):
-    """``(sin x, cos x)`` for ``0 <= x <= 0.1`` by their Taylor series to the 11th and 12th order (truncation
-    below 1e-18, far under the 1.1e-16 of a double's rounding)."""
-    x2 = x * x
-    s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0)))))
-    c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))))
-    return s, c
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -336,8 +327,8 @@ def env_sample_one(kind, u0, u1, radiance, row_cdf, col_cdf_flat, guide, pmf, im
         lo = col_cdf_flat[row * w + col - 1] if col > 0 else float(row)
         u3 = _remainder(row + u1, lo, col_cdf_flat[row * w + col])
         if h >= SMALL_ANGLE_ROWS and w >= SMALL_ANGLE_COLUMNS:
-            se, ce = _sin_cos_small(u2 / h * math.pi)
-            sp, cp = _sin_cos_small(u3 / w * TWO_PI)
+            se, ce = sincos_small(u2 / h * math.pi)
+            sp, cp = sincos_small(u3 / w * TWO_PI)
             ct, st = edges[row], edges[h + 1 + 2 * w + row]  # the row's upper edge
             cb, sb = edges[h + 1 + col], edges[h + 1 + w + col]  # the column's first edge
             s = st * ce + ct * se

@@ -32,7 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core import merl
+from core import fastmath, merl
 from core.dispatch import MERL, MERL_NEAREST, eval_model, pdf_model, sample_model
 from core.jit import kernel
 from core.models.lobes import cosine_hemisphere_pdf
@@ -49,6 +49,7 @@ COSINE = 2
 ANALYTIC = 3
 COMPILED_STRATEGIES = {"uniform": UNIFORM, "cosine": COSINE, "analytic": ANALYTIC}
 INV_TWO_PI = 0.15915494309189535
+TWO_PI = 2.0 * math.pi
 BLOCK = 64
 """Vertices whose random numbers a stage hashes ahead of their loop (:func:`bsdf_stage`), and whose frames
 :func:`surface_stage` keeps for their light samples: the rows of the wavefront's scratch arrays."""
@@ -356,8 +357,8 @@ def surface_stage(
             s_ns[s, 0], s_ns[s, 1], s_ns[s, 2] = sx, sy, sz
             fb = frames[s - s0]
             fb[0], fb[1], fb[2], fb[3], fb[4], fb[5], fb[6], fb[7], fb[8] = tx, ty, tz, bx, by, bz, sx, sy, sz
+            p = path[i]
             if nee:
-                p = path[i]
                 fb[9], fb[10] = pair(
                     first_sample + p // n_pix,
                     key(key(seed_key, p % n_pix), _PAIR_LIGHT + depth),
@@ -370,7 +371,6 @@ def surface_stage(
             py = o[i, 1] + t[i] * d[i, 1] + eps * gy
             pz = o[i, 2] + t[i] * d[i, 2] + eps * gz
             s_origin[s, 0], s_origin[s, 1], s_origin[s, 2] = px, py, pz
-            p = path[i]
             s_path[s] = p
             s_mat[s] = mat[i]
             for c in range(3):
@@ -450,48 +450,21 @@ def surface_stage(
                 l_cand[s] = wx * gx + wy * gy + wz * gz > 0.0
 
 
-_OCTANT_COS = np.cos((np.arange(8) + 0.5) * np.pi / 4)
-_OCTANT_SIN = np.sin((np.arange(8) + 0.5) * np.pi / 4)
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _sin_cos_turn(u):
-    """``(sin 2 pi u, cos 2 pi u)`` for ``0 <= u < 1`` without a library call: the middle of ``u``'s octant
-    (tabulated) plus an offset of at most pi / 8 by its Taylor series to the 13th and 12th order (truncation
-    below 3e-17); within 1e-15 of ``sin``/``cos`` of ``2 pi u`` (whose rounded argument is itself that far),
-    4 ns against 25-34 ns for the two calls."""
-    v = u * 8.0
-    k = min(max(int(v), 0), 7)
-    x = (v - k - 0.5) * (0.25 * math.pi)
-    x2 = x * x
-    sx = x * (
-        1.0
-        - x2
-        / 6.0
-        * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0 * (1.0 - x2 / 156.0)))))
-    )
-    cx = 1.0 - x2 / 2.0 * (
-        1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0 * (1.0 - x2 / 132.0))))
-    )
-    ck, sk = _OCTANT_COS[k], _OCTANT_SIN[k]
-    return sk * cx + ck * sx, ck * cx - sk * sx
-
-
 @njit(inline="always", nogil=True, cache=True)
 def _cosine_hemisphere(u1, u2):
     """:func:`core.models.lobes.cosine_hemisphere` (Malley's method) with the azimuth's sine and cosine from
-    :func:`_sin_cos_turn`."""
+    :func:`core.fastmath.sin_cos`."""
     r = math.sqrt(u1)
-    sn, cs = _sin_cos_turn(u2)
+    sn, cs = fastmath.sin_cos(TWO_PI * u2)
     return r * cs, r * sn, math.sqrt(max(0.0, 1.0 - u1))
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _uniform_hemisphere(u1, u2):
     """:func:`core.models.lobes.uniform_hemisphere` with the azimuth's sine and cosine from
-    :func:`_sin_cos_turn`."""
+    :func:`core.fastmath.sin_cos`."""
     r = math.sqrt(max(0.0, 1.0 - u1 * u1))
-    sn, cs = _sin_cos_turn(u2)
+    sn, cs = fastmath.sin_cos(TWO_PI * u2)
     return r * cs, r * sn, u1
 
 

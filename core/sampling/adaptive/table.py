@@ -777,6 +777,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
     cell_mu = -np.cos(theta_edges)
     starts = -1.0 + np.arange(CELL_LUT) / CELL_LUT
     lut = np.clip(np.searchsorted(cell_mu, starts, side="right") - 1, 0, len(thetas) - 1)
+    phi_edges = np.ascontiguousarray(phi_edges, dtype=np.float64)
     return AdaptiveTable(
         symmetry=int(symmetry),
         flat=int(all(n.projection == ORTHOGRAPHIC for row in grid for n in row)),
@@ -787,9 +788,9 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         node_mu=-np.cos(thetas),
         cell_mu=cell_mu,
         cell_lut=lut.astype(np.int32),
-        phi_edges=np.ascontiguousarray(phi_edges, dtype=np.float64),
-        edge_cos=np.cos(np.ascontiguousarray(phi_edges, dtype=np.float64)),
-        edge_sin=np.sin(np.ascontiguousarray(phi_edges, dtype=np.float64)),
+        phi_edges=phi_edges,
+        edge_cos=np.cos(phi_edges),
+        edge_sin=np.sin(phi_edges),
         projection=np.array(projections, dtype=np.int64),
         exact=int(exact),
         root=np.array(roots, dtype=np.int64),
