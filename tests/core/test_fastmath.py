@@ -48,3 +48,14 @@ def test_sin_cos_over_two_turns_either_way() -> None:
     got = _apply(2, phi, phi)
     assert np.max(np.abs(got[:, 0] - np.sin(phi))) <= 1e-15
     assert np.max(np.abs(got[:, 1] - np.cos(phi))) <= 1e-15
+
+
+def test_atan2_nan_and_infinite_arguments() -> None:
+    """A NaN argument gives NaN (never a division by zero: ``(0, NaN)`` raised before the octant selects),
+    and the infinite ones the library's angles where it has a finite answer."""
+    nan, inf = math.nan, math.inf
+    y = np.array([0.0, nan, nan, 1.0, -1.0, inf, 1.0, -inf])
+    x = np.array([nan, 0.0, nan, nan, nan, 1.0, inf, 1.0])
+    got = _apply(0, x, y)[:, 0]
+    assert np.isnan(got[:5]).all()
+    np.testing.assert_allclose(got[5:], np.arctan2(y[5:], x[5:]), atol=1e-15)
