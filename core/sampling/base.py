@@ -111,6 +111,9 @@ class Sampler:
     warp_dims: tuple[int, int] = (0, 1)
     """The columns of the uniforms ``u (n, 3)`` that the strategy's two-dimensional warp reads: a caller's
     stratified points go there (:meth:`sample_into`); the third column is its other choice (a lobe, a factor)."""
+    third_uniform: bool = True
+    """False: the strategy reads only the warp's two columns (``warp_dims = (0, 1)``); given a caller's points
+    :meth:`sample_into` then draws no uniforms of its own (the same draws: the third column was never read)."""
 
     def __init__(self, brdf: BRDF):
         self.brdf = brdf
@@ -163,9 +166,12 @@ class Sampler:
         uniforms still come from ``seed``. Each row's density is unchanged: every point is uniform."""
         wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
         check_buffers(wo.shape[0], wi=wi, pdf=pdf, f=f)
-        u = np.random.default_rng(seed).random((wo.shape[0], 3))
-        if points is not None:
-            u[:, list(self.warp_dims)] = check_points(points, wo.shape[0])
+        if points is not None and not self.third_uniform and self.warp_dims == (0, 1):
+            u = check_points(points, wo.shape[0])
+        else:
+            u = np.random.default_rng(seed).random((wo.shape[0], 3))
+            if points is not None:
+                u[:, list(self.warp_dims)] = check_points(points, wo.shape[0])
         self._directions_into(wo, u, wi, pdf)
         self._f_into(wo, wi, pdf, f)
 

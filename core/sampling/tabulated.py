@@ -278,6 +278,7 @@ class CDFSampler(Sampler):
     """
 
     name = "uniform_cdf"
+    third_uniform = False  # a draw reads u[:, 0] (the marginal) and u[:, 1] (the conditional) only
 
     def __init__(
         self,

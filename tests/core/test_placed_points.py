@@ -115,3 +115,22 @@ def test_points_outside_the_unit_square_are_refused(strategy, bad):
     with pytest.raises(ParameterError, match=r"points must be numbers in \[0, 1\)"):
         sampler.sample_into(wo, 1, wi, pdf, f, points=points)
     assert np.all(wi == -7.0) and np.all(pdf == -7.0) and np.all(f == -7.0)
+
+
+@pytest.mark.parametrize("strategy", ["uniform_cdf", "compress_cdf"])
+def test_a_strategy_without_a_third_uniform_draws_nothing_of_its_own_beside_the_points(strategy):
+    """``third_uniform = False``: given points, ``sample_into`` draws no uniforms of its own, and its draws are
+    the ones its warp makes from the points with any third column beside them (it never reads one)."""
+    sampler = make_sampler(strategy, make_brdf("ggx", {"alpha": 0.2}))
+    assert not sampler.third_uniform and sampler.warp_dims == (0, 1)
+    n = 4096
+    rng = np.random.default_rng(8)
+    wo = np.ascontiguousarray(np.tile(degrees_to_dir(50.0, 30.0), (n, 1)))
+    points = rng.random((n, 2))
+    wi, pdf = _draw(sampler, wo[0], points, seed=1)
+    for third in (np.zeros(n), rng.random(n), np.full(n, 1.0 - 2.0**-53)):
+        u = np.ascontiguousarray(np.column_stack([points, third]))
+        wi3, pdf3 = np.empty((n, 3)), np.empty(n)
+        sampler._directions_into(wo, u, wi3, pdf3)
+        np.testing.assert_array_equal(wi, wi3)
+        np.testing.assert_array_equal(pdf, pdf3)
