@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from core.dispatch import eval_model, pdf_model, sample_model
+from core.dispatch import MERL, eval_model, pdf_model, sample_model
 from core.jit import kernel
+from core.merl import MERL_BLOCK, eval_merl_rows
 
 if TYPE_CHECKING:
     from core.model import Model
@@ -113,12 +114,20 @@ def eval_batch(
     return out
 
 
+_EVERY_ROW = np.zeros(0, dtype=np.bool_)
+
+
 def eval_into(model_id: int, wi: np.ndarray, wo: np.ndarray, p: np.ndarray, out: np.ndarray,
               where: np.ndarray | None = None) -> None:  # fmt: skip
     """:func:`eval_batch` written into the caller's ``out (n, 3)``, at the rows where ``where (n,)`` holds
     (all rows when None; the other rows are left as they are). Every array must already be C-contiguous
-    float64 (``where``: bool): a renderer's buffers, written without a copy."""
-    if where is None:
+    float64 (``where``: bool): a renderer's buffers, written without a copy. A measured table's rows go through
+    :func:`core.merl.eval_merl_rows` (the same values; its reads overlapped a block at a time)."""
+    if model_id == MERL:
+        cells = np.empty((MERL_BLOCK, 3), dtype=np.int64)
+        fractions = np.empty((MERL_BLOCK, 3))
+        eval_merl_rows(wi, wo, p, _EVERY_ROW if where is None else where, out, cells, fractions)
+    elif where is None:
         _eval_serial(model_id, wi, wo, p, out)
     else:
         _eval_where(model_id, wi, wo, p, where, out)

@@ -176,19 +176,12 @@ def _add_corner(p, k, w, acc):
     return (acc[0] + wr * r, acc[1] + wg * g, acc[2] + wb * b, acc[3] + wr, acc[4] + wg, acc[5] + wb)
 
 
-@kernel
-def eval_merl(wi, wo, p):
-    """``f_r`` by trilinear interpolation between cell centres in index space (``sqrt(theta_h)``,
-    ``theta_d``, ``phi_d``; periodic in ``phi_d`` with period pi). Exact at cell centres and continuous;
-    missing cells are left out of the weights (0 where every neighbour is missing).
-
-    ``p`` is :meth:`MerlTable.kernel_vector`: scaled values, missing cells negative, RGB interleaved.
-    The angles come from :func:`_lookup_angles` (its own arc tangents; MERL's reference reader,
-    :func:`eval_merl_nearest`, keeps :func:`half_diff_angles`) and the eight corners are summed
-    without branches: 136 -> 75 ns a lookup (a sweep of one view's directions, one core).
-    """
-    if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
-        return 0.0, 0.0, 0.0
+@njit(inline="always", nogil=True, cache=True)
+def _cell(wi, wo):
+    """Where :func:`eval_merl` reads for a pair (both above the horizon): the first of the four
+    ``(theta_h, theta_d)`` rows of its eight corners (``b00``), the two ``phi_d`` neighbours ``k0, k1`` and the
+    fractions ``th, td, tp`` along the three axes. The corners' values are ``p[3 (k + b)]`` for ``k`` in
+    ``(k0, k1)`` and ``b`` in ``b00``, ``b00 + N_PHI_D``, ``b00 + N_PHI_D N_THETA_D`` and the next row."""
     theta_h, theta_d, phi_d = _lookup_angles(wi, wo)
     ih, th = _bracket(math.sqrt(max(theta_h, 0.0) * (1.0 / HALF_PI)) * N_THETA_H - 0.5, N_THETA_H)
     jd, td = _bracket(theta_d * (N_THETA_D / HALF_PI) - 0.5, N_THETA_D)
@@ -197,7 +190,12 @@ def eval_merl(wi, wo, p):
     tp = up - kp
     k0 = kp if kp >= 0 else kp + N_PHI_D  # the two phi_d neighbours (periodic), without a modulo
     k1 = kp + 1 if kp + 1 < N_PHI_D else kp + 1 - N_PHI_D
-    b00 = N_PHI_D * (jd + N_THETA_D * ih)  # the four (theta_h, theta_d) rows of the eight corners
+    return N_PHI_D * (jd + N_THETA_D * ih), k0, k1, th, td, tp
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _combine(p, b00, k0, k1, th, td, tp):
+    """The trilinear sum of :func:`eval_merl` over the eight corners of :func:`_cell`'s answer."""
     b01 = b00 + N_PHI_D
     b10 = b00 + N_PHI_D * N_THETA_D
     b11 = b10 + N_PHI_D
@@ -221,6 +219,79 @@ def eval_merl(wi, wo, p):
     g = acc_g / w_g if w_g > 0.0 else 0.0
     b_ = acc_b / w_b if w_b > 0.0 else 0.0
     return r, g, b_
+
+
+@kernel
+def eval_merl(wi, wo, p):
+    """``f_r`` by trilinear interpolation between cell centres in index space (``sqrt(theta_h)``,
+    ``theta_d``, ``phi_d``; periodic in ``phi_d`` with period pi). Exact at cell centres and continuous;
+    missing cells are left out of the weights (0 where every neighbour is missing).
+
+    ``p`` is :meth:`MerlTable.kernel_vector`: scaled values, missing cells negative, RGB interleaved.
+    The angles come from :func:`_lookup_angles` (its own arc tangents; MERL's reference reader,
+    :func:`eval_merl_nearest`, keeps :func:`half_diff_angles`) and the eight corners are summed
+    without branches: 136 -> 75 ns a lookup (a sweep of one view's directions, one core). Many rows at
+    once: :func:`eval_merl_rows`.
+    """
+    if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
+        return 0.0, 0.0, 0.0
+    b00, k0, k1, th, td, tp = _cell(wi, wo)
+    return _combine(p, b00, k0, k1, th, td, tp)
+
+
+MERL_BLOCK = 64
+"""Rows of :func:`eval_merl_rows`'s blocks (its scratch rows)."""
+_ROW = 3 * N_PHI_D  # the table's step to the next theta_d row, and to the next theta_h slab
+_SLAB = 3 * N_PHI_D * N_THETA_D
+
+
+@kernel
+def eval_merl_rows(wi, wo, p, keep, out, cells, fractions):
+    """:func:`eval_merl` at the rows where ``keep`` holds (every row for an empty ``keep``), into ``out (n, 3)``;
+    the other rows are left as they are. The same values to the bit, in three passes over blocks of
+    ``MERL_BLOCK`` rows: every row's cell (:func:`_cell`, into the scratch ``cells (MERL_BLOCK, 3)`` int64 and
+    ``fractions (MERL_BLOCK, 3)``), then one read of each of its four rows of corners, then the sums.
+
+    A table of 4.4 M cells is larger than the caches, and in a render the other stages evict it between two
+    lookups: each lookup waits for memory. In one loop a lookup's hundreds of instructions keep the
+    processor from reaching the next rows' reads; the second pass is a few instructions a row, so the reads
+    of a whole block are in flight at once, and the sums find them in the cache."""
+    every = keep.shape[0] == 0
+    valid = p.shape[0] == 3 * N_CELLS
+    n = wi.shape[0]
+    touched = 0.0
+    for i0 in range(0, n, MERL_BLOCK):
+        i1 = min(n, i0 + MERL_BLOCK)
+        for i in range(i0, i1):
+            r = i - i0
+            cells[r, 0] = -1
+            if not (every or keep[i]):
+                continue
+            a = (wi[i, 0], wi[i, 1], wi[i, 2])
+            b = (wo[i, 0], wo[i, 1], wo[i, 2])
+            if a[2] <= 0.0 or b[2] <= 0.0 or not valid:
+                cells[r, 0] = -2
+                continue
+            b00, k0, k1, th, td, tp = _cell(a, b)
+            cells[r, 0], cells[r, 1], cells[r, 2] = b00, k0, k1
+            fractions[r, 0], fractions[r, 1], fractions[r, 2] = th, td, tp
+        if valid:
+            for r in range(i1 - i0):
+                b00 = cells[r, 0]
+                if b00 >= 0:
+                    k = 3 * (cells[r, 1] + b00)
+                    touched += p[k] + p[k + _ROW] + p[k + _SLAB] + p[k + _SLAB + _ROW]
+        for i in range(i0, i1):
+            r = i - i0
+            b00 = cells[r, 0]
+            if b00 == -1:
+                continue
+            if b00 == -2:
+                out[i, 0], out[i, 1], out[i, 2] = 0.0, 0.0, 0.0
+                continue
+            out[i, 0], out[i, 1], out[i, 2] = _combine(p, b00, cells[r, 1], cells[r, 2], fractions[r, 0],
+                                                       fractions[r, 1], fractions[r, 2])  # fmt: skip
+    return touched
 
 
 _MERL_CITATION = (

@@ -490,7 +490,7 @@ class PathTracer:
             self._run(
                 bsdf_stage, n_s, n_pix, first, self._seed_key, pass_key, depth, self.has_nee_lights,
                 self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
-                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f, B.blk,
+                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f, B.blk, B.mcell, B.mfrac,
             )  # fmt: skip
             self._draw_by_samplers(B, offsets, pass_index, depth, wave.key, first)
             if self.ris:

@@ -483,6 +483,24 @@ def _eval(mid, wi, wo, prm, table):
     return r, g, b
 
 
+_MERL_ROW = 3 * merl.N_PHI_D  # a MERL table's step to the next theta_d row, and to the next theta_h slab
+_MERL_SLAB = 3 * merl.N_PHI_D * merl.N_THETA_D
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _defer_merl(mcell, mfrac, r, slot, wi, wo, table):
+    """Record the cell of a MERL lookup (:func:`core.merl.eval_merl` of ``wi, wo`` in ``table``) for row ``r``
+    of the block, ``slot`` 0 (light sample) or 1 (BRDF sample): ``mcell[r, slot] = (b00, k0, k1)`` and the
+    fractions in ``mfrac``, or ``b00 = -2`` where the lookup is 0 (a direction below the horizon, a table of
+    the wrong size)."""
+    if wi[2] <= 0.0 or wo[2] <= 0.0 or table.shape[0] != 3 * merl.N_CELLS:
+        mcell[r, slot, 0] = -2
+        return
+    b00, k0, k1, th, td, tp = merl._cell(wi, wo)
+    mcell[r, slot, 0], mcell[r, slot, 1], mcell[r, slot, 2] = b00, k0, k1
+    mfrac[r, slot, 0], mfrac[r, slot, 1], mfrac[r, slot, 2] = th, td, tp
+
+
 @njit(inline="always", nogil=True, cache=True)
 def _bsdf_pair(p, n_pix, first_sample, seed_key, depth):
     """The two uniforms of path ``p``'s BRDF sample at bounce ``depth``: an Owen-scrambled Sobol point of
@@ -504,7 +522,7 @@ def bsdf_points(a, b, n_pix, first_sample, seed_key, depth, s_path, out):
 @kernel
 def bsdf_stage(
     a, b, n_pix, first_sample, seed_key, pass_key, depth, nee, mat_strategy, mat_model, mat_params, mat_tables,
-    s_mat, s_path, s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, blk,
+    s_mat, s_path, s_wo, l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, blk, mcell, mfrac,
 ):  # fmt: skip
     """For the surface vertices ``[a, b)`` whose material's strategy has no tables (``mat_strategy[m]`` is
     ``UNIFORM``, ``COSINE`` or ``ANALYTIC``; ``BY_SAMPLER`` rows are left to their sampler objects): ``f``
@@ -514,10 +532,19 @@ def bsdf_stage(
 
     The uniforms of a block of ``BLOCK`` vertices are hashed first, in a loop of their own: there the hashes
     of independent paths overlap, where inside the long loop each vertex's chain of hashes waited for the
-    previous vertex's evaluations (81 -> 68 ns a Lambert vertex in isolation; the same numbers)."""
+    previous vertex's evaluations (81 -> 68 ns a Lambert vertex in isolation; the same numbers).
+
+    A measured (MERL) material's lookups are deferred to the block's end (:func:`_defer_merl`): the cells of
+    its light and BRDF samples are found in the long loop, their corners read in a short loop of their own,
+    then summed (:func:`core.merl.eval_merl_rows` explains why; the same values). ``mcell (BLOCK, 2, 3)`` int64
+    and ``mfrac (BLOCK, 2, 3)`` are the cells' scratch (slot 0 the light sample's, 1 the BRDF sample's)."""
+    touched = 0.0
     for s0 in range(a, b, BLOCK):
         s1 = min(b, s0 + BLOCK)
+        deferred = 0
         for s in range(s0, s1):
+            mcell[s - s0, 0, 0] = -1
+            mcell[s - s0, 1, 0] = -1
             kind = mat_strategy[s_mat[s]]
             if kind == BY_SAMPLER:
                 continue
@@ -536,7 +563,11 @@ def bsdf_stage(
             wo = (s_wo[s, 0], s_wo[s, 1], s_wo[s, 2])
             if nee and l_cand[s]:
                 wi = (l_wi_local[s, 0], l_wi_local[s, 1], l_wi_local[s, 2])
-                l_f[s, 0], l_f[s, 1], l_f[s, 2] = _eval(mid, wi, wo, prm, table)
+                if mid == MERL:
+                    _defer_merl(mcell, mfrac, s - s0, 0, wi, wo, table)
+                    deferred += 1
+                else:
+                    l_f[s, 0], l_f[s, 1], l_f[s, 2] = _eval(mid, wi, wo, prm, table)
                 if kind == UNIFORM:
                     l_pdf_brdf[s] = INV_TWO_PI if wi[2] >= 0.0 else 0.0
                 elif kind == COSINE:
@@ -554,10 +585,38 @@ def bsdf_stage(
                 x, y, z, q = sample_model(mid, wo, prm, u1, u2, blk[s - s0, 2])
             wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
             pdf[s] = q
-            if q > 0.0:
+            if q > 0.0 and mid == MERL:
+                _defer_merl(mcell, mfrac, s - s0, 1, (x, y, z), wo, table)
+                deferred += 1
+            elif q > 0.0:
                 f[s, 0], f[s, 1], f[s, 2] = _eval(mid, (x, y, z), wo, prm, table)
             else:
                 f[s, 0], f[s, 1], f[s, 2] = 0.0, 0.0, 0.0
+        if deferred == 0:
+            continue
+        for r in range(s1 - s0):  # the deferred lookups' corners, read with the whole block's in flight
+            for slot in range(2):
+                b00 = mcell[r, slot, 0]
+                if b00 >= 0:
+                    table = mat_tables[s_mat[s0 + r]]
+                    k = 3 * (mcell[r, slot, 1] + b00)
+                    touched += table[k] + table[k + _MERL_ROW]
+                    touched += table[k + _MERL_SLAB] + table[k + _MERL_SLAB + _MERL_ROW]
+        for r in range(s1 - s0):
+            for slot in range(2):
+                b00 = mcell[r, slot, 0]
+                if b00 == -1:
+                    continue
+                out = l_f if slot == 0 else f
+                if b00 == -2:
+                    out[s0 + r, 0], out[s0 + r, 1], out[s0 + r, 2] = 0.0, 0.0, 0.0
+                    continue
+                c = mcell[r, slot]
+                fr = mfrac[r, slot]
+                out[s0 + r, 0], out[s0 + r, 1], out[s0 + r, 2] = merl._combine(
+                    mat_tables[s_mat[s0 + r]], b00, c[1], c[2], fr[0], fr[1], fr[2]
+                )
+    mfrac[0, 0, 0] = touched  # (the reads' sum, stored: not a dead computation to the compiler)
 
 
 @njit(inline="always", nogil=True, cache=True)

@@ -100,6 +100,8 @@ class Buffers:
         self.counts = np.zeros(2, i64)
         # the stages' scratch rows: a block's frames and light points (surface stage) and uniforms (BRDF stage)
         self.frames, self.blk = np.empty((BLOCK, 11), f64), np.empty((BLOCK, 3), f64)
+        # and the cells of a block's deferred MERL lookups (BRDF stage)
+        self.mcell, self.mfrac = np.empty((BLOCK, 2, 3), i64), np.empty((BLOCK, 2, 3), f64)
 
     def __len__(self) -> int:
         return len(self.path)

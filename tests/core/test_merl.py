@@ -21,16 +21,20 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from core.errors import FileFormatError
-from core.kernels import eval_batch
+from core.kernels import eval_batch, eval_into
 from core.merl import (
     FILE_BYTES,
+    MERL_BLOCK,
     N_CELLS,
     SCALES,
     MeasuredBRDF,
     MerlTable,
     cell_centre_pairs,
+    eval_merl,
+    eval_merl_rows,
     measured_brdf,
     read_merl,
     tabulate,
@@ -393,3 +397,74 @@ def test_the_lookup_angles_are_the_rusinkiewicz_angles_at_hard_pairs():
     defined = got[:, 4] > 1e-6
     d_phi = np.abs(got[defined, 2] - ref_phi[defined])
     assert np.all(np.minimum(d_phi, math.pi - d_phi) < 1e-9)
+
+
+@njit(cache=False)
+def _per_row(wi, wo, p, out):
+    for i in range(wi.shape[0]):
+        out[i, 0], out[i, 1], out[i, 2] = eval_merl(
+            (wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p
+        )
+
+
+def _any_pairs(rng, n):
+    """Pairs over the whole sphere (a quarter below the horizon on either side), some grazing."""
+    d = rng.normal(size=(2, n, 3))
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    d[:, :, 2] = np.abs(d[:, :, 2]) * np.where(rng.random((2, n)) < 0.75, 1.0, -1.0)
+    d[0, :50, 2] = 1e-12  # grazing light
+    d[0, :50] /= np.linalg.norm(d[0, :50], axis=-1, keepdims=True)
+    return np.ascontiguousarray(d[0]), np.ascontiguousarray(d[1])
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_batched_lookups_are_the_per_row_lookups_to_the_bit(lobe_file, rng, dtype):
+    """``eval_merl_rows`` (blocks of ``MERL_BLOCK`` rows: cells, reads, sums) and ``eval_into`` on a measured
+    table give ``eval_merl``'s values exactly, 0 below the horizon and for a table of the wrong size, and leave
+    the rows a mask skips as they were (float64 tables, and the renderer's float32 copies)."""
+    brdf = measured_brdf(lobe_file)
+    p = np.ascontiguousarray(brdf.params.astype(dtype))
+    n = 3 * MERL_BLOCK + 37
+    wi, wo = _any_pairs(rng, n)
+    want = np.empty((n, 3))
+    _per_row(wi, wo, p, want)
+    assert np.all(want[(wi[:, 2] <= 0) | (wo[:, 2] <= 0)] == 0.0) and np.any(want > 0.0)
+    cells, fractions = np.empty((MERL_BLOCK, 3), dtype=np.int64), np.empty((MERL_BLOCK, 3))
+    keep = rng.random(n) < 0.6
+    for mask in (np.zeros(0, dtype=np.bool_), keep):
+        got = np.full((n, 3), 7.0)
+        eval_merl_rows(wi, wo, p, mask, got, cells, fractions)
+        rows = np.ones(n, dtype=bool) if len(mask) == 0 else mask
+        np.testing.assert_array_equal(got[rows], want[rows])
+        assert np.all(got[~rows] == 7.0)
+    if dtype is np.float64:
+        got = np.full((n, 3), 7.0)
+        eval_into(brdf.model.id, wi, wo, p, got, keep)
+        np.testing.assert_array_equal(got[keep], want[keep])
+        assert np.all(got[~keep] == 7.0)
+    wrong = np.ones(30, dtype=dtype)
+    got = np.full((n, 3), 7.0)
+    eval_merl_rows(wi, wo, wrong, np.zeros(0, dtype=np.bool_), got, cells, fractions)
+    assert np.all(got == 0.0)
+
+
+@pytest.mark.usefixtures("private_tables")
+def test_the_rejection_free_draws_of_a_measured_table_carry_its_values(lobe_file, rng):
+    """The rejection-free mode evaluates a measured table apart from its draws and densities (in blocks):
+    every draw's ``f`` and every density's ``f`` are the BRDF's own values at those directions, bit for bit,
+    and the rows a mask skips are left alone."""
+    brdf = measured_brdf(lobe_file)
+    sampler = make_sampler("adaptive", brdf, mode="warp")
+    n = 500
+    wo = np.ascontiguousarray(_any_pairs(rng, n)[1])
+    wo[:, 2] = np.abs(wo[:, 2]) + 0.05
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    drawn = sampler.sample_each(wo, seed=3)
+    np.testing.assert_array_equal(drawn.f, brdf.eval(wo, drawn.wi))
+    wi = np.ascontiguousarray(_any_pairs(rng, n)[0])
+    mask = rng.random(n) < 0.5
+    f, pdf = np.full((n, 3), 7.0), np.full(n, 7.0)
+    sampler.eval_pdf_where(wo, wi, mask, f, pdf)
+    np.testing.assert_array_equal(f[mask], brdf.eval(wo[mask], wi[mask]))
+    assert np.all(f[~mask] == 7.0) and np.all(pdf[~mask] == 7.0)
+    np.testing.assert_array_equal(pdf[mask], sampler.pdf(wo[mask], wi[mask]))

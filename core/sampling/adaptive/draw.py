@@ -59,6 +59,11 @@ EXACT = 0
 WARP = 1
 MODES = ("exact", "warp")
 
+NO_MODEL = -1
+"""A model id no switch knows (``f = 0``): the rejection-free draws and densities with ``f`` left to the caller
+(:meth:`~core.sampling.adaptive.sampler.AdaptiveSampler._f_apart`); never the exact mode's, whose density and
+acceptance are made of ``f``."""
+
 MAX_TRIALS = 100_000
 """An exact draw gives up after this many trials and takes the cosine density's sample (counted: never
 reached with an envelope that accepts ``>= 1 / n_max``)."""

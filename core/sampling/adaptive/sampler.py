@@ -25,11 +25,14 @@ from typing import Any
 import numpy as np
 
 from core.cache import TableCache
+from core.dispatch import MERL
 from core.errors import ParameterError
+from core.kernels import eval_into
 from core.model import BRDF
 from core.sampling.adaptive.draw import (
     EXACT,
     MODES,
+    NO_MODEL,
     WARP,
     acceptance_rows,
     normalizer_rows,
@@ -427,7 +430,17 @@ class AdaptiveSampler(Sampler):
         other rows are left as they are); all arrays C-contiguous, rows of one length."""
         check_buffers(len(wo), wo=wo, wi=wi, mask=mask, f=f, pdf=pdf)
         mode = EXACT if self.mode == "exact" else WARP
-        pdf_rows(self.table, self.brdf.model.id, self.brdf.params, mode, wo, wi, mask, pdf, f)
+        apart = self._f_apart()
+        pdf_rows(self.table, NO_MODEL if apart else self.brdf.model.id, self.brdf.params, mode, wo, wi, mask, pdf,
+                 f)  # fmt: skip
+        if apart:
+            eval_into(self.brdf.model.id, wi, wo, self.brdf.params, f, mask if len(mask) else None)
+
+    def _f_apart(self) -> bool:
+        """True when the draws and densities leave ``f`` to :func:`core.kernels.eval_into`: a measured table
+        in the rejection-free mode (where no density is made of ``f``), whose lookups a batch overlaps
+        (:func:`core.merl.eval_merl_rows`; the same values as the per-row lookups it replaces)."""
+        return self.mode != "exact" and self.brdf.model.id == MERL
 
     def compiled_equivalent(self) -> str | None:
         """``"cosine"`` for a Lambertian BRDF, whose table is flat: both modes draw the cosine density then,
@@ -451,7 +464,10 @@ class AdaptiveSampler(Sampler):
         n = wo.shape[0]
         points = _NO_POINTS if points is None else check_points(points, n)
         mode = EXACT if self.mode == "exact" else WARP
+        apart = self._f_apart()
         table, mid, p, seed = self.table, self.brdf.model.id, self.brdf.params, int(seed) % (1 << 63)
+        if apart:
+            mid = NO_MODEL
         chunks = thread_budget() if self.threads and n >= PARALLEL_MIN else 1
         if chunks == 1:
             v = sample_rows(table, mid, p, mode, wo, seed, 0, wi, pdf, f, trials, points)
@@ -477,6 +493,8 @@ class AdaptiveSampler(Sampler):
                 for a, b in zip(bounds[:-1], bounds[1:], strict=True)
             ]
             v = sum(job.result() for job in jobs)
+        if apart:
+            eval_into(self.brdf.model.id, wi, wo, p, f)
         with self._counts_lock:
             self.violations += int(v)
             self.trials += int(trials.sum())
