@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from core import fastmath
 from core.errors import ParameterError
@@ -33,7 +34,7 @@ from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
-from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, search_cdf, table_azimuth
+from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, cdf_guides, search_cdf, table_azimuth
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -86,17 +87,22 @@ def nmf(Y: np.ndarray, rank: int, iterations: int = 300, seed: int = 0) -> tuple
     return W, H
 
 
-@kernel
-def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
-    """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
-    n_terms = u_pdf.shape[0]
-    it = min(int(theta_p / HALF_PI * n_tp), n_tp - 1)
-    ip = min(int(phi_p / TWO_PI * n_pp), n_pp - 1)
+@njit(inline="always", nogil=True, cache=True)
+def _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf):
+    """Mixture density per unit solid angle of the parameter directions in cell ``(it, ip)``."""
     total = 0.0
-    for t in range(n_terms):
+    for t in range(u_pdf.shape[0]):
         w = term_cdf[b, t + 1] - term_cdf[b, t]
         total += w * u_pdf[t, it] * v_pdf[t, ip]
     return total
+
+
+@kernel
+def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
+    """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
+    it = min(int(theta_p / HALF_PI * n_tp), n_tp - 1)
+    ip = min(int(phi_p / TWO_PI * n_pp), n_pp - 1)
+    return _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf)
 
 
 @kernel
@@ -130,10 +136,30 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
     return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
 
 
+# A drawn parameter direction this far inside its cell (as a fraction of the cell, in cos theta_p and in phi_p)
+# is in that cell for :func:`_pdf_at` too: its arc cosine and arc tangent err by ~1e-15, the margin is > 1e-12.
+_INSIDE = 1e-9
+_U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.tabulated.cdf_guides`)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def _guided(cdf_row, guide_row, u):
+    """:func:`~core.sampling.tabulated.search_cdf` over a whole factor CDF ``cdf_row`` (the same index), from
+    its guide row: a step or two instead of a binary search whose every comparison is a coin toss."""
+    size = guide_row.shape[0] - 1
+    g = min(int(u * size), size - 1)
+    return search_cdf(cdf_row, guide_row[g], min(guide_row[g + 1] + 2, cdf_row.shape[0]), u)
+
+
 @kernel
 def _factored_sample_rows(
-    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, wi_out, pdf_out
-):
+    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide, v_guide,
+    wi_out, pdf_out,
+):  # fmt: skip
+    """One draw per row of ``wo`` from the uniforms ``u (n, 3)`` (column 0 the term, 1 and 2 the cell and the
+    point in it), into ``wi_out`` and ``pdf_out``. The density is :func:`_pdf_at`'s at the direction returned;
+    without the half-vector reparameterization, a direction drawn at least ``_INSIDE`` inside its cell takes
+    the cell's density directly (the one :func:`_pdf_at` finds there, by the same sum: the same bits)."""
     n_terms = u_cdf.shape[0]
     n_tp = u_cdf.shape[1] - 1
     n_pp = v_cdf.shape[1] - 1
@@ -150,7 +176,7 @@ def _factored_sample_rows(
         t = search_cdf(term_cdf[b], 0, n_terms + 1, u[i, 0])
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
         v1 = u[i, 1]
-        it = search_cdf(u_cdf[t], 0, n_tp + 1, v1)
+        it = _guided(u_cdf[t], u_guide[t], v1)
         c0 = u_cdf[t, it]
         c1 = u_cdf[t, it + 1]
         frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
@@ -159,11 +185,12 @@ def _factored_sample_rows(
         cb = cos_edges[it + 1]
         cos_p = ca + frac * (cb - ca)
         v2 = u[i, 2]
-        ip = search_cdf(v_cdf[t], 0, n_pp + 1, v2)
+        ip = _guided(v_cdf[t], v_guide[t], v2)
         g0 = v_cdf[t, ip]
         g1 = v_cdf[t, ip + 1]
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
-        phi_p = (ip + min(max(fr2, 0.0), 1.0)) * d_phi
+        fr2 = min(max(fr2, 0.0), 1.0)
+        phi_p = (ip + fr2) * d_phi
         sin_p = math.sqrt(max(0.0, 1.0 - cos_p * cos_p))
         sp, cp = fastmath.sin_cos(phi_p)
         d = (sin_p * (cp * c_ref - sp * s_ref), sin_p * (sp * c_ref + cp * s_ref), cos_p)
@@ -178,7 +205,11 @@ def _factored_sample_rows(
         # The density ``pdf`` reports at the direction returned, by the same routine: through the drawn h the
         # Jacobian differed from it by up to ~1e-8 relative near wi = -wo. A d rounded onto the horizon gets
         # density 0, as ``pdf`` gives it there: that draw is not returned (pdf 0, f 0).
-        pdf_out[i] = _pdf_at(w, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+        inside = _INSIDE <= frac <= 1.0 - _INSIDE and _INSIDE <= fr2 <= 1.0 - _INSIDE and g1 > g0 and c1 > c0
+        if not reparam and inside:
+            pdf_out[i] = _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf) * 1.0
+        else:
+            pdf_out[i] = _pdf_at(w, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
 
 @kernel
@@ -195,6 +226,14 @@ def _factored_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, reparam, term_cdf, u_pd
         b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
         d = (wi[i, 0], wi[i, 1], wi[i, 2])
         out[i] = _pdf_at(w, d, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+
+
+def _guides(cdfs: np.ndarray) -> np.ndarray:
+    """Guide rows (:func:`~core.sampling.tabulated.cdf_guides`) of each row of ``cdfs (terms, k + 1)``."""
+    rows, width = cdfs.shape
+    offsets = np.arange(rows + 1, dtype=np.int64) * width
+    guides = cdf_guides(np.ascontiguousarray(cdfs).ravel(), offsets, _U_GUIDE)
+    return np.ascontiguousarray(guides - offsets[:-1, None].astype(np.int32))
 
 
 class FactoredSampler(Sampler):
@@ -305,6 +344,8 @@ class FactoredSampler(Sampler):
         # cos theta_p at the cells' edges: a draw reads two instead of calling the library cosine twice
         self._cos_edges = np.array([math.cos(i * (HALF_PI / s.n_theta_p)) for i in range(s.n_theta_p + 1)])
         self._v_pdf = V / (TWO_PI / s.n_phi_p)
+        self._u_guide = _guides(self._u_cdf)
+        self._v_guide = _guides(self._v_cdf)
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
 
     def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
@@ -317,7 +358,7 @@ class FactoredSampler(Sampler):
         s = self.settings
         _factored_sample_rows(
             wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
-            self._v_cdf, self._v_pdf, self._cos_edges, wi, pdf,
+            self._v_cdf, self._v_pdf, self._cos_edges, self._u_guide, self._v_guide, wi, pdf,
         )  # fmt: skip
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
