@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core.fastmath import sincos_small
+from core.fastmath import acos_estimate, sincos_small
 from core.model import LUMINANCE
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
@@ -186,23 +186,6 @@ def guided_upper_bound(a, lo, n, v, start):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _acos_guess(x):
-    """``acos(x)`` to ~2e-8 (Abramowitz & Stegun 4.4.46): only a starting point for :func:`env_eval_one`'s
-    exact row search."""
-    ax = abs(x)
-    p = -0.0012624911
-    p = p * ax + 0.0066700901
-    p = p * ax - 0.0170881256
-    p = p * ax + 0.0308918810
-    p = p * ax - 0.0501743046
-    p = p * ax + 0.0889789874
-    p = p * ax - 0.2145988016
-    p = p * ax + 1.5707963050
-    r = math.sqrt(max(0.0, 1.0 - ax)) * p
-    return r if x >= 0.0 else math.pi - r
-
-
-@njit(inline="always", nogil=True, cache=True)
 def _atan2_guess(y, x):
     """``atan2(y, x)`` to ~1e-5 (a polynomial in the octant's ratio): only a starting point for
     :func:`env_eval_one`'s exact column search."""
@@ -255,7 +238,7 @@ def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation, edges):
         h, w = pmf.shape
         cos_t = min(1.0, max(-1.0, dy))
         # the row: the number of edges k in 1 .. h - 1 with cos_t <= cos(k pi / h)
-        row = max(0, min(int(_acos_guess(cos_t) / math.pi * h), h - 1))
+        row = max(0, min(int(acos_estimate(cos_t) / math.pi * h), h - 1))
         while row > 0 and cos_t > edges[row]:
             row -= 1
         while row < h - 1 and cos_t <= edges[row + 1]:

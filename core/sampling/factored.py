@@ -98,14 +98,6 @@ def _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf):
 
 
 @kernel
-def _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
-    """Mixture density per unit solid angle of the parameter direction ``(theta_p, phi_p)``."""
-    it = min(int(theta_p / HALF_PI * n_tp), n_tp - 1)
-    ip = min(int(phi_p / TWO_PI * n_pp), n_pp - 1)
-    return _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf)
-
-
-@kernel
 def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp):
     """Density per unit solid angle of ``wi`` (either hemisphere) for ``wo`` (above the horizon, in bin ``b``,
     its table's azimuth by cosine and sine ``c_ref, s_ref``). Reparameterized, the sampler reflects ``wo``
@@ -131,9 +123,9 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
             return 0.0
         d = (wi[0], wi[1], wi[2])
         jac = 1.0
-    theta_p = fastmath.acos(min(1.0, d[2]))
-    phi_p = table_azimuth(d, c_ref, s_ref)
-    return _param_pdf(theta_p, phi_p, b, term_cdf, u_pdf, v_pdf, n_tp, n_pp) * jac
+    it = fastmath.polar_cell(min(1.0, d[2]), n_tp)  # the cell of theta_p = acos(d_z)
+    ip = min(int(table_azimuth(d, c_ref, s_ref) / TWO_PI * n_pp), n_pp - 1)
+    return _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf) * jac
 
 
 # A drawn parameter direction this far inside its cell (as a fraction of the cell, in cos theta_p and in phi_p)

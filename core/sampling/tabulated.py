@@ -79,7 +79,7 @@ def bin_of(wo, n_theta_o, n_phi_o):
     """Bin index of ``wo`` and the cosine and sine of the azimuth its table is relative to: ``phi_o`` for
     isotropic tables (from ``wo``'s components, no arc tangent), 0 for anisotropic ones."""
     cz = min(1.0, max(-1.0, wo[2]))
-    it = min(int(fastmath.acos(cz) / HALF_PI * n_theta_o), n_theta_o - 1)
+    it = fastmath.polar_cell(cz, n_theta_o)
     if n_phi_o == 1:
         r = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
         if r > 0.0:
@@ -171,8 +171,7 @@ def _cdf_marginal(w, u0, mguide, n_theta_o, n_phi_o, n_rows, mx, mf, moff):
     b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
     x, pdf_m = _invert(mx, mf, moff[b], moff[b + 1], mguide[b], u0)
     cos_t = -x
-    theta = fastmath.acos(min(1.0, max(0.0, cos_t)))
-    row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+    row = fastmath.polar_cell(min(1.0, max(0.0, cos_t)), n_rows)
     return b * n_rows + row, cos_t, pdf_m, c_ref, s_ref
 
 
@@ -199,8 +198,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     x = -cos_t
     lo = moff[b]
     hi = moff[b + 1]
-    theta = fastmath.acos(cos_t)
-    row = min(int(theta / HALF_PI * n_rows), n_rows - 1)
+    row = fastmath.polar_cell(cos_t, n_rows)
     k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from numba import njit
 
 from core import fastmath
@@ -59,3 +60,40 @@ def test_atan2_nan_and_infinite_arguments() -> None:
     got = _apply(0, x, y)[:, 0]
     assert np.isnan(got[:5]).all()
     np.testing.assert_allclose(got[5:], np.arctan2(y[5:], x[5:]), atol=1e-15)
+
+
+@njit(cache=False)
+def _cells(c, n, out):
+    for i in range(c.shape[0]):
+        out[i, 0] = fastmath.polar_cell(c[i], n)
+        out[i, 1] = min(int(fastmath.acos(c[i]) / fastmath.HALF_PI * n), n - 1)
+
+
+def test_acos_estimate_within_its_stated_error() -> None:
+    x = np.concatenate([np.linspace(-1.0, 1.0, 400_001), [-1.0, 1.0, 0.0, 1.0 + 1e-12]])
+    got = np.array([fastmath.acos_estimate(v) for v in x[::97]] + [fastmath.acos_estimate(v) for v in x[-4:]])
+    want = np.arccos(np.clip(np.concatenate([x[::97], x[-4:]]), -1.0, 1.0))
+    assert np.max(np.abs(got - want)) <= 2.2e-8
+
+
+@pytest.mark.parametrize("n", [1, 2, 16, 32, 64, 100, 128, 256])
+def test_polar_cell_is_the_arc_cosines_cell(n: int) -> None:
+    """The estimate's cell is taken only where it cannot differ from the exact arc cosine's: the same integer
+    for random cosines and on, next to and 1e-13 away from every cell edge, at the horizon and at the pole."""
+    edges = np.cos(np.arange(n + 1) * (math.pi / 2) / n)
+    c = np.concatenate(
+        [
+            np.random.default_rng(n).random(200_000),
+            edges,
+            np.nextafter(edges, 0.0),
+            np.nextafter(edges, 1.0),
+            edges + 1e-13,
+            edges - 1e-13,
+            [0.0, 1.0, 5e-324],
+        ]
+    )
+    c = c[(c >= 0.0) & (c <= 1.0)]
+    out = np.empty((len(c), 2), dtype=np.int64)
+    _cells(c, n, out)
+    np.testing.assert_array_equal(out[:, 0], out[:, 1])
+    assert out[:, 0].min() >= 0 and out[:, 0].max() <= n - 1
