@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core.fastmath import acos_estimate, sincos_small
+from core.fastmath import acos_estimate, atan2_estimate, sincos_small
 from core.model import LUMINANCE
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
@@ -180,32 +180,6 @@ def guided_upper_bound(a, lo, n, v, start):
     return i
 
 
-# The two functions below run once per ray in the wavefront's loops: each has a single return (an inlined
-# function with several returns makes numba keep a reference count on every array argument per call, atomic
-# increments that the two threads contend for) and no Python-semantics float modulo (a library call).
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _atan2_guess(y, x):
-    """``atan2(y, x)`` to ~1e-5 (a polynomial in the octant's ratio): only a starting point for
-    :func:`env_eval_one`'s exact column search."""
-    ax, ay = abs(x), abs(y)
-    mx = max(ax, ay)
-    a = min(ax, ay) / mx if mx > 0.0 else 0.0
-    s = a * a
-    r = (
-        (((-0.0117212 * s + 0.05265332) * s - 0.11643287) * s + 0.19354346) * s - 0.33262347
-    ) * s + 0.99997726
-    r *= a
-    if ay > ax:
-        r = 0.5 * math.pi - r
-    if x < 0.0:
-        r = math.pi - r
-    if y < 0.0:
-        r = -r
-    return r
-
-
 def pixel_edges(h: int, w: int, rotation: float) -> np.ndarray:
     """The map's pixel edges for :func:`env_eval_one` and :func:`env_sample_one`: ``cos(k pi / h)`` for the
     ``h + 1`` row edges (``theta = k pi / h``), then the cosines and the sines of the ``w`` column edges'
@@ -219,6 +193,11 @@ SMALL_ANGLE_ROWS, SMALL_ANGLE_COLUMNS = 32, 64
 """Maps with at least this many rows and columns (pixels at most pi / 32 ~ 0.098 rad on a side) place a sample
 inside its pixel by angle addition from the pixel's edges (:func:`core.fastmath.sincos_small`); smaller maps call ``sin``
 and ``cos``."""
+
+
+# env_eval_one and env_sample_one run once per ray in the wavefront's loops: each has a single return (an
+# inlined function with several returns makes numba keep a reference count on every array argument per call,
+# atomic increments that the two threads contend for) and no Python-semantics float modulo (a library call).
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -246,7 +225,7 @@ def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation, edges):
         if dx == 0.0 and dz == 0.0:  # a pole: the azimuth atan2 gives (0 or pi, by the zeros' signs)
             phi = math.atan2(dz, dx) - rotation
         else:
-            phi = _atan2_guess(dz, dx) - rotation  # in [-3 pi, pi]
+            phi = atan2_estimate(dz, dx) - rotation  # in [-3 pi, pi]
         if phi < 0.0:
             phi += TWO_PI
         if phi < 0.0:

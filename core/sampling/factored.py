@@ -34,7 +34,15 @@ from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
-from core.sampling.tabulated import EVERY_ROW, bin_directions, bin_of, cdf_guides, search_cdf, table_azimuth
+from core.sampling.tabulated import (
+    EVERY_ROW,
+    bin_directions,
+    bin_of,
+    cdf_guides,
+    search_cdf,
+    table_azimuth,
+    table_azimuth_estimate,
+)
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -124,7 +132,12 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
         d = (wi[0], wi[1], wi[2])
         jac = 1.0
     it = fastmath.polar_cell(min(1.0, d[2]), n_tp)  # the cell of theta_p = acos(d_z)
-    ip = min(int(table_azimuth(d, c_ref, s_ref) / TWO_PI * n_pp), n_pp - 1)
+    # phi_p's cell from the arc tangent's estimate, from the exact angle only near the cell's edges
+    t = table_azimuth_estimate(d, c_ref, s_ref) / TWO_PI * n_pp
+    ip = int(t)
+    margin = fastmath.AZIMUTH_MARGIN / TWO_PI * n_pp
+    if not (margin < t - ip < 1.0 - margin and ip < n_pp):
+        ip = min(int(table_azimuth(d, c_ref, s_ref) / TWO_PI * n_pp), n_pp - 1)
     return _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf) * jac
 
 

@@ -101,6 +101,13 @@ def table_azimuth(d, c_ref, s_ref):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def table_azimuth_estimate(d, c_ref, s_ref):
+    """:func:`table_azimuth` within 1.7e-6 (:func:`core.fastmath.atan2_estimate`)."""
+    phi = fastmath.atan2_estimate(d[1] * c_ref - d[0] * s_ref, d[0] * c_ref + d[1] * s_ref)
+    return phi + TWO_PI if phi < 0.0 else phi
+
+
+@njit(inline="always", nogil=True, cache=True)
 def search_cdf(cdf, lo, hi, u):
     """Largest ``k`` in ``[lo, hi - 1)`` with ``cdf[k] <= u`` (``cdf[lo] = 0``, ``cdf[hi - 1] = 1``)."""
     a = lo
@@ -185,6 +192,14 @@ def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def _azimuth_knot(grid, cx, clo, chi, phi):
+    """The knot of the conditional ``cx[clo:chi]`` at or below ``phi`` (a uniform grid's by its cell)."""
+    if grid:
+        return walk_cdf(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
+    return search_cdf(cx, clo, chi, phi)
+
+
+@njit(inline="always", nogil=True, cache=True)
 def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff):
     """The density of a draw (:func:`_cdf_marginal`, :func:`_cdf_conditional`) at ``wi = d`` for ``wo = w``
     (above the horizon). ``grid``: the
@@ -202,14 +217,15 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]
-    phi = table_azimuth(d, c_ref, s_ref)
     c = b * n_rows + row
     clo = coff[c]
     chi = coff[c + 1]
-    if grid:
-        j = walk_cdf(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
-    else:
-        j = search_cdf(cx, clo, chi, phi)
+    # the knot below phi_i: found from the arc tangent's estimate, and from the exact angle only when the
+    # estimate is within its error of a knot (the same knot either way)
+    guess = table_azimuth_estimate(d, c_ref, s_ref)
+    j = _azimuth_knot(grid, cx, clo, chi, guess)
+    if not (cx[j] + fastmath.AZIMUTH_MARGIN < guess < cx[j + 1] - fastmath.AZIMUTH_MARGIN):
+        j = _azimuth_knot(grid, cx, clo, chi, table_azimuth(d, c_ref, s_ref))
     dphi = cx[j + 1] - cx[j]
     dG = cf[j + 1] - cf[j]
     return (dF / dx) * (dG / dphi) if dx > 0.0 and dphi > 0.0 else 0.0

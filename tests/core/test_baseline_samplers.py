@@ -266,3 +266,43 @@ def test_factored_draws_carry_the_density_pdf_reports_to_the_bit(model, params):
     sampler._directions_into(wo, np.ascontiguousarray(u), wi, pdf)
     np.testing.assert_array_equal(pdf, sampler.pdf(wo, wi))
     assert np.all(np.isfinite(pdf)) and np.mean(pdf > 0.0) > 0.9
+
+
+@pytest.mark.parametrize("strategy", ["uniform_cdf", "compress_cdf", "factored"])
+def test_densities_next_to_an_azimuth_edge_are_their_cells(strategy):
+    """The densities find ``phi_i``'s cell from an arc tangent's estimate (error < 2e-6) and from the exact
+    angle only within that error of an edge: a direction 1e-9 rad to either side of an edge has the density of
+    its own side's cell (the one a point well inside that cell has), never the neighbour's."""
+    sampler = make_sampler(strategy, make_brdf("ggx", {"alpha": 0.3}))
+    wo = degrees_to_dir(40.0, 0.0)  # isotropic tables turned by phi_o = 0: the table's azimuth is phi_i
+    if strategy == "factored":
+        n = sampler.settings.n_phi_p
+        edges = np.arange(1, n) * (2.0 * np.pi / n)
+        width = 2.0 * np.pi / n
+    else:
+        edges = np.unique(sampler._cx)
+        edges = edges[(edges > 0.0) & (edges < 2.0 * np.pi)]
+        width = float(np.min(np.diff(np.unique(sampler._cx))))
+    theta = np.radians(35.3)  # inside a polar cell of every table here
+    differ = 0
+    for e in edges:
+        for side in (-1.0, 1.0):
+            near, inside = e + side * 1e-9, e + side * 0.25 * width
+            wi = np.array(
+                [
+                    [np.sin(theta) * np.cos(p), np.sin(theta) * np.sin(p), np.cos(theta)]
+                    for p in (near, inside)
+                ]
+            )
+            p_near, p_inside = sampler.pdf(np.tile(wo, (2, 1)), wi)
+            assert p_near == p_inside, (e, side)
+        differ += (
+            sampler.pdf(wo, wi[:1])[0]
+            != sampler.pdf(
+                wo,
+                np.array(
+                    [[np.sin(theta) * np.cos(e - 1e-9), np.sin(theta) * np.sin(e - 1e-9), np.cos(theta)]]
+                ),
+            )[0]
+        )
+    assert differ > len(edges) // 4  # the two sides of an edge do differ (the test can tell the cells apart)

@@ -97,3 +97,12 @@ def test_polar_cell_is_the_arc_cosines_cell(n: int) -> None:
     _cells(c, n, out)
     np.testing.assert_array_equal(out[:, 0], out[:, 1])
     assert out[:, 0].min() >= 0 and out[:, 0].max() <= n - 1
+
+
+def test_atan2_estimate_within_its_stated_error() -> None:
+    t = np.linspace(-math.pi, math.pi, 100_001)
+    r = np.random.default_rng(3).uniform(1e-300, 10.0, t.shape)
+    got = np.array([fastmath.atan2_estimate(y, x) for y, x in zip(r * np.sin(t), r * np.cos(t), strict=True)])
+    err = np.abs(got - np.arctan2(r * np.sin(t), r * np.cos(t)))
+    assert np.max(np.minimum(err, 2 * math.pi - err)) <= 1.7e-6 < fastmath.AZIMUTH_MARGIN / 5
+    assert fastmath.atan2_estimate(0.0, 0.0) == 0.0
