@@ -212,7 +212,7 @@ def _factored_sample_rows(
         # density 0, as ``pdf`` gives it there: that draw is not returned (pdf 0, f 0).
         inside = _INSIDE <= frac <= 1.0 - _INSIDE and _INSIDE <= fr2 <= 1.0 - _INSIDE and g1 > g0 and c1 > c0
         if not reparam and inside:
-            pdf_out[i] = _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf) * 1.0
+            pdf_out[i] = _cell_pdf(it, ip, b, term_cdf, u_pdf, v_pdf)  # (x 1.0, the Jacobian without reparam)
         else:
             pdf_out[i] = _pdf_at(w, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
 
