@@ -151,8 +151,9 @@ def polar_cell(c, n):
 
     Estimated with :func:`acos_estimate`; taken when that falls at least ``_CELL_MARGIN`` of a cell inside
     one, which the estimate's error cannot cross, and found with :func:`acos` otherwise (about one time in
-    10^5). The tabulated and factored samplers find three or four such cells a draw or a density: 29-42 ->
-    27-55 ns a Lambertian draw, 41-72 -> 27-47 ns a density (the same cells, the same draws)."""
+    10^5). The tabulated and factored samplers find two or three such cells a draw or a density: a Lambertian
+    draw of ``uniform_cdf``, ``compress_cdf``, ``factored`` 113, 80, 74 -> 84, 50, 55 ns, a density 60, 72, 43
+    -> 41, 47, 27 ns, in isolation (the same cells, the same draws)."""
     t = acos_estimate(min(1.0, max(0.0, c))) * (n / HALF_PI)
     k = int(t)
     f = t - k
