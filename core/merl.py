@@ -245,52 +245,65 @@ _ROW = 3 * N_PHI_D  # the table's step to the next theta_d row, and to the next 
 _SLAB = 3 * N_PHI_D * N_THETA_D
 
 
+@njit(inline="always", nogil=True, cache=True)
+def find_cell(wi, wo, p, cell, fraction):
+    """:func:`_cell` of a lookup into ``cell (3,)`` int64 (``b00, k0, k1``) and ``fraction (3,)``, or
+    ``cell[0] = -2`` where :func:`eval_merl` is 0 (a direction at or below the horizon, a table of the wrong
+    size). The first step of a lookup split in three (:func:`eval_merl_rows`)."""
+    if wi[2] <= 0.0 or wo[2] <= 0.0 or p.shape[0] != 3 * N_CELLS:
+        cell[0] = -2
+        return
+    b00, k0, k1, th, td, tp = _cell(wi, wo)
+    cell[0], cell[1], cell[2] = b00, k0, k1
+    fraction[0], fraction[1], fraction[2] = th, td, tp
+
+
+@njit(inline="always", nogil=True, cache=True)
+def read_ahead(p, cell):
+    """One value of each of the four rows of corners of a found ``cell`` (0 for none), summed: the second step,
+    a few instructions that bring the rows into the cache."""
+    b00 = cell[0]
+    if b00 < 0:
+        return 0.0
+    k = 3 * (cell[1] + b00)
+    return p[k] + p[k + _ROW] + p[k + _SLAB] + p[k + _SLAB + _ROW]
+
+
+@njit(inline="always", nogil=True, cache=True)
+def cell_value(p, cell, fraction):
+    """:func:`eval_merl`'s value from a found ``cell`` (``cell[0] >= 0``, or -2: 0): the last step."""
+    if cell[0] < 0:
+        return 0.0, 0.0, 0.0
+    return _combine(p, cell[0], cell[1], cell[2], fraction[0], fraction[1], fraction[2])
+
+
 @kernel
 def eval_merl_rows(wi, wo, p, keep, out, cells, fractions):
     """:func:`eval_merl` at the rows where ``keep`` holds (every row for an empty ``keep``), into ``out (n, 3)``;
     the other rows are left as they are. The same values to the bit, in three passes over blocks of
-    ``MERL_BLOCK`` rows: every row's cell (:func:`_cell`, into the scratch ``cells (MERL_BLOCK, 3)`` int64 and
-    ``fractions (MERL_BLOCK, 3)``), then one read of each of its four rows of corners, then the sums.
+    ``MERL_BLOCK`` rows: every row's cell (:func:`find_cell`, into the scratch ``cells (MERL_BLOCK, 3)`` int64
+    and ``fractions (MERL_BLOCK, 3)``), then one read of each of its four rows of corners (:func:`read_ahead`),
+    then the sums (:func:`cell_value`). Returns the reads' sum (kept: not a dead computation to the compiler).
 
     A table of 4.4 M cells is larger than the caches, and in a render the other stages evict it between two
     lookups: each lookup waits for memory. In one loop a lookup's hundreds of instructions keep the
     processor from reaching the next rows' reads; the second pass is a few instructions a row, so the reads
     of a whole block are in flight at once, and the sums find them in the cache."""
     every = keep.shape[0] == 0
-    valid = p.shape[0] == 3 * N_CELLS
     n = wi.shape[0]
     touched = 0.0
     for i0 in range(0, n, MERL_BLOCK):
         i1 = min(n, i0 + MERL_BLOCK)
         for i in range(i0, i1):
-            r = i - i0
-            cells[r, 0] = -1
-            if not (every or keep[i]):
-                continue
-            a = (wi[i, 0], wi[i, 1], wi[i, 2])
-            b = (wo[i, 0], wo[i, 1], wo[i, 2])
-            if a[2] <= 0.0 or b[2] <= 0.0 or not valid:
-                cells[r, 0] = -2
-                continue
-            b00, k0, k1, th, td, tp = _cell(a, b)
-            cells[r, 0], cells[r, 1], cells[r, 2] = b00, k0, k1
-            fractions[r, 0], fractions[r, 1], fractions[r, 2] = th, td, tp
-        if valid:
-            for r in range(i1 - i0):
-                b00 = cells[r, 0]
-                if b00 >= 0:
-                    k = 3 * (cells[r, 1] + b00)
-                    touched += p[k] + p[k + _ROW] + p[k + _SLAB] + p[k + _SLAB + _ROW]
+            cells[i - i0, 0] = -1
+            if every or keep[i]:
+                find_cell((wi[i, 0], wi[i, 1], wi[i, 2]), (wo[i, 0], wo[i, 1], wo[i, 2]), p, cells[i - i0],
+                          fractions[i - i0])  # fmt: skip
+        for r in range(i1 - i0):
+            touched += read_ahead(p, cells[r])
         for i in range(i0, i1):
-            r = i - i0
-            b00 = cells[r, 0]
-            if b00 == -1:
-                continue
-            if b00 == -2:
-                out[i, 0], out[i, 1], out[i, 2] = 0.0, 0.0, 0.0
-                continue
-            out[i, 0], out[i, 1], out[i, 2] = _combine(p, b00, cells[r, 1], cells[r, 2], fractions[r, 0],
-                                                       fractions[r, 1], fractions[r, 2])  # fmt: skip
+            if cells[i - i0, 0] != -1:
+                out[i, 0], out[i, 1], out[i, 2] = cell_value(p, cells[i - i0], fractions[i - i0])
     return touched
 
 

@@ -483,24 +483,6 @@ def _eval(mid, wi, wo, prm, table):
     return r, g, b
 
 
-_MERL_ROW = 3 * merl.N_PHI_D  # a MERL table's step to the next theta_d row, and to the next theta_h slab
-_MERL_SLAB = 3 * merl.N_PHI_D * merl.N_THETA_D
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _defer_merl(mcell, mfrac, r, slot, wi, wo, table):
-    """Record the cell of a MERL lookup (:func:`core.merl.eval_merl` of ``wi, wo`` in ``table``) for row ``r``
-    of the block, ``slot`` 0 (light sample) or 1 (BRDF sample): ``mcell[r, slot] = (b00, k0, k1)`` and the
-    fractions in ``mfrac``, or ``b00 = -2`` where the lookup is 0 (a direction below the horizon, a table of
-    the wrong size)."""
-    if wi[2] <= 0.0 or wo[2] <= 0.0 or table.shape[0] != 3 * merl.N_CELLS:
-        mcell[r, slot, 0] = -2
-        return
-    b00, k0, k1, th, td, tp = merl._cell(wi, wo)
-    mcell[r, slot, 0], mcell[r, slot, 1], mcell[r, slot, 2] = b00, k0, k1
-    mfrac[r, slot, 0], mfrac[r, slot, 1], mfrac[r, slot, 2] = th, td, tp
-
-
 @njit(inline="always", nogil=True, cache=True)
 def _bsdf_pair(p, n_pix, first_sample, seed_key, depth):
     """The two uniforms of path ``p``'s BRDF sample at bounce ``depth``: an Owen-scrambled Sobol point of
@@ -534,7 +516,7 @@ def bsdf_stage(
     of independent paths overlap, where inside the long loop each vertex's chain of hashes waited for the
     previous vertex's evaluations (81 -> 68 ns a Lambert vertex in isolation; the same numbers).
 
-    A measured (MERL) material's lookups are deferred to the block's end (:func:`_defer_merl`): the cells of
+    A measured (MERL) material's lookups are deferred to the block's end (:func:`core.merl.find_cell`): the cells of
     its light and BRDF samples are found in the long loop, their corners read in a short loop of their own,
     then summed (:func:`core.merl.eval_merl_rows` explains why; the same values). ``mcell (BLOCK, 2, 3)`` int64
     and ``mfrac (BLOCK, 2, 3)`` are the cells' scratch (slot 0 the light sample's, 1 the BRDF sample's)."""
@@ -564,7 +546,7 @@ def bsdf_stage(
             if nee and l_cand[s]:
                 wi = (l_wi_local[s, 0], l_wi_local[s, 1], l_wi_local[s, 2])
                 if mid == MERL:
-                    _defer_merl(mcell, mfrac, s - s0, 0, wi, wo, table)
+                    merl.find_cell(wi, wo, table, mcell[s - s0, 0], mfrac[s - s0, 0])
                     deferred += 1
                 else:
                     l_f[s, 0], l_f[s, 1], l_f[s, 2] = _eval(mid, wi, wo, prm, table)
@@ -586,7 +568,7 @@ def bsdf_stage(
             wi_local[s, 0], wi_local[s, 1], wi_local[s, 2] = x, y, z
             pdf[s] = q
             if q > 0.0 and mid == MERL:
-                _defer_merl(mcell, mfrac, s - s0, 1, (x, y, z), wo, table)
+                merl.find_cell((x, y, z), wo, table, mcell[s - s0, 1], mfrac[s - s0, 1])
                 deferred += 1
             elif q > 0.0:
                 f[s, 0], f[s, 1], f[s, 2] = _eval(mid, (x, y, z), wo, prm, table)
@@ -596,25 +578,14 @@ def bsdf_stage(
             continue
         for r in range(s1 - s0):  # the deferred lookups' corners, read with the whole block's in flight
             for slot in range(2):
-                b00 = mcell[r, slot, 0]
-                if b00 >= 0:
-                    table = mat_tables[s_mat[s0 + r]]
-                    k = 3 * (mcell[r, slot, 1] + b00)
-                    touched += table[k] + table[k + _MERL_ROW]
-                    touched += table[k + _MERL_SLAB] + table[k + _MERL_SLAB + _MERL_ROW]
+                touched += merl.read_ahead(mat_tables[s_mat[s0 + r]], mcell[r, slot])
         for r in range(s1 - s0):
             for slot in range(2):
-                b00 = mcell[r, slot, 0]
-                if b00 == -1:
+                if mcell[r, slot, 0] == -1:
                     continue
                 out = l_f if slot == 0 else f
-                if b00 == -2:
-                    out[s0 + r, 0], out[s0 + r, 1], out[s0 + r, 2] = 0.0, 0.0, 0.0
-                    continue
-                c = mcell[r, slot]
-                fr = mfrac[r, slot]
-                out[s0 + r, 0], out[s0 + r, 1], out[s0 + r, 2] = merl._combine(
-                    mat_tables[s_mat[s0 + r]], b00, c[1], c[2], fr[0], fr[1], fr[2]
+                out[s0 + r, 0], out[s0 + r, 1], out[s0 + r, 2] = merl.cell_value(
+                    mat_tables[s_mat[s0 + r]], mcell[r, slot], mfrac[r, slot]
                 )
     mfrac[0, 0, 0] = touched  # (the reads' sum, stored: not a dead computation to the compiler)
 

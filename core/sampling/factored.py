@@ -39,6 +39,7 @@ from core.sampling.tabulated import (
     bin_directions,
     bin_of,
     cdf_guides,
+    guided_search,
     search_cdf,
     table_azimuth,
     table_azimuth_estimate,
@@ -147,15 +148,6 @@ _INSIDE = 1e-9
 _U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.tabulated.cdf_guides`)
 
 
-@njit(inline="always", nogil=True, cache=True)
-def _guided(cdf_row, guide_row, u):
-    """:func:`~core.sampling.tabulated.search_cdf` over a whole factor CDF ``cdf_row`` (the same index), from
-    its guide row: a step or two instead of a binary search whose every comparison is a coin toss."""
-    size = guide_row.shape[0] - 1
-    g = min(int(u * size), size - 1)
-    return search_cdf(cdf_row, guide_row[g], min(guide_row[g + 1] + 2, cdf_row.shape[0]), u)
-
-
 @kernel
 def _factored_sample_rows(
     wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide, v_guide,
@@ -181,7 +173,7 @@ def _factored_sample_rows(
         t = search_cdf(term_cdf[b], 0, n_terms + 1, u[i, 0])
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
         v1 = u[i, 1]
-        it = _guided(u_cdf[t], u_guide[t], v1)
+        it = guided_search(u_cdf[t], 0, n_tp + 1, u_guide[t], v1)
         c0 = u_cdf[t, it]
         c1 = u_cdf[t, it + 1]
         frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
@@ -190,7 +182,7 @@ def _factored_sample_rows(
         cb = cos_edges[it + 1]
         cos_p = ca + frac * (cb - ca)
         v2 = u[i, 2]
-        ip = _guided(v_cdf[t], v_guide[t], v2)
+        ip = guided_search(v_cdf[t], 0, n_pp + 1, v_guide[t], v2)
         g0 = v_cdf[t, ip]
         g1 = v_cdf[t, ip + 1]
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
