@@ -33,7 +33,15 @@ from core.errors import ParameterError
 from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
-from core.sampling.base import Sampler, SamplerOption, register_sampler
+from core.rng import next_u01, stream
+from core.sampling.base import (
+    SampleBatch,
+    Sampler,
+    SamplerOption,
+    check_buffers,
+    check_points,
+    register_sampler,
+)
 from core.sampling.tabulated import (
     EVERY_ROW,
     bin_directions,
@@ -150,17 +158,22 @@ _U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.tabulated.
 
 @kernel
 def _factored_sample_rows(
-    wo, u, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide, v_guide,
-    wi_out, pdf_out,
+    wo, u, seed, points, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide,
+    v_guide, wi_out, pdf_out,
 ):  # fmt: skip
     """One draw per row of ``wo`` from the uniforms ``u (n, 3)`` (column 0 the term, 1 and 2 the cell and the
-    point in it), into ``wi_out`` and ``pdf_out``. The density is :func:`_pdf_at`'s at the direction returned;
+    point in it), into ``wi_out`` and ``pdf_out``; with ``u`` empty, row ``i``'s uniforms come from the counter
+    stream ``(seed, i)`` (:func:`core.rng.stream`), columns 1 and 2 from ``points (n, 2)`` when it has rows: a
+    renderer's slices draw no numpy stream, and copy and read no ``(n, 3)`` array beside their points.
+    The density is :func:`_pdf_at`'s at the direction returned;
     without the half-vector reparameterization, a direction drawn at least ``_INSIDE`` inside its cell takes
     the cell's density directly (the one :func:`_pdf_at` finds there, by the same sum: the same bits)."""
     n_terms = u_cdf.shape[0]
     n_tp = u_cdf.shape[1] - 1
     n_pp = v_cdf.shape[1] - 1
     d_phi = TWO_PI / n_pp
+    given = u.shape[0] > 0
+    placed = points.shape[0] > 0
     for i in range(wo.shape[0]):
         w = (wo[i, 0], wo[i, 1], wo[i, 2])
         if w[2] <= 0.0:
@@ -169,10 +182,18 @@ def _factored_sample_rows(
             wi_out[i, 2] = 1.0
             pdf_out[i] = 0.0
             continue
+        if given:
+            v0, v1, v2 = u[i, 0], u[i, 1], u[i, 2]
+        else:
+            state, v0 = next_u01(stream(seed, i))
+            if placed:
+                v1, v2 = points[i, 0], points[i, 1]
+            else:
+                state, v1 = next_u01(state)
+                state, v2 = next_u01(state)
         b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
-        t = search_cdf(term_cdf[b], 0, n_terms + 1, u[i, 0])
+        t = search_cdf(term_cdf[b], 0, n_terms + 1, v0)
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
-        v1 = u[i, 1]
         it = guided_search(u_cdf[t], 0, n_tp + 1, u_guide[t], v1)
         c0 = u_cdf[t, it]
         c1 = u_cdf[t, it + 1]
@@ -181,7 +202,6 @@ def _factored_sample_rows(
         ca = cos_edges[it]
         cb = cos_edges[it + 1]
         cos_p = ca + frac * (cb - ca)
-        v2 = u[i, 2]
         ip = guided_search(v_cdf[t], 0, n_pp + 1, v_guide[t], v2)
         g0 = v_cdf[t, ip]
         g1 = v_cdf[t, ip + 1]
@@ -223,6 +243,10 @@ def _factored_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, reparam, term_cdf, u_pd
         b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
         d = (wi[i, 0], wi[i, 1], wi[i, 2])
         out[i] = _pdf_at(w, d, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp)
+
+
+_NO_U = np.zeros((0, 3))
+_NO_POINTS = np.zeros((0, 2))
 
 
 def _guides(cdfs: np.ndarray) -> np.ndarray:
@@ -352,11 +376,34 @@ class FactoredSampler(Sampler):
         return DirectionSamples(wi, pdf)
 
     def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
+        self._draw(wo, u, 0, _NO_POINTS, wi, pdf)
+
+    def _draw(self, wo: np.ndarray, u: np.ndarray, seed: int, points: np.ndarray, wi: np.ndarray,
+              pdf: np.ndarray) -> None:  # fmt: skip
         s = self.settings
         _factored_sample_rows(
-            wo, u, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf, self._u_pdf,
-            self._v_cdf, self._v_pdf, self._cos_edges, self._u_guide, self._v_guide, wi, pdf,
+            wo, u, int(seed) % (1 << 63), points, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf,
+            self._u_pdf, self._v_cdf, self._v_pdf, self._cos_edges, self._u_guide, self._v_guide, wi, pdf,
         )  # fmt: skip
+
+    def sample_each(self, wo: np.ndarray, seed: int = 0) -> SampleBatch:
+        """One sample per row of ``wo``, its uniforms from the counter stream ``(seed, row)`` (as
+        :meth:`sample_into`'s: the same draws for the same seed)."""
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        self._draw(wo, _NO_U, seed, _NO_POINTS, wi, pdf)
+        return self._with_f(wo, wi, pdf)
+
+    def sample_into(self, wo: np.ndarray, seed: int, wi: np.ndarray, pdf: np.ndarray, f: np.ndarray,
+                    points: np.ndarray | None = None) -> None:  # fmt: skip
+        """:meth:`core.sampling.base.Sampler.sample_into`, the uniforms from the counter stream ``(seed,
+        row)`` in the kernel (the term's always; the warp's unless ``points`` are given)."""
+        wo = np.ascontiguousarray(np.atleast_2d(wo), dtype=np.float64)
+        check_buffers(wo.shape[0], wi=wi, pdf=pdf, f=f)
+        placed = _NO_POINTS if points is None else check_points(points, wo.shape[0])
+        self._draw(wo, _NO_U, seed, placed, wi, pdf)
+        self._f_into(wo, wi, pdf, f)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])

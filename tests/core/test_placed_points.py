@@ -103,7 +103,7 @@ def test_points_on_the_edges_of_the_square_give_finite_draws():
             assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
 
 
-@pytest.mark.parametrize("strategy", ["adaptive", "uniform_cdf"])
+@pytest.mark.parametrize("strategy", ["adaptive", "uniform_cdf", "factored"])
 @pytest.mark.parametrize("bad", [np.nan, -0.25, 1.0, np.inf])
 def test_points_outside_the_unit_square_are_refused(strategy, bad):
     """NaN, negative, 1 or infinite: a clear error naming the range, and the caller's arrays untouched."""
