@@ -147,6 +147,20 @@ def guided_search(cdf, lo, hi, guide, u):
     return search_cdf(cdf, guide[g], min(guide[g + 1] + 2, hi), u)
 
 
+def cell_knots(keeps: list[np.ndarray], n_grid: int, n_cells: int) -> np.ndarray:
+    """``(len(keeps), n_cells)`` uint16: for each curve, whose knots are the edges ``keeps[c]`` (increasing,
+    from 0 to ``n_grid``) of a uniform grid of ``n_grid`` cells, and each of ``n_cells`` equal cells of the
+    same range, the curve's own index of its last knot at or below the cell's lower edge: the segment
+    holding the cell's start, where :func:`walk_cdf` starts (``_cdf_density``). A simplified curve's knots are
+    some of the grid's edges, so with the grid's own cells (``n_cells = n_grid``) the guess is the answer."""
+    out = np.empty((len(keeps), n_cells), dtype=np.uint16)
+    edges = np.arange(n_cells, dtype=np.int64) * n_grid  # cell g starts at grid edge g n_grid / n_cells
+    for c, keep in enumerate(keeps):
+        k = np.searchsorted(np.asarray(keep, dtype=np.int64) * n_cells, edges, side="right") - 1
+        out[c] = np.clip(k, 0, len(keep) - 2)
+    return out
+
+
 @njit(inline="always", nogil=True, cache=True)
 def walk_cdf(cdf, lo, hi, u, k):
     """:func:`search_cdf`'s answer found by stepping from a guess ``k``: a few steps when the guess is close
@@ -193,18 +207,20 @@ def _cdf_conditional(c, u1, cos_t, c_ref, s_ref, cguide, cx, cf, coff):
 
 @njit(inline="always", nogil=True, cache=True)
 def _azimuth_knot(grid, cx, clo, chi, phi):
-    """The knot of the conditional ``cx[clo:chi]`` at or below ``phi`` (a uniform grid's by its cell)."""
+    """The knot of the conditional ``cx[clo:chi]`` at or below ``phi`` (a uniform grid's by its cell; a
+    simplified conditional's few knots by a search: a start from a guide of azimuth cells was slower)."""
     if grid:
         return walk_cdf(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
     return search_cdf(cx, clo, chi, phi)
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff):
+def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, mrow):
     """The density of a draw (:func:`_cdf_marginal`, :func:`_cdf_conditional`) at ``wi = d`` for ``wo = w``
-    (above the horizon). ``grid``: the
-    tables are the uniform grid itself (no simplification), so a cell's index is computed and checked
-    rather than searched for."""
+    (above the horizon). The marginal's segment is walked to from a guess (:func:`walk_cdf`: the same index
+    as a search): the grid's row itself when the tables are the uniform grid (no simplification), else the
+    row's entry of ``mrow`` (:func:`cell_knots`), the knot at or below the row's lower edge: a simplified
+    marginal's knots are some of the grid's edges, so the guess is the answer but at a row's edge."""
     # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
     if d[2] < 0.0:
         return 0.0
@@ -214,7 +230,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     lo = moff[b]
     hi = moff[b + 1]
     row = fastmath.polar_cell(cos_t, n_rows)
-    k = walk_cdf(mx, lo, hi, x, lo + row) if grid else search_cdf(mx, lo, hi, x)
+    k = walk_cdf(mx, lo, hi, x, lo + row if grid else lo + np.int64(mrow[b, row]))
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]
     c = b * n_rows + row
@@ -269,7 +285,7 @@ def _cdf_sample_rows(
 
 
 @kernel
-def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, out):
+def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, mrow, out):
     """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
     every = mask.shape[0] == 0
     for i in range(wo.shape[0]):
@@ -279,7 +295,8 @@ def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, 
             if w[2] <= 0.0:
                 out[i] = 0.0
             else:
-                out[i] = _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff)
+                out[i] = _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff,
+                                      mrow)  # fmt: skip
 
 
 class CDFSampler(Sampler):
@@ -356,7 +373,7 @@ class CDFSampler(Sampler):
         x_edges[-1] = 0.0
         phi_edges = np.arange(nph + 1) * TWO_PI / nph
         solid = np.diff(x_edges)[:, None] * np.diff(phi_edges)[None, :]  # cell solid angles
-        mx, mf, moff = [], [], [0]
+        mx, mf, moff, mkeep = [], [], [0], []
         cx, cf, coff = [], [], [0]
         for wo in bin_directions(self.n_theta_o, self.n_phi_o):
             if self.n_phi_o == 1:
@@ -371,6 +388,7 @@ class CDFSampler(Sampler):
             keep = douglas_peucker(x_edges, F, self.tol) if self.tol > 0 else np.arange(nt + 1)
             mx.append(x_edges[keep])
             mf.append(F[keep])
+            mkeep.append(keep)
             moff.append(moff[-1] + len(keep))
             for r in range(nt):
                 G = np.concatenate([[0.0], np.cumsum(mass[r])])
@@ -387,6 +405,8 @@ class CDFSampler(Sampler):
         self._cx, self._cf = self._c[:, 0], self._c[:, 1]
         self._moff = np.asarray(moff, dtype=np.int64)
         self._coff = np.asarray(coff, dtype=np.int64)
+        # where a density's marginal search starts (the uniform grid needs none: a row is its own segment)
+        self._mrow = cell_knots(mkeep, nt, nt) if self.tol > 0.0 else np.zeros((0, 1), dtype=np.uint16)
         self._mguide = cdf_guides(self._mf, self._moff, _MARGINAL_GUIDE)
         self._cguide = cdf_guides(self._cf, self._coff, _CONDITIONAL_GUIDE)
 
@@ -420,10 +440,10 @@ class CDFSampler(Sampler):
         return out
 
     def _pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, pdf: np.ndarray) -> None:
-        _cdf_pdf_rows(wo, wi, mask, *self._tables(), pdf)
+        _cdf_pdf_rows(wo, wi, mask, *self._tables(), self._mrow, pdf)
 
     def memory_bytes(self) -> int:
-        arrays = (self._m, self._c, self._moff, self._coff, self._mguide, self._cguide)
+        arrays = (self._m, self._c, self._moff, self._coff, self._mguide, self._cguide, self._mrow)
         return int(sum(a.nbytes for a in arrays))
 
     def info(self) -> dict[str, Any]:
@@ -465,6 +485,7 @@ def _table_bytes(brdf: BRDF, o: dict[str, Any]) -> float:
     bins = o.get("n_theta_o", 32) * o.get("n_phi_o", 1 if brdf.model.isotropic else 8)
     cells = o.get("n_theta", 64) * (o.get("n_phi", 128) + 1)
     guides = 4.0 * (_MARGINAL_GUIDE + 1 + o.get("n_theta", 64) * (_CONDITIONAL_GUIDE + 1))
+    guides += 2.0 * o.get("n_theta", 64)  # cell_knots' starts of the marginal
     return bins * (16.0 * cells + guides) + 120.0 * cells * o.get("substeps", 3) ** 2
 
 

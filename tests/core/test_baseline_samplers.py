@@ -306,3 +306,59 @@ def test_densities_next_to_an_azimuth_edge_are_their_cells(strategy):
             )[0]
         )
     assert differ > len(edges) // 4  # the two sides of an edge do differ (the test can tell the cells apart)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    keep=st.sets(st.integers(1, 63), max_size=40),
+    n_cells=st.sampled_from([1, 5, 16, 64, 100]),
+)
+def test_cell_knots_start_at_the_segment_holding_each_cells_start(keep, n_cells):
+    """``cell_knots``: the knot where a density's search starts is the last one at or below the cell's lower
+    edge (a simplified curve's knots are some of a 64-cell grid's edges), and never the curve's last knot."""
+    from core.sampling.tabulated import cell_knots
+
+    knots = np.array(sorted({0, 64} | keep))
+    starts = cell_knots([knots, np.array([0, 64])], 64, n_cells)
+    assert starts.shape == (2, n_cells) and np.all(starts[1] == 0)
+    for g, k in enumerate(starts[0].astype(int)):
+        edge = g * 64 / n_cells
+        assert knots[k] <= edge < knots[k + 1]
+
+
+@pytest.mark.parametrize(
+    ("model", "params"), [("lambert", {}), ("ggx", {"alpha": 0.3}), ("ward", {"sx": 0.05, "sy": 0.25})]
+)
+def test_compressed_densities_do_not_depend_on_where_the_marginal_search_starts(model, params):
+    """``compress_cdf``'s densities start the marginal's search at the knot of ``theta_i``'s row
+    (``cell_knots``): directions exactly on every knot of the marginals, one ulp of ``cos`` either side and
+    inside the segments have the density a search from each curve's first knot finds, to the bit."""
+    sampler = make_sampler("compress_cdf", make_brdf(model, params))
+    blind = make_sampler("compress_cdf", make_brdf(model, params))
+    blind._mrow = np.zeros_like(blind._mrow)
+    rng = np.random.default_rng(4)
+    wo_rows, wi_rows = [], []
+    for theta_o in (5.0, 40.0, 75.0, 89.0):
+        wo = degrees_to_dir(theta_o, 30.0)
+        b = min(int(np.radians(theta_o) / (np.pi / 2) * sampler.n_theta_o), sampler.n_theta_o - 1)
+        lo, hi = sampler._moff[b * sampler.n_phi_o], sampler._moff[b * sampler.n_phi_o + 1]
+        xs = np.asarray(sampler._mx[lo:hi])
+        cos_t = np.concatenate(
+            [-xs, np.nextafter(-xs, 2.0), np.nextafter(-xs, -2.0), -0.5 * (xs[1:] + xs[:-1])]
+        )
+        cos_t = cos_t[(cos_t >= 0.0) & (cos_t <= 1.0)]
+        phi = rng.random(len(cos_t)) * 2.0 * np.pi
+        s = np.sqrt(1.0 - cos_t**2)
+        wi_rows.append(np.stack([s * np.cos(phi), s * np.sin(phi), cos_t], axis=1))
+        wo_rows.append(np.tile(wo, (len(cos_t), 1)))
+    wo, wi = np.concatenate(wo_rows), np.concatenate(wi_rows)
+    pdf = sampler.pdf(wo, wi)
+    np.testing.assert_array_equal(pdf, blind.pdf(wo, wi))
+    assert np.all(np.isfinite(pdf)) and np.mean(pdf > 0.0) > 0.9
+    # and the start is the answer inside every row (the walk takes no step there)
+    edges = -np.cos(np.arange(sampler.n_theta + 1) * (np.pi / 2) / sampler.n_theta)
+    mids = 0.5 * (edges[1:] + edges[:-1])
+    for b in range(len(sampler._moff) - 1):
+        lo, hi = sampler._moff[b], sampler._moff[b + 1]
+        found = np.searchsorted(np.asarray(sampler._mx[lo:hi]), mids, side="right") - 1
+        np.testing.assert_array_equal(sampler._mrow[b], found)
