@@ -101,6 +101,24 @@ def test_the_maps_invert_each_other_and_keep_their_stated_jacobian(projection, r
             assert solid == pytest.approx(h * h * math.pi / jac, rel=2e-3)
 
 
+def test_the_compiled_inverse_of_the_concentric_map_holds_on_its_seams():
+    """The compiled ``disk_to_square`` (an arc tangent's polynomial and selects) inverts the map on the seams
+    where its cases meet: the axes, the diagonals, the rim, the corners and the centre, and agrees with the
+    numpy one there."""
+    from core.sampling.adaptive.maps import disk_to_square as compiled
+
+    ticks = [0.0, 1e-300, 1e-9, 0.25, 0.5 - 1e-16, 0.5, 0.5 + 1e-16, 0.75, 1.0 - 1e-16, 1.0]
+    for a in ticks:
+        for b in ticks + [a, 1.0 - a]:  # the diagonals too
+            x, y = square_to_disk(a, b)
+            a2, b2 = compiled(x, y)
+            assert abs(a2 - a) < 4e-16 and abs(b2 - b) < 4e-16, (a, b, a2, b2)
+            n2 = disk_to_square(np.array([x]), np.array([y]))
+            assert abs(n2[0][0] - a2) < 1e-15 and abs(n2[1][0] - b2) < 1e-15
+    for x, y in ((0.0, -0.0), (-0.0, 0.0), (-0.0, -0.0)):
+        assert compiled(x, y) == (0.5, 0.5)
+
+
 def test_the_concentric_map_is_inverted_in_numpy_too(rng):
     a, b = rng.random(500), rng.random(500)
     disk = np.array([square_to_disk(x, y) for x, y in zip(a, b, strict=True)])
