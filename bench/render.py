@@ -17,7 +17,9 @@
    runs with its low-discrepancy ``ldsampler`` (``--mitsuba-samplers``), for a comparison of like with like.
 
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
-``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` under ``--out`` (default ``results/bench``).
+``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` and ``cornell_throughput.csv`` (our whole
+passes on the Cornell box against Embree alone on the same rays, ``2 --passes`` passes) under ``--out``
+(default ``results/bench``).
 
     .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 256] [--strategies a,b] [--out DIR]
     .venv/bin/python bench/render.py --skip-strategies --throughput-samplers uniform,cosine,analytic,adaptive_warp
@@ -100,6 +102,7 @@ def throughput(scene, size: int, passes: int, sampler: str = "cosine") -> dict: 
         "spp_per_pass": spp,
         "seconds": seconds,
         "rays": rays,
+        "rays_recorded": recorded,
         "path_tracer_Mrays_s": rays / seconds / 1e6,
         "embree_alone_Mrays_s": recorded / embree_s / 1e6,
         "share_of_embree": (rays / seconds) / (recorded / embree_s),
@@ -258,13 +261,24 @@ def cornell(args: argparse.Namespace, out: Path) -> int:
         )
     curves: dict[str, list[dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        job = prepare(load_scene(export_cornell_box(Path(tmp), size, bounces)), sampler="cosine", seed=1)
+        scene_path = export_cornell_box(Path(tmp), size, bounces)
+        job = prepare(load_scene(scene_path), sampler="cosine", seed=1)
         ours = "brdf-studio (cosine)"
         curves[ours] = [
             {"spp": f.spp, "seconds": f.elapsed, **image_errors(f.image, ref)}
             for f in job.passes(time_s=args.time)
         ]
         job.world.accel.close()
+        # our whole passes against Embree alone on the same rays, on this scene (the yardstick)
+        tp = throughput(load_scene(scene_path), size, args.passes * 2)
+    print(
+        f"brdf-studio whole passes on the Cornell box: {tp['path_tracer_Mrays_s']:.2f} M rays/s against Embree "
+        f"alone {tp['embree_alone_Mrays_s']:.2f} on the same rays: share {tp['share_of_embree']:.2f} "
+        f"({tp['seconds_per_spp']:.3f} s per spp)"
+    )
+    with open(out / "cornell_throughput.csv", "w") as fh:
+        fh.write(",".join(tp) + "\n" + ",".join(format(v, ".6g") if isinstance(v, float) else str(v)
+                                                 for v in tp.values()) + "\n")  # fmt: skip
     variants = (["llvm_ad_rgb"] if llvm else []) + ([] if args.skip_scalar else ["scalar_rgb"])
     if not llvm:
         print("Mitsuba llvm_ad_rgb: unavailable here (needs Debian's libllvm19)")

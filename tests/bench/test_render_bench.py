@@ -20,3 +20,14 @@ def test_ldsampler_counts_are_the_square_powers_of_two_it_renders(bench):
     assert [bench._mitsuba_spp("ldsampler", s) for s in asked] == [4, 4, 4, 16, 16, 64, 64, 256, 1024, 4096]
     assert [bench._mitsuba_spp(None, s) for s in asked] == asked
     assert [bench._mitsuba_spp("independent", s) for s in asked] == asked
+
+
+def test_embree_alone_traces_the_very_rays_of_the_timed_pass(bench):
+    """The share of Embree alone compares a pass with Embree on the rays that pass traced: one timed pass
+    (pass 0) and the recorded one (pass 0 again) trace the same number of rays, and the rates are positive."""
+    from app.commands.render import demo_scene_path
+    from core.scene import load_scene
+
+    tp = bench.throughput(load_scene(demo_scene_path()), 24, 1)
+    assert tp["rays"] == tp["rays_recorded"] > 24 * 24
+    assert 0.0 < tp["share_of_embree"] < 2.0 and tp["seconds_per_spp"] > 0.0
