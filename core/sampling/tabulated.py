@@ -257,7 +257,9 @@ def _cdf_sample_rows(
     In blocks of ``_BLOCK`` rows, each in two loops (every row's marginal, then every row's conditional):
     a draw is two chains of dependent reads from tables larger than the cache, and in short loops over
     independent rows the processor has several rows' reads in flight at once. ``cond (_BLOCK,)`` int64 and
-    ``half (_BLOCK, 4)`` are the block's scratch (the caller's: a kernel allocates nothing, core.jit)."""
+    ``half (_BLOCK, 4)`` are the block's scratch (the caller's: a kernel allocates nothing, core.jit).
+    Returns the read-ahead's sum (kept: not a dead computation to the compiler)."""
+    touched = 0.0
     for i0 in range(0, wo.shape[0], _BLOCK):
         i1 = min(wo.shape[0], i0 + _BLOCK)
         for i in range(i0, i1):
@@ -270,6 +272,14 @@ def _cdf_sample_rows(
             h = half[i - i0]
             cond[i - i0] = c
             h[0], h[1], h[2], h[3] = cos_t, pdf_m, c_ref, s_ref
+        # the conditionals' knots where each row's search starts, read ahead (a few instructions a row: the
+        # whole block's reads in flight, as core.merl.read_ahead does; the table is larger than the caches)
+        size = cguide.shape[1] - 1
+        for i in range(i0, i1):
+            c = cond[i - i0]
+            if c >= 0:
+                j = np.int64(cguide[c, min(int(u[i, 1] * size), size - 1)])
+                touched += cf[j] + cf[min(j + 2, coff[c + 1] - 1)]
         for i in range(i0, i1):
             c = cond[i - i0]
             if c < 0:
@@ -282,6 +292,7 @@ def _cdf_sample_rows(
             wi_out[i, 1] = y
             wi_out[i, 2] = z
             pdf_out[i] = pdf
+    return touched
 
 
 @kernel
