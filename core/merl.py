@@ -288,7 +288,7 @@ def eval_merl_rows(wi, wo, p, keep, out, cells, fractions):
     """:func:`eval_merl` at the rows where ``keep`` holds (every row for an empty ``keep``), into ``out (n, 3)``;
     the other rows are left as they are. The same values to the bit, in three passes over blocks of
     ``MERL_BLOCK`` rows: every row's cell (:func:`find_cell`, into the scratch ``cells (MERL_BLOCK, 3)`` int64
-    and ``fractions (MERL_BLOCK, 3)``), then one read of each of its four rows of corners (:func:`read_ahead`),
+    and ``fractions (MERL_BLOCK, 3)``), then a read of each cache line its corners lie on (:func:`read_ahead`),
     then the sums (:func:`cell_value`). Returns the reads' sum (kept: not a dead computation to the compiler).
 
     A table of 4.4 M cells is larger than the caches, and in a render the other stages evict it between two
