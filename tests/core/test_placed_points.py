@@ -21,6 +21,8 @@ CASES = [
     ("adaptive", {"mode": "exact"}, "phong", {}, 40.0),
     ("adaptive", {"mode": "warp"}, "ggx", {"alpha": 0.2}, 60.0),
     ("adaptive", {"mode": "warp"}, "lambert", {}, 30.0),  # a flat table: the cosine density's own warp
+    # half-vector trees in a frame turned with wo
+    ("adaptive", {"mode": "warp"}, "ward", {"sx": 0.05, "sy": 0.25}, 70.0),
     ("uniform_cdf", {}, "phong", {}, 40.0),
     ("factored", {}, "cook_torrance", {"m": 0.2}, 30.0),
     ("analytic", {}, "ggx", {"alpha": 0.2}, 60.0),
@@ -60,7 +62,9 @@ def test_draws_from_placed_points_follow_the_reported_density(strategy, options,
 def test_placed_points_decide_the_draws_and_keep_their_stratification(strategy, options):
     """The same points give the same draws whatever the seed (a warp reads nothing else), and a stratified
     set of points (one in each cell of a 32 x 32 grid) gives draws whose estimates of smooth integrals err
-    far less than independent points' do (40 repeats each; three integrands, the spreads' ratios averaged)."""
+    far less than independent points' do (40 repeats each; three integrands, the spreads' ratios averaged):
+    below 0.15 (both warps measure ~0.06; the adaptive warp's leaf chosen by one number along its leaves'
+    order, before its tree was descended by both, 0.31 in `bench/placement.py`'s figures)."""
     sampler = make_sampler(strategy, make_brdf("phong", {"n": 8.0}), **options)
     wo = degrees_to_dir(35.0, 20.0)
     k = 32
@@ -78,7 +82,7 @@ def test_placed_points_decide_the_draws_and_keep_their_stratification(strategy, 
         strat.append([g(s).mean() for g in integrands])
         iid.append([g(i).mean() for g in integrands])
     ratio = np.mean(np.std(strat, axis=0) / np.std(iid, axis=0))
-    assert ratio < 0.5, ratio
+    assert ratio < 0.15, ratio
 
 
 def test_points_of_the_wrong_shape_are_refused():

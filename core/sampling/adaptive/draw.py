@@ -181,6 +181,8 @@ def _to_tree(wx, wy, wz, c, s, sx, sy):
 CDF_UNIT = 4.656612873077393e-10
 """``2^-31``: the stored ``cdf``'s unit (:data:`~core.sampling.adaptive.table.CDF_ONE`)."""
 CDF_SCALE = 2147483648.0
+ONE_BELOW = 0.9999999999999999
+"""The largest double below 1: a rescaled coordinate stays in ``[0, 1)``."""
 """``2^31``: ``u * CDF_SCALE`` is exact for a uniform on the ``2^-53`` grid."""
 
 
@@ -237,6 +239,62 @@ def _leaf_at(child, root, a, b):
         x0 += h * qi
         y0 += h * qj
         node = c + qi + 2 * qj
+
+
+@njit(inline="always", nogil=True, cache=True)
+def descend_at(child, node_mass, root, a, b):
+    """The leaf a caller's point ``(a, b)`` of the unit square reaches by descending the tree at ``root``,
+    both coordinates at every level, and what is left of them inside it: ``(leaf, a', b')``.
+
+    At a node, ``a`` chooses the column of children (left or right) by the columns' masses, ``b`` the child
+    in that column by theirs, and each is rescaled to what is left of it inside its choice (hierarchical
+    sample warping, as Mitsuba 3's ``Hierarchical2D`` descends its levels). A leaf is reached with
+    probability its mass over the root's, the ``cdf`` interval :func:`_pick_leaf` would choose it by (to the
+    rounding of a product per level), and ``(a', b')`` is uniform on the square given the leaf; the map is
+    monotone in each coordinate inside every node, so a stratified set of points gives a stratified set of
+    leaves in both directions, not only along the leaves' order as one number's choice does. Children of
+    no mass are never chosen.
+
+    Each coordinate is carried as a fraction (``a = xn / xd``): a level multiplies, and the two divisions
+    are made once, at the leaf (two divisions a level, each level's test waiting on them: ~6 % slower a
+    placed draw). The choices are branches: written as 0/1 factors they lengthen each level's chain, and a
+    pass took 2 ms more (``bench/render_stages.py``)."""
+    xn = a
+    xd = 1.0
+    yn = b
+    yd = 1.0
+    node = root
+    while True:
+        c = child[node]
+        if c < 0:
+            return -1 - c, min(xn / xd, ONE_BELOW), min(yn / yd, ONE_BELOW)
+        m0 = np.float64(node_mass[c])
+        m1 = np.float64(node_mass[c + 1])
+        m2 = np.float64(node_mass[c + 2])
+        m3 = np.float64(node_mass[c + 3])
+        left = m0 + m2
+        right = m1 + m3
+        xa = xn * (left + right)
+        xl = left * xd
+        # both columns' tests of b made beside a's (not after it: each level's chain is one test shorter)
+        yb0 = yn * left
+        yb1 = yn * right
+        yl0 = m0 * yd
+        yl1 = m1 * yd
+        qi = xa >= xl and right > 0.0
+        if qi:
+            xn = xa - xl
+            xd *= right
+            qj = yb1 >= yl1 and m3 > 0.0
+            yn = yb1 - yl1 if qj else yb1
+            yd *= m3 if qj else m1
+        else:
+            xn = xa
+            xd *= left
+            qj = yb0 >= yl0 and m2 > 0.0
+            yn = yb0 - yl0 if qj else yb0
+            yd *= m2 if qj else m0
+        node = c + int(qi) + 2 * int(qj)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -366,11 +424,13 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     several threads give the draws of one call); writes ``out_wi``, ``out_pdf``, ``out_f`` (``f`` at the draw)
     and ``out_trials``; returns the number of trials that found ``g`` above its bound. Releases the GIL.
 
-    ``points (n, 2)`` (or ``(0, 2)``: none): a caller's uniforms for each row's first proposal: its leaf
-    from ``points[i, 0]``, its point in the leaf from what is left of that number inside the leaf's interval
-    and ``points[i, 1]`` (:func:`_warp_in_leaf_at`), or the cosine density's point from both. The density
-    of a proposal does not change (each point is uniform); the exact mode's acceptance test and every later
-    trial draw from the row's stream.
+    ``points (n, 2)`` (or ``(0, 2)``: none): a caller's uniforms for each row's first proposal. The
+    rejection-free mode descends the tree by both numbers (:func:`descend_at`) and inverts the leaf's
+    bilinear density with what is left of them (:func:`_warp_in_leaf_at`); the exact mode, whose tables keep
+    no tree, takes the leaf from ``points[i, 0]`` and its point in the leaf from what is left of that number
+    inside the leaf's interval and ``points[i, 1]``; a row drawn from the cosine density takes its point from
+    both. The density of a proposal does not change (each point is uniform); the exact mode's acceptance
+    test and every later trial draw from the row's stream.
 
     The row's draw is written out in the loop, not in a function called per row: numba takes and drops a
     reference on every array handed to a function whose body it cannot prune (loops, branches), and the
@@ -385,7 +445,11 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
     projection, leaf_base, leaf_cell = table.projection, table.leaf_base, table.leaf_cell
     cdf, guide, corners, total, cos_min = table.cdf, table.guide, table.corners, table.total, table.cos_min
     norm_table, norm_log = table.norm, table.norm_log
+    root, child, node_mass = table.root, table.child, table.node_mass
     placed = points.shape[0] > 0
+    # a rejection-free table's first proposal descends its tree by both of the point's numbers; the exact
+    # mode's tables keep no tree (their first proposal takes its leaf by the point's first number)
+    descend = mode == WARP and node_mass.shape[0] > 0
     for i in range(wo.shape[0]):
         state = stream(seed, offset + i)
         wx = wo[i, 0]
@@ -431,19 +495,26 @@ def sample_rows(table, mid, p, mode, wo, seed, offset, out_wi, out_pdf, out_f, o
             d = 0.25
             first = placed and trials == 1
             if tree:
-                if first:
-                    u = points[i, 0]
+                if first and descend:
+                    # both of the point's numbers down the tree, then inverted inside the leaf
+                    leaf, r, v = descend_at(child, node_mass, root[t], points[i, 0], points[i, 1])
+                    prob = _leaf_probability(cdf, start, leaf)
+                    x0, y0, h = _leaf_box(leaf_cell, leaf)
+                    tx, ty, density = _warp_in_leaf_at(corners, leaf, r, v)
                 else:
-                    state, u = next_u01(state)
-                leaf, prob = _pick_leaf(cdf, guide, start, end, u)
-                x0, y0, h = _leaf_box(leaf_cell, leaf)
-                if first:
-                    # u's place inside the leaf's interval of the cdf: uniform, and as stratified as u
-                    lo = 0.0 if leaf == start else np.float64(np.int64(cdf[leaf - 1]))
-                    r = min(max((u * CDF_SCALE - lo) / (prob * CDF_SCALE), 0.0), 1.0)
-                    tx, ty, density = _warp_in_leaf_at(corners, leaf, r, points[i, 1])
-                else:
-                    state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
+                    if first:
+                        u = points[i, 0]
+                    else:
+                        state, u = next_u01(state)
+                    leaf, prob = _pick_leaf(cdf, guide, start, end, u)
+                    x0, y0, h = _leaf_box(leaf_cell, leaf)
+                    if first:
+                        # u's place inside the leaf's interval of the cdf: uniform, and as stratified as u
+                        lo = 0.0 if leaf == start else np.float64(np.int64(cdf[leaf - 1]))
+                        r = min(max((u * CDF_SCALE - lo) / (prob * CDF_SCALE), 0.0), 1.0)
+                        tx, ty, density = _warp_in_leaf_at(corners, leaf, r, points[i, 1])
+                    else:
+                        state, tx, ty, density = _warp_in_leaf(corners, leaf, state)
                 if mode == EXACT:
                     state, u4 = next_u01(state)
                 x, y, z, jac = square_to_direction(x0 + tx * h, y0 + ty * h, proj)

@@ -53,7 +53,7 @@ from core.sampling.adaptive.tree import (
 )
 from core.threads import thread_budget
 
-TABLE_FORMAT = 11
+TABLE_FORMAT = 12
 """Bumped when the stored arrays change meaning."""
 
 CELL_LUT = 512
@@ -155,6 +155,10 @@ class AdaptiveTable(NamedTuple):
     """``(K * J,)`` int64: each tree's root in ``child`` (the rejection-free mode's pdf locates a point by it)."""
     child: np.ndarray
     """``(N,)`` int32: a node's first child, or ``-1 - leaf`` (global leaf index); empty in an exact table."""
+    node_mass: np.ndarray
+    """``(N,)`` uint32: a node's probability in units of ``2^-31``, the sum of its leaves' ``cdf`` counts
+    (``2^31`` at a root): a caller's point descends the tree by it, both coordinates at every level
+    (:func:`~core.sampling.adaptive.draw.descend_at`); empty in an exact table (format 12)."""
     leaf_base: np.ndarray
     """``(K * J + 1,)`` int64: tree ``t``'s leaves are ``leaf_base[t] : leaf_base[t + 1]`` of the leaf arrays."""
     leaf_cell: np.ndarray
@@ -745,6 +749,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
           phi_edges: np.ndarray, grid: list[list[_Node]], norm: tuple[np.ndarray, int],
           exact: bool) -> AdaptiveTable:  # fmt: skip
     children, corners, cells, cdfs, guides, roots, projections, totals = [], [], [], [], [], [], [], []
+    masses = []
     leaf_base = [0]
     node_base = 0
     for row in grid:
@@ -768,6 +773,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
                 child[inner] += node_base
                 child[~inner] -= leaf_base[-1]
                 children.append(child)
+                masses.append(_node_mass(tr, cdf))
             roots.append(node_base)
             node_base += 0 if exact else len(tr.child)
             corners.append(corner16)
@@ -795,6 +801,7 @@ def _pack(symmetry: int, thetas: np.ndarray, phis: np.ndarray, theta_edges: np.n
         exact=int(exact),
         root=np.array(roots, dtype=np.int64),
         child=np.concatenate(children).astype(np.int32) if children else np.zeros(0, dtype=np.int32),
+        node_mass=np.concatenate(masses).astype(np.uint32) if masses else np.zeros(0, dtype=np.uint32),
         leaf_base=np.array(leaf_base, dtype=np.int64),
         leaf_cell=np.concatenate(cells).astype(np.uint32),
         corners=np.ascontiguousarray(np.concatenate(corners), dtype=np.uint16),
@@ -817,6 +824,23 @@ def _leaves(tree: TreeArrays) -> np.ndarray:
     out = np.empty(len(nodes), dtype=np.int64)
     out[-1 - tree.child[nodes]] = nodes
     return out
+
+
+def _node_mass(tree: TreeArrays, cdf: np.ndarray) -> np.ndarray:
+    """Each node's count of ``2^-31`` (:attr:`AdaptiveTable.node_mass`) from its tree's cumulative leaf
+    counts: a leaf's own, then level by level upwards the sum of the four children (a node's children are
+    made after it, one level deeper)."""
+    counts = np.diff(cdf, prepend=0)
+    child = tree.child.astype(np.int64)
+    mass = np.zeros(len(child), dtype=np.int64)
+    leaf = child < 0
+    mass[leaf] = counts[-1 - child[leaf]]
+    level = tree.level
+    for lv in range(int(level.max(initial=0)) - 1, -1, -1):
+        inner = np.flatnonzero(~leaf & (level == lv))
+        first = child[inner]
+        mass[inner] = mass[first] + mass[first + 1] + mass[first + 2] + mass[first + 3]
+    return mass
 
 
 def _leaf_cells(tree: TreeArrays, leaves: np.ndarray) -> np.ndarray:
