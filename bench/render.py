@@ -6,7 +6,9 @@
 2. RMSE against a high-spp reference as a function of render time, for uniform, cosine, analytic, adaptive
    and every other registered strategy, at equal time (``--time`` seconds each, preparation excluded and
    reported separately). The reference is rendered once with a different seed (``--ref-spp``, analytic
-   sampling) and cached under ``--out``.
+   sampling; default 8192: ~9 minutes at 512x512 on two cores, once) and cached under ``--out``. Its own
+   noise is in every RMSE measured against it; estimated from ``analytic``'s row (the estimator that
+   rendered it), it is printed with each strategy's RMSE without it (``render_equal_time.csv``).
 
 3. With ``--cornell``: Mitsuba 3's Cornell box (exported to our format, 256x256, paths of 8 segments) against
    Mitsuba itself, side by side in one run: RMSE against a high-spp Mitsuba reference (``llvm_ad_rgb``, cached)
@@ -17,11 +19,11 @@
    runs with its low-discrepancy ``ldsampler`` (``--mitsuba-samplers``), for a comparison of like with like.
 
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
-``render_compare.png`` (side by side), ``cornell_error.csv``/``.png`` and ``cornell_throughput.csv`` (our whole
+``render_compare.png`` (side by side), ``render_equal_time.csv`` (the equal-time table), ``cornell_error.csv``/``.png`` and ``cornell_throughput.csv`` (our whole
 passes on the Cornell box against Embree alone on the same rays, ``2 --passes`` passes) under ``--out``
 (default ``results/bench``).
 
-    .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 256] [--strategies a,b] [--out DIR]
+    .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 8192] [--strategies a,b] [--out DIR]
     .venv/bin/python bench/render.py --skip-strategies --throughput-samplers uniform,cosine,analytic,adaptive_warp
     .venv/bin/python bench/render.py --cornell [--cornell-size 256] [--time 30]
 """
@@ -30,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -184,6 +187,15 @@ def reference(scene, size: int, spp: int, out: Path, seed: int) -> np.ndarray:  
     job.world.accel.close()
     print(f"reference: {spp} spp in {time.perf_counter() - t0:.0f} s -> {path}")
     return job.film.image()
+
+
+def reference_mse(analytic_mse: float, analytic_spp: int, ref_spp: int) -> float:
+    """The reference's own MSE, estimated from the equal-time row of the strategy that rendered it (an
+    independent seed): that row's MSE is ``v / spp + v / ref_spp`` for the estimator's variance ``v`` of one
+    sample per pixel, so the reference's share is ``v / ref_spp``. Every strategy's RMSE against the
+    reference includes it; where it is a large part (the best strategies against a reference of a few
+    thousand spp) it hides their differences."""
+    return analytic_mse / (ref_spp / analytic_spp + 1.0)
 
 
 def _llvm_works() -> bool:
@@ -352,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--size", type=int, default=512, help="image width and height (default 512)")
     ap.add_argument("--time", type=float, default=30.0, help="seconds of rendering per strategy (default 30)")
     ap.add_argument(
-        "--ref-spp", type=int, default=256, help="samples per pixel of the reference (default 256)"
+        "--ref-spp", type=int, default=8192, help="samples per pixel of the reference (default 8192)"
     )
     ap.add_argument("--strategies", help="comma-separated (default: every registered strategy)")
     ap.add_argument("--passes", type=int, default=4, help="passes for the throughput measurement")
@@ -514,6 +526,26 @@ def run_strategies(  # type: ignore[no-untyped-def]
         print(
             f"{s:<14}{spp:>6}{el:>10.1f}{prep:>10.1f}{mem / 1024:>10.1f}{rmse:>11.4g}{rel:>11.4g}{ratio:>10}  {nf}"
         )
+    by_name = {r[0]: r for r in rows}
+    ref_mse = reference_mse(by_name["analytic"][5] ** 2, by_name["analytic"][1], args.ref_spp) if (
+        "analytic" in by_name) else None  # fmt: skip
+    table = []
+    for s, spp, _, _, _, rmse, _, _ in rows:
+        own = math.sqrt(max(rmse**2 - ref_mse, 0.0)) if ref_mse is not None else float("nan")
+        table.append({"strategy": s, "spp": spp, "rmse": rmse, "rmse_over_uniform": rmse / base if base else "",
+                      "reference_rmse_estimate": math.sqrt(ref_mse) if ref_mse is not None else "",
+                      "rmse_without_reference": own})  # fmt: skip
+    if ref_mse is not None:
+        own_base = next((r["rmse_without_reference"] for r in table if r["strategy"] == "uniform"), None)
+        print(f"the reference's own RMSE, from analytic's row (the same estimator at {args.ref_spp} spp): "
+              f"{math.sqrt(ref_mse):.3g}; every RMSE above includes it. Without it:")  # fmt: skip
+        for r in table:
+            ratio = f"{r['rmse_without_reference'] / own_base:.3f}" if own_base else "-"
+            print(f"  {r['strategy']:<14}{r['rmse_without_reference']:>11.4g}{ratio:>10}")
+    with open(out / "render_equal_time.csv", "w") as fh:
+        fh.write(",".join(table[0]) + "\n")
+        for r in table:
+            fh.write(",".join(_cell(v) for v in r.values()) + "\n")
     write_error_curves(out / "render_error", curves, title=f"{scene.source} {args.size}x{args.size}")
     write_png(out / "render_compare.png", composite(images, labels))
     for s, opts in per_strategy.items():

@@ -31,3 +31,13 @@ def test_embree_alone_traces_the_very_rays_of_the_timed_pass(bench):
     tp = bench.throughput(load_scene(demo_scene_path()), 24, 1)
     assert tp["rays"] == tp["rays_recorded"] > 24 * 24
     assert 0.0 < tp["share_of_embree"] < 2.0 and tp["seconds_per_spp"] > 0.0
+
+
+@pytest.mark.parametrize(("v", "spp", "ref_spp"), [(0.37, 300, 8192), (2e-3, 17, 256), (5.0, 4096, 4096)])
+def test_the_references_own_noise_is_taken_from_the_row_of_the_estimator_that_rendered_it(
+    bench, v, spp, ref_spp
+):
+    """An estimator of per-sample variance ``v`` at ``spp`` against an independent reference of ``ref_spp``
+    shows ``v / spp + v / ref_spp``; the estimate returns the reference's part, ``v / ref_spp``."""
+    measured = v / spp + v / ref_spp
+    assert bench.reference_mse(measured, spp, ref_spp) == pytest.approx(v / ref_spp, rel=1e-12)
