@@ -1,7 +1,9 @@
 """A second opinion on every sampler: Mitsuba 3's own chi-square test (``mitsuba.chi2.ChiSquareTest``).
 
 Every name of ``sampler_names()`` x a spread of materials x outgoing directions (``CASES``; ``uniform`` and
-``cosine`` ignore the BRDF and ``wo``, so they run on one material only). Run with
+``cosine`` ignore the BRDF and ``wo``, so they run on one material only), and the two adaptive modes again
+drawing from Mitsuba's own sample points (``adaptive+points``, ``adaptive_warp+points``: the renderer's path
+at a path's first two bounces, where the rejection-free mode descends its tree by the points). Run with
 ``pytest -m slow -s tests/core/test_mitsuba_chi2.py`` to see the table of p-values and timings.
 
 What runs is Mitsuba's test: variant ``llvm_ad_rgb``, its ``SphericalDomain`` (``x = phi`` in ``[-pi, pi]``,
@@ -11,7 +13,8 @@ Sidak correction (``run(alpha=0.01, test_count=len(CASES))``).
 
 The adapter. Mitsuba calls ``sample_func(sample)`` once with ``sample_count`` uniform points and maps what it
 returns to its grid; our samplers draw from their own seeded streams, so the adapter ignores the points'
-values and returns that many directions of ``sampler.sample(wo, n, SEED)`` (a fixed set). ``pdf_func(d)`` is
+values and returns that many directions of ``sampler.sample(wo, n, SEED)`` (a fixed set); the ``+points``
+cases hand the points to ``sampler.sample_into(..., points=)`` instead. ``pdf_func(d)`` is
 ``sampler.pdf(wo, d)``.
 
 One substitution: the expected counts. Mitsuba's ``tabulate_pdf`` integrates the pdf over each cell with a
@@ -92,6 +95,9 @@ MAX_DEPTH = 4
 
 ISO_VIEWS = ((10.0, 0.0), (45.0, 0.0), (85.0, 0.0))
 ANISO_VIEWS = ISO_VIEWS + ((10.0, 35.0), (45.0, 35.0), (85.0, 35.0))
+PLACED = ("adaptive", "adaptive_warp")
+"""Samplers also tested drawing from Mitsuba's own sample points (the adapter's ``placed`` path)."""
+PLACED_SUFFIX = "+points"
 BRDF_INDEPENDENT = {"uniform", "cosine"}
 """Samplers whose density depends on neither the BRDF nor ``wo``: tested with the first material only."""
 
@@ -140,6 +146,10 @@ def _cases() -> list[tuple[str, Material, float, float]]:
             if name == "analytic" and not material.has_analytic_sampler():
                 continue
             cases += [(name, material, theta, phi) for theta, phi in material.views]
+    # the renderer's first two bounces: the adaptive modes' proposals from a caller's points
+    # (``sample_into(..., points=)``: the rejection-free mode descends its tree by them)
+    for name in PLACED:
+        cases += [(name + PLACED_SUFFIX, m, theta, phi) for m in MATERIALS for theta, phi in m.views]
     return cases
 
 
@@ -209,14 +219,24 @@ class _CellIntegralChiSquareTest(ChiSquareTest):
         self.histogram_end = time.time()
 
 
-def _mitsuba_functions(sampler: Any, wo: np.ndarray) -> tuple[Any, Any, Any]:
-    """``sample_func`` and ``pdf_func`` for Mitsuba (float32 arrays), and the float64 density for the table."""
+def _mitsuba_functions(sampler: Any, wo: np.ndarray, placed: bool = False) -> tuple[Any, Any, Any]:
+    """``sample_func`` and ``pdf_func`` for Mitsuba (float32 arrays), and the float64 density for the table.
+    ``placed``: the draws take Mitsuba's sample points as the caller's points of ``sample_into`` (what the
+    renderer hands the strategies at the first two bounces); otherwise they come from the sampler's stream."""
     drawn: dict[int, Any] = {}
 
     def sample_func(sample: Any) -> Any:
         n = dr.width(sample)
         if n not in drawn:  # the same directions for both tests of a case
-            wi = np.asarray(sampler.sample(wo, n, SEED)[0], dtype=np.float64)
+            if placed:
+                points = np.stack([np.asarray(sample.x), np.asarray(sample.y)], axis=1).astype(np.float64)
+                points = np.minimum(points, 1.0 - 2.0**-53)  # float32 points round up to 1 at times
+                wi, pdf, f = np.empty((n, 3)), np.empty(n), np.empty((n, 3))
+                sampler.sample_into(
+                    np.ascontiguousarray(np.tile(wo, (n, 1))), SEED, wi, pdf, f, points=points
+                )
+            else:
+                wi = np.asarray(sampler.sample(wo, n, SEED)[0], dtype=np.float64)
             drawn[n] = mi.Vector3f(*(np.ascontiguousarray(wi[:, k], dtype=np.float32) for k in range(3)))
         return drawn[n]
 
@@ -271,6 +291,7 @@ _SAMPLERS: dict[tuple[str, str], Any] = {}
 
 def _sampler(name: str, material: Material) -> tuple[Any, float]:
     """The sampler (built once per module), and the seconds its build took now (0 when it was built before)."""
+    name = name.removesuffix(PLACED_SUFFIX)
     key = (name, material.label)
     if key in _SAMPLERS:
         return _SAMPLERS[key], 0.0
@@ -288,7 +309,7 @@ def _sampler(name: str, material: Material) -> tuple[Any, float]:
 def test_mitsuba_chi2(name, material, theta, phi, llvm_variant, results):
     sampler, build_seconds = _sampler(name, material)
     wo = degrees_to_dir(theta, phi)
-    sample_func, pdf_func, density = _mitsuba_functions(sampler, wo)
+    sample_func, pdf_func, density = _mitsuba_functions(sampler, wo, placed=name.endswith(PLACED_SUFFIX))
     t0 = time.perf_counter()
     test = _CellIntegralChiSquareTest(
         density,
