@@ -181,9 +181,9 @@ def _to_tree(wx, wy, wz, c, s, sx, sy):
 CDF_UNIT = 4.656612873077393e-10
 """``2^-31``: the stored ``cdf``'s unit (:data:`~core.sampling.adaptive.table.CDF_ONE`)."""
 CDF_SCALE = 2147483648.0
+"""``2^31``: ``u * CDF_SCALE`` is exact for a uniform on the ``2^-53`` grid."""
 ONE_BELOW = 0.9999999999999999
 """The largest double below 1: a rescaled coordinate stays in ``[0, 1)``."""
-"""``2^31``: ``u * CDF_SCALE`` is exact for a uniform on the ``2^-53`` grid."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -256,8 +256,8 @@ def descend_at(child, node_mass, root, a, b):
     no mass are never chosen.
 
     Each coordinate is carried as a fraction (``a = xn / xd``): a level multiplies, and the two divisions
-    are made once, at the leaf (two divisions a level, each level's test waiting on them: ~6 % slower a
-    placed draw). The choices are branches: written as 0/1 factors they lengthen each level's chain, and a
+    are made once, at the leaf (two divisions a level, each level's test waiting on them: a placed draw
+    3-6 % slower). The choices are branches: written as 0/1 factors they lengthen each level's chain, and a
     pass took 2 ms more (``bench/render_stages.py``)."""
     xn = a
     xd = 1.0
@@ -276,24 +276,17 @@ def descend_at(child, node_mass, root, a, b):
         right = m1 + m3
         xa = xn * (left + right)
         xl = left * xd
-        # both columns' tests of b made beside a's (not after it: each level's chain is one test shorter)
-        yb0 = yn * left
-        yb1 = yn * right
-        yl0 = m0 * yd
-        yl1 = m1 * yd
         qi = xa >= xl and right > 0.0
-        if qi:
-            xn = xa - xl
-            xd *= right
-            qj = yb1 >= yl1 and m3 > 0.0
-            yn = yb1 - yl1 if qj else yb1
-            yd *= m3 if qj else m1
-        else:
-            xn = xa
-            xd *= left
-            qj = yb0 >= yl0 and m2 > 0.0
-            yn = yb0 - yl0 if qj else yb0
-            yd *= m2 if qj else m0
+        column = right if qi else left
+        xn = xa - xl if qi else xa
+        xd *= column
+        low = m1 if qi else m0
+        high = m3 if qi else m2
+        yb = yn * column
+        yl = low * yd
+        qj = yb >= yl and high > 0.0
+        yn = yb - yl if qj else yb
+        yd *= high if qj else low
         node = c + int(qi) + 2 * int(qj)
 
 
