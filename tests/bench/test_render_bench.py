@@ -1,6 +1,8 @@
-"""``bench/render.py``: the Cornell comparison labels Mitsuba's records with the sample counts it renders."""
+"""``bench/render.py``: the Cornell comparison's sample counts, Embree alone on the timed pass's rays, the reference's own noise."""
 
 from __future__ import annotations
+
+import csv
 
 import pytest
 
@@ -41,3 +43,23 @@ def test_the_references_own_noise_is_taken_from_the_row_of_the_estimator_that_re
     shows ``v / spp + v / ref_spp``; the estimate returns the reference's part, ``v / ref_spp``."""
     measured = v / spp + v / ref_spp
     assert bench.reference_mse(measured, spp, ref_spp) == pytest.approx(v / ref_spp, rel=1e-12)
+
+
+def test_the_equal_time_table_gives_each_rmse_without_the_references_noise(bench, tmp_path):
+    """A tiny equal-time run writes ``render_equal_time.csv``: a row per strategy, the reference's estimated
+    RMSE from analytic's row, and each RMSE without it (never above the RMSE measured)."""
+    args = ["--size", "16", "--time", "0.3", "--ref-spp", "8", "--skip-throughput", "--strategies",
+            "uniform,analytic", "--out", str(tmp_path)]  # fmt: skip
+    assert bench.main(args) in (0, None)
+    with open(tmp_path / "render_equal_time.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["strategy"] for r in rows] == ["uniform", "analytic"]
+    for r in rows:
+        rmse, own, ref = (
+            float(r["rmse"]),
+            float(r["rmse_without_reference"]),
+            float(r["reference_rmse_estimate"]),
+        )
+        assert 0.0 < ref and 0.0 <= own <= rmse
+        # (the file's six digits: a difference of squares within a few 1e-6 of the larger)
+        assert own**2 == pytest.approx(max(rmse**2 - ref**2, 0.0), abs=5e-6 * rmse**2)
