@@ -19,9 +19,9 @@
    runs with its low-discrepancy ``ldsampler`` (``--mitsuba-samplers``), for a comparison of like with like.
 
 Prints a table; writes ``render_throughput.csv``, ``render_error.csv``/``.png`` (error vs time),
-``render_compare.png`` (side by side), ``render_equal_time.csv`` (the equal-time table), ``cornell_error.csv``/``.png`` and ``cornell_throughput.csv`` (our whole
-passes on the Cornell box against Embree alone on the same rays, ``2 --passes`` passes) under ``--out``
-(default ``results/bench``).
+``render_compare.png`` (side by side), ``render_equal_time.csv`` (the equal-time table),
+``cornell_error.csv``/``.png`` and ``cornell_throughput.csv`` (our whole passes on the Cornell box against
+Embree alone on the same rays, ``2 --passes`` passes) under ``--out`` (default ``results/bench``).
 
     .venv/bin/python bench/render.py [--size 512] [--time 30] [--ref-spp 8192] [--strategies a,b] [--out DIR]
     .venv/bin/python bench/render.py --skip-strategies --throughput-samplers uniform,cosine,analytic,adaptive_warp
@@ -526,9 +526,8 @@ def run_strategies(  # type: ignore[no-untyped-def]
         print(
             f"{s:<14}{spp:>6}{el:>10.1f}{prep:>10.1f}{mem / 1024:>10.1f}{rmse:>11.4g}{rel:>11.4g}{ratio:>10}  {nf}"
         )
-    by_name = {r[0]: r for r in rows}
-    ref_mse = reference_mse(by_name["analytic"][5] ** 2, by_name["analytic"][1], args.ref_spp) if (
-        "analytic" in by_name) else None  # fmt: skip
+    analytic = next((r for r in rows if r[0] == "analytic"), None)
+    ref_mse = reference_mse(analytic[5] ** 2, analytic[1], args.ref_spp) if analytic else None
     table = []
     for s, spp, _, _, _, rmse, _, _ in rows:
         own = math.sqrt(max(rmse**2 - ref_mse, 0.0)) if ref_mse is not None else float("nan")

@@ -1,4 +1,5 @@
-"""``bench/render.py``: the Cornell comparison's sample counts, Embree alone on the timed pass's rays, the reference's own noise."""
+"""``bench/render.py``: the Cornell comparison's sample counts, Embree alone on the timed pass's rays, the
+reference's own noise."""
 
 from __future__ import annotations
 
