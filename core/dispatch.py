@@ -10,7 +10,9 @@ The switch functions are inlined into their callers (``inline="always"``): a loo
 every iteration then runs within ~20 % of a loop written for that one model (LLVM inlines the model's
 kernel), where an out-of-line switch cost 2.5x (Phong: 15 against 37 M evaluations/s, 2026-12-02).
 
-Adding a model: its module under ``core/models/`` and one entry here (an id in :data:`MODEL_IDS` and a
+Models loaded from files share one branch (:data:`FILE_MODEL`, see :mod:`core.model_files.call`).
+
+Adding a built-in model: its module under ``core/models/`` and one entry here (an id in :data:`MODEL_IDS` and a
 branch in each switch). ``tests/core/test_dispatch.py`` checks that every registered model has an id and
 that each switch agrees with the model's own kernels.
 """
@@ -29,6 +31,7 @@ from core.models.beard_maxwell import eval_beard_maxwell
 from core.models.blinn import eval_blinn, pdf_blinn, sample_blinn
 from core.models.cook_torrance import eval_cook_torrance, pdf_cook_torrance, sample_cook_torrance
 from core.models.coupled import eval_coupled, pdf_coupled, sample_coupled
+from core.models.disney import eval_disney, pdf_disney, sample_disney
 from core.models.ggx import eval_ggx, pdf_ggx, sample_ggx
 from core.models.he import eval_he
 from core.models.lafortune import eval_lafortune, pdf_lafortune, sample_lafortune
@@ -39,6 +42,7 @@ from core.models.oren_nayar import eval_oren_nayar
 from core.models.phong import eval_phong, pdf_phong, sample_phong
 from core.models.poulin_fournier import eval_poulin_fournier
 from core.models.schlick import eval_schlick, pdf_schlick, sample_schlick
+from core.model_files.call import eval_file_model, pdf_file_model, sample_file_model
 from core.models.strauss import eval_strauss
 from core.models.ward import eval_ward, pdf_ward, sample_ward
 from core.rgl.lookup import eval_rgl, pdf_rgl, sample_rgl
@@ -66,6 +70,10 @@ MERL_NEAREST = 19
 RGL = 20
 RGL_ANISOTROPIC = 21
 RGL_GENERAL = 22
+DISNEY = 23
+FILE_MODEL = 1000
+"""Every model loaded from a file (:mod:`core.model_files`): reached through the native functions whose
+addresses its parameter row carries, so loading one compiles nothing here. Not in :data:`MODEL_IDS`."""
 
 MODEL_IDS: dict[str, int] = {
     "lambert": LAMBERT,
@@ -91,6 +99,7 @@ MODEL_IDS: dict[str, int] = {
     "rgl": RGL,
     "rgl_anisotropic": RGL_ANISOTROPIC,
     "rgl_general": RGL_GENERAL,
+    "disney": DISNEY,
 }
 """The id of every model the switches know, by model name."""
 
@@ -146,6 +155,10 @@ def eval_model(mid, wi, wo, p):
         return merl.eval_merl_nearest(wi, wo, p)
     elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
         return eval_rgl(wi, wo, p)
+    elif mid == DISNEY:
+        return eval_disney(wi, wo, p)
+    elif mid == FILE_MODEL:
+        return eval_file_model(wi, wo, p)
     return 0.0, 0.0, 0.0
 
 
@@ -176,6 +189,10 @@ def sample_model(mid, wo, p, u1, u2, u3):
         return sample_ward(wo, p, u1, u2, u3)
     elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
         return sample_rgl(wo, p, u1, u2, u3)
+    elif mid == DISNEY:
+        return sample_disney(wo, p, u1, u2, u3)
+    elif mid == FILE_MODEL:
+        return sample_file_model(wo, p, u1, u2, u3)
     return 0.0, 0.0, 1.0, 0.0
 
 
@@ -206,4 +223,8 @@ def pdf_model(mid, wo, wi, p):
         return pdf_ward(wo, wi, p)
     elif mid == RGL or mid == RGL_ANISOTROPIC or mid == RGL_GENERAL:
         return pdf_rgl(wo, wi, p)
+    elif mid == DISNEY:
+        return pdf_disney(wo, wi, p)
+    elif mid == FILE_MODEL:
+        return pdf_file_model(wo, wi, p)
     return 0.0

@@ -22,13 +22,17 @@ from __future__ import annotations
 
 import enum
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from core.errors import ParameterError, UnknownNameError
+
+if TYPE_CHECKING:
+    from core.model_files import ModelSource
 
 ParamValue = float | tuple[float, float, float]
 
@@ -138,6 +142,8 @@ class Model:
     """How a shading model becomes a BRDF, known limits, and the like."""
     measured: bool = False
     defaults_override: Mapping[str, ParamValue] = field(default_factory=dict)
+    source: ModelSource | None = None
+    """Where a model loaded from a file comes from (:mod:`core.model_files`); ``None`` for a built-in."""
 
     def __post_init__(self) -> None:
         names = [p.name for p in self.params]
@@ -147,9 +153,17 @@ class Model:
     @property
     def id(self) -> int:
         """The model's id in the compiled switch of :mod:`core.dispatch`."""
-        from core.dispatch import model_id
+        from core.dispatch import FILE_MODEL, model_id
 
-        return model_id(self.name)
+        return FILE_MODEL if self.source is not None else model_id(self.name)
+
+    def __reduce_ex__(self, protocol: Any) -> str | tuple[Any, ...]:
+        # a file model travels as its text and loads again on arrival (its native functions are the process's)
+        if self.source is not None:
+            from core.model_files import loaded_from_source
+
+            return loaded_from_source, (self.source.path, self.source.text)
+        return super().__reduce_ex__(protocol)
 
     @property
     def isotropic(self) -> bool:
@@ -222,9 +236,17 @@ class BRDF:
         return self.model.name
 
     def key(self) -> str:
-        """A stable text key of model and parameter values (for caches)."""
+        """A stable text key of model and parameter values (for caches); a file model's names its content."""
         items = ",".join(f"{k}={v!r}" for k, v in sorted(self.values.items()))
-        return f"{self.model.name}({items})"
+        source = self.model.source
+        name = self.model.name if source is None else f"{self.model.name}@{source.digest[:16]}"
+        return f"{name}({items})"
+
+    def __reduce_ex__(self, protocol: Any) -> str | tuple[Any, ...]:
+        if self.model.source is not None:
+            # bound again on arrival: a file model's parameter row holds this process's addresses
+            return _bind_again, (self.model, self.values)
+        return super().__reduce_ex__(protocol)
 
     def eval(self, wo: np.ndarray, wi: np.ndarray, threads: bool = False) -> np.ndarray:
         """``f_r`` as RGB, shape ``(n, 3)``, for directions ``wo`` and ``wi`` of shape ``(3,)`` or ``(n, 3)``."""
@@ -239,6 +261,10 @@ class BRDF:
 
     def __repr__(self) -> str:
         return f"BRDF({self.key()})"
+
+
+def _bind_again(model: Model, values: Mapping[str, ParamValue]) -> BRDF:
+    return BRDF(model, values)
 
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -276,19 +302,37 @@ def all_models() -> list[Model]:
     return list(_REGISTRY.values())
 
 
-def get_model(name: str) -> Model:
+def get_model(name: str | os.PathLike[str]) -> Model:
+    """The model registered as ``name``, or the model a ``.brdf`` or ``.py`` file declares when ``name`` is
+    such a path (:func:`core.model_files.load_model_file`; relative to the working directory)."""
+    from core.model_files import is_model_file, load_model_file
+
+    if is_model_file(name):
+        return load_model_file(name)
     _load_models()
     try:
-        return _REGISTRY[name]
+        return _REGISTRY[str(name)]
     except KeyError:
         raise UnknownNameError(
-            f"unknown model '{name}'; known models: {', '.join(sorted(_REGISTRY))}"
+            f"unknown model '{name}'; known models: {', '.join(sorted(_REGISTRY))}, "
+            "or a model file (.brdf, .py)"
         ) from None
 
 
-def make_brdf(name: str, params: Mapping[str, Any] | Sequence[str] | None = None) -> BRDF:
-    """A BRDF from a model name and parameters (a mapping, or ``["k=v", ...]`` strings as the CLI takes)."""
+def make_brdf(name: str | os.PathLike[str], params: Mapping[str, Any] | Sequence[str] | None = None) -> BRDF:
+    """A BRDF from a model name or model file and parameters (a mapping, or ``["k=v", ...]`` strings as the
+    CLI takes)."""
     return get_model(name).bind(parse_assignments(params))
+
+
+def param_slots(params: Sequence[Param]) -> tuple[int, ...]:
+    """The index of each parameter's first slot in the kernel row (a color takes three): kernels read
+    ``p[ALPHA]``, never ``p[3]``. ``KD, N = param_slots(PARAMS)``."""
+    slots, at = [], 0
+    for p in params:
+        slots.append(at)
+        at += p.size
+    return tuple(slots)
 
 
 def parse_assignments(params: Mapping[str, Any] | Sequence[str] | None) -> dict[str, Any]:

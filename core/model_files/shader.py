@@ -1,0 +1,66 @@
+"""BRDF Explorer's analytic ``.brdf`` files as models: parameters from the file's declarations, ``eval`` from
+its shader translated by :mod:`core.glsl` (the file is never executed as Python)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from core.model import Model, Param, Traits
+from core.model_files import ModelFileError, ModelSource
+from core.model_files.call import EVAL_ADDRESS, HEADER, eval_file_model
+
+VISUALISATION_PREFIX = "show_"
+"""BRDF Explorer's files that only visualise angles or vectors take booleans named ``show_...``."""
+
+
+def _param(sp) -> Param:  # noqa: ANN001 (core.glsl.ShaderParam)
+    if sp.kind == "bool":
+        return Param(sp.name, float(sp.default), 0.0, 1.0, kind="bool", label=sp.name)
+    if sp.kind == "color":
+        hi = max(1.0, *sp.default)
+        return Param(sp.name, tuple(float(c) for c in sp.default), 0.0, hi, kind="color", label=sp.name)
+    return Param(sp.name, float(sp.default), float(sp.lo), float(sp.hi), label=sp.name)
+
+
+def load(path: str, text: str, digest: str) -> Model:
+    """The model of a ``.brdf`` file's text (``path`` names it in messages)."""
+    from core.glsl import compile_brdf, parse_brdf_text
+    from core.model_files.probe import bad_values, measured_traits
+
+    try:
+        parsed = parse_brdf_text(text, path)
+        shows = [p.name for p in parsed.params if p.name.startswith(VISUALISATION_PREFIX)]
+        if shows:
+            raise ModelFileError(
+                f"{path}: a visualisation file (parameters {', '.join(shows[:3])}...), not a BRDF: "
+                "it shows angles or vectors as colours and has no reflectance to sample or render"
+            )
+        compiled = compile_brdf(parsed)
+    except RecursionError:
+        raise ModelFileError(f"{path}: the shader is nested too deeply to translate") from None
+    header = np.zeros(HEADER)
+    header[EVAL_ADDRESS] = float(compiled.address)
+
+    def derive(user: np.ndarray) -> np.ndarray:
+        return np.concatenate([header, user])
+
+    params = tuple(_param(sp) for sp in parsed.params)
+    stem = Path(path).stem
+    model = Model(
+        name=path,
+        label=f"{stem} (.brdf)",
+        citation=f"BRDF Explorer shader {path}",
+        params=params,
+        traits=Traits.NONE,
+        eval=eval_file_model,
+        derive=derive,
+        doc=f"The analytic BRDF of the BRDF Explorer file {path}, translated from its GLSL.",
+        source=ModelSource(path=path, text=text, digest=digest, keep=compiled),
+    )
+    traits = measured_traits(params, model.kernel_params)
+    findings = tuple(bad_values(model.kernel_params(), Path(path).name))
+    source = dataclasses.replace(model.source, findings=findings)  # type: ignore[arg-type]
+    return dataclasses.replace(model, traits=traits, source=source)
