@@ -25,7 +25,7 @@ Prints tables; writes ``demo_error.csv`` (one row per strategy, component and cl
         [--strategies uniform,cosine,analytic,adaptive_warp] [--option LABEL=S:k=v,p_area=P,mis=balance] [--ris 0]
         [--scene FILE]
 
-Findings (the demo, 2026-12-03): docs/renderer.md, "Where the demo's remaining error comes from".
+Findings on the demo: docs/renderer.md, "Where the demo's remaining error comes from".
 """
 
 from __future__ import annotations

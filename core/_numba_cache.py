@@ -1,11 +1,10 @@
 """Where numba keeps compiled functions on disk, and when a stored compile is stale.
 
 numba checks a cached function against *its own* file only (a hash of its bytes). A model's ``eval`` cached
-after an edit of a helper it calls in another file (``core/models/_fresnel.py``, ``core/geometry.py``) was
-therefore reused: the process silently ran the old code (seen on 2026-11-22: after a faster conductor
-Fresnel, GGX's ``eval`` still ran the old one, 191 ns a call against 105 ns once its cache was cleared).
-The first fix keyed the whole cache folder by a hash of every source file, so that any edit anywhere
-recompiled everything (minutes on two cores).
+after an edit of a helper it calls in another file (``core/models/_fresnel.py``, ``core/geometry.py``) would
+therefore be reused: the process would silently run the old code (GGX's cached ``eval`` would keep an edited
+conductor Fresnel's old version). Keying the whole cache folder by a hash of every source file instead would
+recompile everything after any edit (minutes on two cores).
 
 Here each function's stored compile is stamped with a hash of its *import closure*: its own file and every
 file of ``core`` and ``renderer`` that file imports, directly or through others (read from the import

@@ -3,11 +3,12 @@ library's, without its calls.
 
 The library's ``atan2``, ``acos`` and ``sin``/``cos`` cost 15-25 ns each in a loop (a call that LLVM cannot
 inline or overlap with its neighbours); a draw of a tabulated sampler made three or four of them (8-9 % of a
-demo pass of ``uniform_cdf`` or ``factored``, ``perf``, 2026-12-04). These are a few multiply-adds each, by
+demo pass of ``uniform_cdf`` or ``factored`` by ``perf``). These are a few multiply-adds each, by
 Estrin's scheme (short chains of dependent operations), inlined where they are called, and their octants,
 quadrants and signs are selects rather than branches: a batch of draws or a sweep of a disk falls in every
-octant, and a mispredicted branch cost more than the work it skipped (a ``uniform_cdf`` draw 137 -> 113 ns, a
-``compress_cdf`` draw 106 -> 80 ns, a ``factored`` density 61 -> 43 ns in isolation; the same values to the bit).
+octant, and a mispredicted branch costs more than the work it skips (in isolation, a ``uniform_cdf`` draw
+takes 113 ns instead of 137 with the library's calls, a ``compress_cdf`` draw 80 instead of 106, a ``factored``
+density 43 instead of 61; the same values to the bit).
 
 - :func:`atan2`: reduction to ``[0, 1]`` by the octant, above ``tan(pi/8)`` by ``pi/4 + atan((t-1)/(t+1))``,
   then a degree-10 polynomial in ``t^2`` (a Chebyshev fit; within 5e-16 of the library's).
@@ -152,8 +153,8 @@ def polar_cell(c, n):
     Estimated with :func:`acos_estimate`; taken when that falls at least ``_CELL_MARGIN`` of a cell inside
     one, which the estimate's error cannot cross, and found with :func:`acos` otherwise (about one time in
     10^5). The tabulated and factored samplers find two or three such cells a draw or a density: a Lambertian
-    draw of ``uniform_cdf``, ``compress_cdf``, ``factored`` 113, 80, 74 -> 84, 50, 55 ns, a density 60, 72, 43
-    -> 41, 47, 27 ns, in isolation (the same cells, the same draws)."""
+    draw of ``uniform_cdf``, ``compress_cdf``, ``factored`` takes 84, 50, 55 ns with it (113, 80, 74 with
+    :func:`acos`), a density 41, 47, 27 ns (60, 72, 43), in isolation (the same cells, the same draws)."""
     t = acos_estimate(min(1.0, max(0.0, c))) * (n / HALF_PI)
     k = int(t)
     f = t - k

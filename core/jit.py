@@ -4,11 +4,11 @@ numba counts references to every array a compiled function holds: a function's a
 incremented on entry and decremented on every exit, and a helper inlined into a loop (``inline="always"``)
 binds its array arguments anew on every iteration. Both are atomic operations (``lock inc``/``lock dec``)
 and numba's pass that removes matched pairs misses them wherever the helper branches (multiple returns, a
-variable dying in different branches). They were most of the cost that no profile of our own code showed:
-``perf`` put 30 % of a one-thread demo pass and 37 % of the measured material's table build in numba's
-``NRT_incref``/``NRT_decref`` (2026-12-04), called from the sky's light sample (14 a sample: its seven
-arrays), the sky's lookup at a miss, the parameter rows of the BRDF stage, the adaptive trees' ``g`` and the
-models' own kernels. An environment sample in a loop took 88 ns with them, 41 ns without.
+variable dying in different branches). With them, ``perf`` puts 30 % of a one-thread demo pass and 37 % of
+the measured material's table build in numba's ``NRT_incref``/``NRT_decref``, a cost no profile of our own
+code shows, called from the sky's light sample (14 a sample: its seven arrays), the sky's lookup at a miss,
+the parameter rows of the BRDF stage, the adaptive trees' ``g`` and the models' own kernels. An environment
+sample in a loop takes 88 ns with them, 41 ns without.
 
 A function compiled with ``_nrt=False`` (numba's option to compile without its runtime) holds no reference
 counts at all: its arguments are borrowed from its caller, which holds them for the call. It may not

@@ -3,8 +3,8 @@
 One budget for every pool in ``core`` and ``renderer``: numba's configured thread count, which follows
 ``NUMBA_NUM_THREADS`` and otherwise the machine's cores. A process started with ``NUMBA_NUM_THREADS=1`` (a
 Dask worker of the folder study: one worker per core) must not start a pool of ``os.cpu_count()`` threads
-beside it, or two workers on two cores run four threads and the second worker buys little (the folder
-study's 1-worker baseline ran at 1.3 cores before this budget existed).
+beside it, or two workers on two cores run four threads and the second worker buys little (without this
+budget the folder study's 1-worker baseline runs at 1.3 cores).
 """
 
 from __future__ import annotations

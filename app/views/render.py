@@ -122,7 +122,7 @@ class RenderPanel(QWidget):
         self.start_button.clicked.connect(self.start)
         self.cancel_button.clicked.connect(self.cancel)
 
-        # Two rows, so that the panel's minimum width leaves the docks room (one row was ~950 px wide).
+        # Two rows, so that the panel's minimum width leaves the docks room (one row would be ~950 px wide).
         strategies, budget = QHBoxLayout(), QHBoxLayout()
         for row, label, w in (
             (strategies, "A", self.strategy_a), (strategies, "B", self.strategy_b), (budget, "", self.mode),

@@ -116,7 +116,7 @@ def test_signal_at_any_moment_leaves_the_previous_output_or_a_complete_new_one(s
             proc.kill()
     # 130, or ended by the signal itself (returncode -2): a shell reports both as exit status 130. Python ends a
     # process by re-raising SIGINT when the KeyboardInterrupt of a Ctrl-C that lands while the interpreter
-    # is still importing or shutting down escapes (seen in a fresh-clone `make test` of 2026-12-02, signal at 1 s)
+    # is still importing or shutting down escapes (a fresh clone's `make test` can see it, signal at 1 s)
     assert proc.returncode in (0, 130, -signal.SIGINT), err
     assert "Traceback" not in err and "Exception ignored" not in err and "internal error" not in err
     if out.read_bytes() != b"previous render":

@@ -19,7 +19,7 @@ cases hand the points to ``sampler.sample_into(..., points=)`` instead. ``pdf_fu
 
 One substitution: the expected counts. Mitsuba's ``tabulate_pdf`` integrates the pdf over each cell with a
 4 x 4-point trapezoid rule (``ires = 4``). For three kinds of density we have, its error is far above the
-statistical noise of 1e6 samples, so it rejects correct samplers. Measured on 2026-12-02 (the same 1e6
+statistical noise of 1e6 samples, so it rejects correct samplers. Measured (the same 1e6
 directions for every table; p-values with Mitsuba's table at ``ires`` = 4 / 8 / 32, then with ours):
 
 - lobes about as narrow as a cell near the pole, where the (phi, cos theta) cells are wide in theta:
@@ -41,7 +41,7 @@ by more than 110 counts in the cases above, except the two singular ones (6 000 
 ``-wo``). So :class:`_CellIntegralChiSquareTest` replaces ``tabulate_pdf`` only: the same pdf integrated over
 the same cells (taken from the test's ``res`` and the domain's bounds) by :func:`_cell_integrals`. Every row of
 the printed table (``-s``; a row is printed before its case's verdict) shows Mitsuba's own p-value and table sum
-beside ours. In the run of all 288 cases on 2026-12-02 Mitsuba's own table rejected 130 (every sampler's but
+beside ours. In a run of all 288 cases Mitsuba's own table rejected 130 (every sampler's but
 ``uniform``'s and ``cosine``'s); ours rejected none, its sums within 1 +- 1.6e-4.
 
 Each cell is split into 4 x 4 sub-cells (a self-refining rule on the whole cell, or on 2 x 2 sub-cells, is
@@ -56,7 +56,7 @@ refinements: 6 refinements cost 2-3 times as much and move no cell by more than 
 sum to 1 within 1e-3 (Mitsuba only checks > 1.1): a quadrature that missed mass, or a pdf that does not
 integrate to 1, fails here rather than passes.
 
-Runtime: 288 cases in 25-28 minutes on one core (``pytest -p no:xdist -m slow``, 2026-12-02, on a 2-core
+Runtime: 288 cases in 25-28 minutes on one core (``pytest -p no:xdist -m slow``, on a 2-core
 machine shared with another job): about 1.5 s a case for the analytic samplers, 4-7 s for the tabulated and
 adaptive ones (mostly the cell integrals: a piecewise-constant density takes ~26 million pdf evaluations), and
 the adaptive tables' builds (up to half a minute for anisotropic Ashikhmin-Shirley). ``make test`` does not run

@@ -27,9 +27,9 @@ AdaptiveTable`):
 Choosing the leaf: one uniform ``u``, a guide table (Chen and Asau) to the first candidate of the tree's
 cumulative ``P_L`` (whole units of ``2^-31``), a step or two along it; ``P_L`` is the difference of two
 entries, the length of the interval of ``u`` that chooses the leaf, exactly (``u 2^31`` is exact for a
-uniform on the ``2^-53`` grid, and its integer part is compared with the integer entries). Until 2026-12-02 a leaf was reached by descending the tree, one uniform
-and four masses per level (15 ns a level); the tree is now only read by the rejection-free mode's ``pdf``,
-to locate a given direction.
+uniform on the ``2^-53`` grid, and its integer part is compared with the integer entries). The table
+replaces a descent of the tree (one uniform and four masses a level, 15 ns a level); the tree is only read by
+the rejection-free mode's ``pdf``, to locate a given direction.
 
 Every draw returns what it computed: the direction, its pdf, and ``f`` (RGB) there.
 """
@@ -306,8 +306,8 @@ def _warp_in_leaf(corners, leaf, state):
     The bilinear density is the mixture of its four corners' products of ramps, ``v_k / sum v`` times
     ``4 (1 - tx) (1 - ty)``, ``4 tx (1 - ty)``, ...: a corner chosen by its value, then each coordinate
     drawn from its ramp by one square root (``t = sqrt(u)`` has density ``2 t``). The same density as
-    inverting the marginal and then the conditional (the warp before 2026-12-02), without its chain of two
-    square roots and two divisions, each waiting on the last: the two roots here are independent."""
+    inverting the marginal and then the conditional, without that warp's chain of two square roots and two
+    divisions, each waiting on the last: the two roots here are independent."""
     v0 = np.float64(corners[leaf, 0])
     v1 = np.float64(corners[leaf, 1])
     v2 = np.float64(corners[leaf, 2])

@@ -229,9 +229,9 @@ def normalizer_at(symmetry, table, log_scale, cos_theta, c, s):
     two rows around it, then, for MIRROR, the cosine series in ``2 phi`` (``cos 2 phi = c^2 - s^2`` and its
     Chebyshev recurrence: no trigonometry), for FULL the periodic cubic through the row's azimuths;
     ``exp`` of that when the table holds ``log I`` (``log_scale``). An isotropic table holds ``I`` itself
-    (:func:`~core.sampling.adaptive.table._norm_table`): no logarithm and no exponential at run time (the
-    reading before 2026-12-03, a Catmull-Rom cubic in ``s = -log cos theta`` of ``log I``, took ~35 ns a
-    view, ~65 ns with the azimuth's arc tangent and cosine)."""
+    (:func:`~core.sampling.adaptive.table._norm_table`): no logarithm and no exponential at run time (a
+    Catmull-Rom cubic in ``s = -log cos theta`` of ``log I`` takes ~35 ns a view, ~65 ns with the azimuth's
+    arc tangent and cosine)."""
     i, t = _norm_row(table.shape[0], cos_theta)
     j = table.shape[1]
     if symmetry == ISOTROPIC:

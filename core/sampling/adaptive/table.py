@@ -613,7 +613,7 @@ def _unless_cancelled(cancel: threading.Event | None, step: Callable[..., _Node]
 def _norm_azimuths(symmetry: int, phis: np.ndarray) -> np.ndarray:
     """The azimuths the normalizer is tabulated at: the azimuth nodes and the cells' edges between them,
     equally spaced (``2 J - 1`` over the mirror's quadrant, ends included; ``2 J`` around the circle): through
-    the nodes alone the azimuth series was 0.26-0.3 % off between them at 80-89 degrees (Ashikhmin-Shirley
+    the nodes alone the azimuth series is 0.26-0.3 % off between them at 80-89 degrees (Ashikhmin-Shirley
     nu=10 nv=200)."""
     j = len(phis)
     if symmetry == ISOTROPIC or j == 1:
@@ -657,7 +657,7 @@ def _normalizer(brdf: BRDF, options: TableOptions, symmetry: int, phis: np.ndarr
     min_spacing = math.radians(options.min_spacing_deg)
     # the analytic models stop below max_thetas (48) by norm_tol; the measured material asks for 64, its last
     # intervals near the horizon, where its I peaks at 89.3 degrees and falls to the last node (capped at 48
-    # it was 3.9e-3 off at 89.85 degrees)
+    # it is 3.9e-3 off at 89.85 degrees)
     cap = 2 * options.max_thetas
     thetas = np.asarray(tree_thetas, dtype=np.float64)
     values: dict[float, np.ndarray] = {}

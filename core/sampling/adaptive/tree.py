@@ -63,7 +63,7 @@ ANISOTROPIC_BOUND_SAFETY = 1.1
 RIM_BOUND_SAFETY = 1.5
 """A further factor on the bound of a leaf on the square's edge, the horizon, where lobes sharpen and turn
 fastest with ``wo`` (Ashikhmin-Shirley nu=10 nv=200 at 74 degrees: a rim leaf's ratio between the nine views
-was 1.3x what they saw). Rim leaves hold little of the density (``cos theta_i`` vanishes there), so a
+is 1.3x what they see). Rim leaves hold little of the density (``cos theta_i`` vanishes there), so a
 generous factor costs little acceptance, where 1.5 on every leaf of an anisotropic table filled its trees
 (1.5 M leaves)."""
 
