@@ -8,7 +8,7 @@ kernel parameter vector, with one ``if/elif`` over the registered kernels. A loo
 
 The switch functions are inlined into their callers (``inline="always"``): a loop whose id is the same on
 every iteration then runs within ~20 % of a loop written for that one model (LLVM inlines the model's
-kernel), where an out-of-line switch cost 2.5x (Phong: 15 against 37 M evaluations/s, 2026-12-02).
+kernel), where an out-of-line switch costs 2.5x (Phong: 15 against 37 M evaluations/s).
 
 Models loaded from files share one branch (:data:`FILE_MODEL`, see :mod:`core.model_files.call`).
 
@@ -22,6 +22,7 @@ from __future__ import annotations
 from numba import njit
 
 from core import merl  # the module, not its kernels: core.merl reaches this switch too (see merl._tabulate)
+from core.model_files.call import eval_file_model, pdf_file_model, sample_file_model
 from core.models.ashikhmin_shirley import (
     eval_ashikhmin_shirley,
     pdf_ashikhmin_shirley,
@@ -42,7 +43,6 @@ from core.models.oren_nayar import eval_oren_nayar
 from core.models.phong import eval_phong, pdf_phong, sample_phong
 from core.models.poulin_fournier import eval_poulin_fournier
 from core.models.schlick import eval_schlick, pdf_schlick, sample_schlick
-from core.model_files.call import eval_file_model, pdf_file_model, sample_file_model
 from core.models.strauss import eval_strauss
 from core.models.ward import eval_ward, pdf_ward, sample_ward
 from core.rgl.lookup import eval_rgl, pdf_rgl, sample_rgl
