@@ -9,7 +9,7 @@ WARMED := $(VENV)/.warmed-stamp
 KERNEL_SOURCES := $(shell find core renderer \( -name '*.py' -o -name '*.npz' \) -not -path '*/__pycache__/*' 2>/dev/null)
 JOBS   ?= 2
 
-.PHONY: setup sysdeps run test lint bench clean
+.PHONY: setup sysdeps run test lint docs bench clean
 
 setup: sysdeps $(STAMP) $(WARMED)
 
@@ -42,6 +42,10 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/lint-imports
 
+# The user guide, the results and the API reference from the docstrings, into site/ (a warning is an error).
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict --site-dir site
+
 test: setup lint
 	$(BIN)/python -m pytest -n $(JOBS) -q
 
@@ -55,4 +59,4 @@ bench: setup
 	$(BIN)/python bench/render.py
 
 clean:
-	rm -rf $(VENV) .pytest_cache build *.egg-info
+	rm -rf $(VENV) .pytest_cache build site *.egg-info
