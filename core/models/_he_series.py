@@ -24,7 +24,7 @@ TWO_SQRT_TWO_PI = 5.0132565492620005  # 2 sqrt(2 pi)
 LOG_TWO_SQRT_TWO_PI = math.log(TWO_SQRT_TWO_PI)
 SERIES_TOL = 1e-14
 """Relative size of the last term kept on either side of the series' peak. Beyond it the terms fall faster than
-geometrically (the sequence is log-concave), so what is left off is of the same order; 1e-17 before took 13 %
+geometrically (the sequence is log-concave), so what is left off is of the same order; 1e-17 would take 13 %
 more terms for digits no use of the BRDF can see."""
 MAX_TERMS = 200000
 RATIO_STRIDE_MAX = 8
@@ -158,7 +158,7 @@ def effective_roughness_ratio(log_ki, log_kr):
     With ``u = z0 / sigma`` this is ``u exp(u^2/2) = C = (K_i + K_r) / (2 sqrt(2 pi))``, solved on ``t = ln u``:
     ``psi(t) = t + exp(2t)/2 - ln C`` is increasing and convex. Halley's method (cubic convergence) from
     ``t = ln C - C^2 / 2`` (the small-``C`` expansion ``u = C - C^3/2 + ...``) when ``ln C < -1``, ``ln C`` up
-    to 0 and ``ln(2 ln C + 1) / 2`` beyond: 1 to 3 exponentials, where Newton's method took 1 to 6. It stops after a
+    to 0 and ``ln(2 ln C + 1) / 2`` beyond: 1 to 3 exponentials, where Newton's method takes 1 to 6. It stops after a
     step below ``1e-6`` (the next error is of order ``step^3``), and ``u^2 = exp(2t)`` is updated from the
     last exponential by the Taylor series of ``exp(-2 step)`` to second order (error ``~step^3``)."""
     hi = max(log_ki, log_kr)
@@ -253,7 +253,7 @@ def diffuse_series(g, a):
     log_g = math.log(g)
     # Peak: F(m) = ln T(m+1) - ln T(m) = ln g + ln m - 2 ln(m+1) + a/(m(m+1)) is decreasing in m.
     # from the larger of g (the Poisson peak, a = 0) and 0.7 sqrt(a) (where exp(-a/m) lets the terms rise):
-    # 2-3 steps where g alone took 4-7 at the seed's settings; any start near the peak gives the same sum
+    # 2-3 steps where g alone takes 4-7 at the seed's settings; any start near the peak gives the same sum
     m = max(1.0, g, 0.7 * math.sqrt(a))
     for _ in range(60):
         f = log_g + math.log(m / ((m + 1.0) * (m + 1.0))) + a / (m * (m + 1.0))

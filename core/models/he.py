@@ -42,7 +42,7 @@ k (wi + wo)``, ``k = 2 pi / lambda``:
   series' value, the tolerance of the tests against the previous formulation (``tests/core/models``); the
   paper's formulas are still met to 1e-8. A relative error of 2e-9 is far below anything a renderer or
   the sampler can resolve (the adaptive table's bounds are made from these same values); with the tables ``f``
-  takes 190-250 ns a random pair where it took 700-750 with the series summed (30 to 60 exponentials).
+  takes 190-250 ns a random pair, against 700-750 with the series summed (30 to 60 exponentials).
 
 Uniform diffuse: the paper's ``rho_ud = a(lambda)``, a constant for the subsurface and multiply scattered
 light; we parameterize it by its albedo ``kd``: ``rho_ud = kd / pi``.

@@ -79,9 +79,9 @@ def _eval(mid, wi, wo, p):
 
 # The kernels take the table (a tuple of 17 arrays) and hand the functions they call per row only the arrays
 # they need: a table passed to a function inlined by numba is copied with a reference count taken and dropped
-# on every array (~50 ns a call), and to one that is not, copied by value (~120 ns); the tree lookup per row
-# fell from 56 to 4 ns. (With the row loops written out, :func:`sample_rows`, a rejection-free draw of Phong
-# with f went from 553 to 270 ns, a Lambertian one from 190 to 95, on a loaded machine.)
+# on every array (~50 ns a call), and to one that is not, copied by value (~120 ns): handed only its arrays,
+# the tree lookup per row takes 4 ns instead of 56, and a rejection-free draw of Phong with f half the time
+# (the row loops written out, :func:`sample_rows`).
 @njit(inline="always", nogil=True, cache=True)
 def _fold(symmetry, wx, wy):
     """``(cos, sin, sx, sy)``: ``wo``'s azimuth as a unit vector (folded into the quadrant when
@@ -142,9 +142,9 @@ def _phi_cell(symmetry, phis, edge_cos, edge_sin, c, s):
 
 # The kernels take the table (a tuple of arrays) and hand the functions they call per row only the arrays
 # they need: a table passed to a function inlined by numba is copied with a reference count taken and dropped
-# on every array (~50 ns a call), and to one that is not, copied by value (~120 ns); the tree lookup per row
-# fell from 56 to 4 ns. (With the row loops written out, :func:`sample_rows`, a rejection-free draw of Phong
-# with f went from 553 to 270 ns, a Lambertian one from 190 to 95, on a loaded machine.)
+# on every array (~50 ns a call), and to one that is not, copied by value (~120 ns): handed only its arrays,
+# the tree lookup per row takes 4 ns instead of 56, and a rejection-free draw of Phong with f half the time
+# (the row loops written out, :func:`sample_rows`).
 @njit(inline="always", nogil=True, cache=True)
 def _tree_frame(symmetry, follow, cell_lut, cell_mu, phis, edge_cos, edge_sin, wx, wy, wz):
     """The tree serving ``wo`` and its frame: ``(t, cos, sin, sx, sy, cos_o, sin_o)``, the last two
@@ -258,7 +258,7 @@ def descend_at(child, node_mass, root, a, b):
     Each coordinate is carried as a fraction (``a = xn / xd``): a level multiplies, and the two divisions
     are made once, at the leaf (two divisions a level, each level's test waiting on them: a placed draw
     3-6 % slower). The choices are branches: written as 0/1 factors they lengthen each level's chain, and a
-    pass took 2 ms more (``bench/render_stages.py``)."""
+    pass takes 2 ms more (``bench/render_stages.py``)."""
     xn = a
     xd = 1.0
     yn = b

@@ -79,7 +79,7 @@ _LOCK = threading.Lock()
 
 PARALLEL_MIN = 1 << 14
 """With ``threads=True``, batches at least this large are drawn in two chunks on two threads (the compiled
-loop releases the GIL; a ``prange`` loop took 40 s more to compile, for the same draws)."""
+loop releases the GIL; a ``prange`` loop takes 40 s more to compile, for the same draws)."""
 
 _POOL: ThreadPoolExecutor | None = None
 

@@ -625,7 +625,7 @@ def view_stencils(mid, p, projection, views, n, child, x0, y0, level, st, stv):
 
     Made from the root down as the tree was split (nodes are created after their parents): a child has its
     parent's and its siblings' shared points (:func:`_child_view_stencils`), 16 new points a split where
-    every leaf on its own took 9 (41 % fewer evaluations; the same values, at the same points)."""
+    every leaf on its own takes 9 (41 % fewer evaluations; the same values, at the same points)."""
     nv = views.shape[0]
     evals = _view_stencils(mid, p, projection, views, 0, x0, y0, level, st, stv)
     for i in range(n):
