@@ -47,3 +47,26 @@ def test_readme_command_parses(command, capsys):
         pytest.fail(f"{command!r}: {capsys.readouterr().err.strip()}")
     assert not extra, f"{command!r}: unrecognized {extra}"
     assert args.command in handlers
+
+
+def every_readme_command() -> list[str]:
+    """Every ``brdf-studio ...`` line in every ``sh`` block of the README (Install, Your own models, ...), with
+    the same reading of comments and bracketed optional parts as :func:`readme_commands`."""
+    commands = []
+    for block in README.read_text().split("```sh")[1:]:
+        for line in block.split("```", 1)[0].splitlines():
+            code = re.sub(r"\[[^\]]*\]", "", line.partition("#")[0]).strip()
+            if code.startswith("brdf-studio ") and code != "brdf-studio":
+                commands.append(code)
+    return commands
+
+
+@pytest.mark.parametrize("command", every_readme_command())
+def test_every_readme_command_parses(command, capsys):
+    parser, handlers = build_parser()
+    try:
+        args, extra = parser.parse_known_args(shlex.split(command)[1:])
+    except SystemExit:
+        pytest.fail(f"{command!r}: {capsys.readouterr().err.strip()}")
+    assert not extra, f"{command!r}: unrecognized {extra}"
+    assert args.command in handlers
