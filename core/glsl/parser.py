@@ -89,9 +89,11 @@ def parse_shader(source: str, path: str, first_line: int = 1) -> s.TranslationUn
             f"{error.problem} and cannot be used here",
         ) from None
     except lark.exceptions.UnexpectedInput as error:
-        raise ShaderError(
-            path, error.line + line_offset, error.column, _syntax_message(error, parser)
-        ) from None
+        message = _syntax_message(error, parser)
+        missing = _missing_semicolon_line(error, source)
+        if missing is not None:
+            message += f" (is a ';' missing at the end of line {missing + line_offset}?)"
+        raise ShaderError(path, error.line + line_offset, error.column, message) from None
     try:
         return _ToSyntax(path, line_offset).transform(tree)
     except lark.exceptions.VisitError as error:
@@ -107,7 +109,10 @@ def _syntax_message(error: lark.exceptions.UnexpectedInput, parser: Lark) -> str
         return "syntax error: the shader ends too early"
     assert isinstance(error, lark.exceptions.UnexpectedToken)
     token = error.token
-    found = "end of the shader" if token.type == "$END" else f"'{token}'"
+    if token.type == "$END":
+        hint = " (is a '}' missing?)" if "RBRACE" in error.expected else ""
+        return f"syntax error: the shader ends too early{hint}"
+    found = f"'{token}'"
     strings = {
         t.name: t.pattern.value for t in parser.terminals if isinstance(t.pattern, lark.lexer.PatternStr)
     }
@@ -115,6 +120,21 @@ def _syntax_message(error: lark.exceptions.UnexpectedInput, parser: Lark) -> str
     if 0 < len(expected) <= 6:
         return f"syntax error: unexpected {found}; expected {' or '.join(expected)}"
     return f"syntax error: unexpected {found}"
+
+
+def _missing_semicolon_line(error: lark.exceptions.UnexpectedInput, source: str) -> int | None:
+    """The shader line of the code before an unexpected token that a ';' could have ended, if it is on an
+    earlier line than the token (the usual forgotten semicolon)."""
+    if not isinstance(error, lark.exceptions.UnexpectedToken) or "SEMICOLON" not in error.expected:
+        return None
+    start = error.token.start_pos
+    if error.token.type == "$END" or start is None:
+        return None
+    code = _COMMENT_OR_DIRECTIVE.sub(lambda m: re.sub(r"[^\n]", " ", m.group()), source[:start]).rstrip()
+    if not code:
+        return None
+    line = code.count("\n") + 1
+    return line if line < error.line else None
 
 
 _COMMENT_OR_DIRECTIVE = re.compile(r"//[^\n]*|/\*[\s\S]*?\*/|/\*|#[^\n]*")
