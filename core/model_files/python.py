@@ -137,10 +137,12 @@ def _jitted(module: types.ModuleType, attr: str, path: str) -> Callable[..., Any
     if fn is None:
         return None
     if isinstance(fn, CPUDispatcher):
-        return fn
+        fn = fn.py_func
     if not callable(fn):
         raise ModelFileError(f"{path}: '{attr}' must be a function, got {type(fn).__name__}")
-    return njit(nogil=True)(fn)
+    # numpy's error model: a division by zero gives inf or NaN (which the host takes as 0) instead of an
+    # exception, which no native caller could receive
+    return njit(nogil=True, error_model="numpy")(fn)
 
 
 def _compiled(make: Callable[[Callable[..., Any]], Any], fn: Callable[..., Any], attr: str, path: str) -> Any:

@@ -56,11 +56,13 @@ def eval(wi, wo, p):
 @njit(nogil=True, cache=True)
 def pdf(wo, wi, p):
     cosine = max(wi[2], 0.0) / math.pi
+    # wo reflected about h and about -h is the same wi: the half vector's density counts the one of the two
+    # that lies above the horizon, |h.z|
     h = _half(wo, wi)
     woh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
     lobe = 0.0
-    if h[2] > 0.0 and woh > 0.0:
-        lobe = (p[N] + 1.0) / (2.0 * math.pi) * h[2] ** p[N] / (4.0 * woh)
+    if woh > 0.0:
+        lobe = (p[N] + 1.0) / (2.0 * math.pi) * abs(h[2]) ** p[N] / (4.0 * woh)
     return p[LOBE] * lobe + (1.0 - p[LOBE]) * cosine
 
 
