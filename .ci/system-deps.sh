@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Debian packages BRDF Studio needs beyond Python: a virtual X server and the xcb/GL libraries Qt and VTK load.
-# libllvm19 lets Mitsuba 3 (test and benchmark reference) run its llvm variants.
+# libegl-mesa0 (Mesa's EGL) and libgl1-mesa-dri (its llvmpipe driver) give check-models' shader oracle a
+# headless software OpenGL context. libllvm19 lets Mitsuba 3 (test and benchmark reference) run its llvm variants.
 # Installs what is missing when run as root; otherwise prints the exact command to run.
 set -euo pipefail
 
@@ -8,7 +9,7 @@ PKGS=(
   xvfb xauth
   libxcb-cursor0 libxcb-icccm4 libxcb-keysyms1 libxcb-image0 libxcb-render-util0 libxcb-randr0
   libxcb-shape0 libxcb-xinerama0 libxcb-xkb1 libxkbcommon-x11-0 libxkbcommon0
-  libgl1 libegl1 libglx-mesa0 libgl1-mesa-dri libglib2.0-0 libfontconfig1 libdbus-1-3
+  libgl1 libegl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri libglib2.0-0 libfontconfig1 libdbus-1-3
   libxrender1 libxi6 libxext6 libsm6 libice6
   libllvm19
 )
