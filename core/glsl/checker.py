@@ -151,8 +151,12 @@ class _Checker:
             self.scopes[0][param.name] = variable
         self.uniforms = tuple(uniforms)
 
+    def line(self, pos: s.Position) -> int:
+        """The ``.brdf`` file's line of a position in the shader."""
+        return pos.line + self.shader_line - 1
+
     def error(self, pos: s.Position, message: str) -> ShaderError:
-        return ShaderError(self.path, pos.line, pos.column, message)
+        return ShaderError(self.path, self.line(pos), pos.column, message)
 
     # ---- the translation unit
 
@@ -189,7 +193,7 @@ class _Checker:
                 candidates[0].pos,
                 f"BRDF must be declared as '{BRDF_SIGNATURE}', not '{candidates[0].signature()}'",
             )
-        raise self.error(s.Position(self.shader_line, 1), f"the shader does not define '{BRDF_SIGNATURE}'")
+        raise self.error(s.Position(1, 1), f"the shader does not define '{BRDF_SIGNATURE}'")
 
     def reachable(self, root: p.Function) -> list[p.Function]:
         seen: list[p.Function] = []
@@ -264,7 +268,7 @@ class _Checker:
     def redeclaration(self, name: str, previous: p.Variable) -> str:
         if previous.kind == "uniform":
             return f"'{name}' is already declared as a parameter of the file"
-        return f"'{name}' is already declared in this scope (line {previous.pos.line})"
+        return f"'{name}' is already declared in this scope (line {self.line(previous.pos)})"
 
     def qualifiers(self, qualifiers: Sequence[s.Qualifier], what: str) -> bool:
         """True if ``const``; refuses the storage qualifiers a BRDF shader has no use for."""
@@ -311,11 +315,12 @@ class _Checker:
             if function.result != result:
                 raise self.error(
                     declaration.pos,
-                    f"'{name}({_describe(param_types)})' was declared returning {function.result} (line {function.pos.line})",
+                    f"'{name}({_describe(param_types)})' was declared returning {function.result} (line {self.line(function.pos)})",
                 )
             if function.body is not None and declaration.body is not None:
                 raise self.error(
-                    declaration.pos, f"'{function.signature()}' is already defined (line {function.pos.line})"
+                    declaration.pos,
+                    f"'{function.signature()}' is already defined (line {self.line(function.pos)})",
                 )
         else:
             function = p.Function(name, result, params, declaration.pos)
@@ -670,7 +675,7 @@ class _Checker:
         variable = self.lookup(e.callee)
         if variable is not None and variable.kind in ("local", "parameter"):
             raise self.error(
-                e.pos, f"'{e.callee}' is a variable here (line {variable.pos.line}), not a function"
+                e.pos, f"'{e.callee}' is a variable here (line {self.line(variable.pos)}), not a function"
             )
         arg_types = tuple(a.type for a in args)
         user = self.functions.get(e.callee)

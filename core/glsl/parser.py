@@ -1,8 +1,9 @@
 """GLSL source to :mod:`core.glsl.syntax` tree, with lark's LALR(1) parser over ``glsl.lark``.
 
-Positions are moved into the ``.brdf`` file's numbering (shader line 1 is file line ``first_line``). Before
-lark sees the text, a comment-aware scan refuses preprocessor directives other than ``#version`` and
-``#pragma`` (the shader is compiled without a preprocessor) and comments that are never closed.
+The tree's positions count in the shader text; errors found here are reported in the ``.brdf`` file's lines
+(shader line 1 is file line ``first_line``). Before lark sees the text, a comment-aware scan refuses
+preprocessor directives other than ``#version`` and ``#pragma`` (the shader is compiled without a
+preprocessor) and comments that are never closed.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from functools import cache
 from importlib import resources
 
 import lark
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer
 
 from core.cache import default_folder
 from core.glsl import syntax as s
@@ -30,8 +31,9 @@ _TERMINAL_WORDS = {
 }
 
 
-class _ReservedWord(Exception):
-    """Raised by the lexer on an identifier GLSL reserves; turned into a ShaderError with the file's position."""
+class _BadToken(Exception):
+    """Raised while parsing (a reserved word, a malformed number); parse_shader turns it into a ShaderError
+    with the file's position."""
 
     def __init__(self, token: Token, problem: str) -> None:
         super().__init__(problem)
@@ -42,7 +44,7 @@ class _ReservedWord(Exception):
 def _check_identifier(token: Token) -> Token:
     problem = reserved_name_problem(str(token))
     if problem is not None:
-        raise _ReservedWord(token, problem)
+        raise _BadToken(token, f"{problem} and cannot be used here")
     return token
 
 
@@ -61,15 +63,16 @@ def _lark() -> Lark:
         grammar,
         parser="lalr",
         lexer="basic",
-        propagate_positions=True,
         maybe_placeholders=True,
+        transformer=_ToSyntax(),  # applied while parsing: no parse tree is built
         lexer_callbacks={"IDENTIFIER": _check_identifier},
         cache=cache_file,
     )
 
 
 def parse_shader(source: str, path: str, first_line: int = 1) -> s.TranslationUnit:
-    """Parse GLSL ``source`` (the shader block of ``path``, whose first line is line ``first_line`` of the file).
+    """Parse GLSL ``source``, the shader block of ``path`` whose first line is line ``first_line`` of the file.
+    The tree's positions count in ``source``; errors are reported in the file's lines.
 
     Raises
     ------
@@ -80,26 +83,17 @@ def parse_shader(source: str, path: str, first_line: int = 1) -> s.TranslationUn
     _check_directives(source, path, line_offset)
     parser = _lark()
     try:
-        tree = parser.parse(source)
-    except _ReservedWord as error:
-        raise ShaderError(
-            path,
-            error.token.line + line_offset,
-            error.token.column,
-            f"{error.problem} and cannot be used here",
-        ) from None
+        unit = parser.parse(source)
+    except _BadToken as error:
+        raise ShaderError(path, error.token.line + line_offset, error.token.column, error.problem) from None
     except lark.exceptions.UnexpectedInput as error:
         message = _syntax_message(error, parser)
         missing = _missing_semicolon_line(error, source)
         if missing is not None:
             message += f" (is a ';' missing at the end of line {missing + line_offset}?)"
         raise ShaderError(path, error.line + line_offset, error.column, message) from None
-    try:
-        return _ToSyntax(path, line_offset).transform(tree)
-    except lark.exceptions.VisitError as error:
-        if isinstance(error.orig_exc, ShaderError):
-            raise error.orig_exc from None
-        raise
+    assert isinstance(unit, s.TranslationUnit)
+    return unit
 
 
 def _syntax_message(error: lark.exceptions.UnexpectedInput, parser: Lark) -> str:
@@ -168,161 +162,157 @@ def _unpack(children: list) -> list:
     return [child for child in children if child is not None]
 
 
-@v_args(meta=True)
 class _ToSyntax(Transformer):
-    """lark's parse tree to :mod:`core.glsl.syntax` nodes (one method per grammar rule or alias)."""
+    """Builds the :mod:`core.glsl.syntax` nodes as lark reduces each grammar rule or alias (one method each);
+    positions come from the tokens."""
 
-    def __init__(self, path: str, line_offset: int) -> None:
-        super().__init__()
-        self._path = path
-        self._offset = line_offset
-
-    def _at(self, meta_or_token) -> s.Position:
-        if isinstance(meta_or_token, Token):
-            return s.Position(meta_or_token.line + self._offset, meta_or_token.column)
-        if getattr(meta_or_token, "empty", True):
-            return s.Position(0, 0)
-        return s.Position(meta_or_token.line + self._offset, meta_or_token.column)
+    @staticmethod
+    def _at(token: Token) -> s.Position:
+        return s.Position(token.line, token.column)
 
     # ---- declarations
-    def start(self, meta, children):
+    def start(self, children):
         return s.TranslationUnit(tuple(children))
 
-    def type_specifier(self, meta, children):
+    def type_specifier(self, children):
         (token,) = children
-        return s.TypeName(self._at(token), str(token))
+        return s.TypeName(_ToSyntax._at(token), str(token))
 
-    def qualifier(self, meta, children):
+    def qualifier(self, children):
         (token,) = children
-        return s.Qualifier(self._at(token), str(token))
+        return s.Qualifier(_ToSyntax._at(token), str(token))
 
-    def init_declarator(self, meta, children):
+    def init_declarator(self, children):
         name, initializer = children
-        return s.Declarator(self._at(name), str(name), initializer)
+        return s.Declarator(_ToSyntax._at(name), str(name), initializer)
 
-    def declaration(self, meta, children):
+    def declaration(self, children):
         qualifiers = tuple(c for c in children if isinstance(c, s.Qualifier))
         (type_name,) = (c for c in children if isinstance(c, s.TypeName))
         declarators = tuple(c for c in children if isinstance(c, s.Declarator))
-        return s.Declaration(self._at(meta), qualifiers, type_name, declarators)
+        pos = qualifiers[0].pos if qualifiers else type_name.pos
+        return s.Declaration(pos, qualifiers, type_name, declarators)
 
-    def parameter(self, meta, children):
+    def parameter(self, children):
         *qualifiers, type_name, name = children
-        return s.Parameter(self._at(meta), tuple(qualifiers), type_name, None if name is None else str(name))
+        pos = qualifiers[0].pos if qualifiers else type_name.pos
+        return s.Parameter(pos, tuple(qualifiers), type_name, None if name is None else str(name))
 
-    def function_header(self, meta, children):
+    def function_header(self, children):
         return_type, name, *params = children
-        return s.FunctionDeclaration(self._at(name), return_type, str(name), tuple(_unpack(params)), None)
+        return s.FunctionDeclaration(
+            _ToSyntax._at(name), return_type, str(name), tuple(_unpack(params)), None
+        )
 
-    def function_definition(self, meta, children):
+    def function_definition(self, children):
         header, body = children
         return s.FunctionDeclaration(header.pos, header.return_type, header.name, header.params, body)
 
-    def function_prototype(self, meta, children):
+    def function_prototype(self, children):
         (header,) = children
         return header
 
     # ---- statements
-    def compound_statement(self, meta, children):
-        return s.Block(self._at(meta), tuple(children))
+    def compound_statement(self, children):
+        return s.Block(children[0].pos if children else s.Position(0, 0), tuple(children))
 
-    def expression_statement(self, meta, children):
+    def expression_statement(self, children):
         (expression,) = children
-        return s.ExpressionStatement(self._at(meta), expression)
+        return s.ExpressionStatement(s.Position(0, 0) if expression is None else expression.pos, expression)
 
-    def if_statement(self, meta, children):
+    def if_statement(self, children):
         keyword, condition, then, _else, otherwise = children
-        return s.If(self._at(keyword), condition, then, otherwise)
+        return s.If(_ToSyntax._at(keyword), condition, then, otherwise)
 
-    def for_statement(self, meta, children):
+    def for_statement(self, children):
         keyword, init, condition, step, body = children
-        return s.For(self._at(keyword), init, condition, step, body)
+        return s.For(_ToSyntax._at(keyword), init, condition, step, body)
 
-    def while_statement(self, meta, children):
+    def while_statement(self, children):
         keyword, condition, body = children
-        return s.While(self._at(keyword), condition, body)
+        return s.While(_ToSyntax._at(keyword), condition, body)
 
-    def do_statement(self, meta, children):
+    def do_statement(self, children):
         keyword, body, _while, condition = children
-        return s.DoWhile(self._at(keyword), body, condition)
+        return s.DoWhile(_ToSyntax._at(keyword), body, condition)
 
-    def return_statement(self, meta, children):
+    def return_statement(self, children):
         keyword, value = children
-        return s.Return(self._at(keyword), value)
+        return s.Return(_ToSyntax._at(keyword), value)
 
-    def break_statement(self, meta, children):
-        return s.Break(self._at(children[0]))
+    def break_statement(self, children):
+        return s.Break(_ToSyntax._at(children[0]))
 
-    def continue_statement(self, meta, children):
-        return s.Continue(self._at(children[0]))
+    def continue_statement(self, children):
+        return s.Continue(_ToSyntax._at(children[0]))
 
-    def discard_statement(self, meta, children):
-        return s.Discard(self._at(children[0]))
+    def discard_statement(self, children):
+        return s.Discard(_ToSyntax._at(children[0]))
 
     # ---- expressions
-    def sequence(self, meta, children):
+    def sequence(self, children):
         left, comma, right = children
         items = left.items if isinstance(left, s.Sequence) else (left,)
-        return s.Sequence(self._at(comma), (*items, right))
+        return s.Sequence(_ToSyntax._at(comma), (*items, right))
 
-    def assignment_operator(self, meta, children):
+    def assignment_operator(self, children):
         (token,) = children
         return token
 
-    def assignment(self, meta, children):
+    def assignment(self, children):
         target, op, value = children
-        return s.Assignment(self._at(op), str(op), target, value)
+        return s.Assignment(_ToSyntax._at(op), str(op), target, value)
 
-    def conditional(self, meta, children):
+    def conditional(self, children):
         condition, question, if_true, if_false = children
-        return s.Conditional(self._at(question), condition, if_true, if_false)
+        return s.Conditional(_ToSyntax._at(question), condition, if_true, if_false)
 
-    def binary(self, meta, children):
+    def binary(self, children):
         left, op, right = children
-        return s.Binary(self._at(op), str(op), left, right)
+        return s.Binary(_ToSyntax._at(op), str(op), left, right)
 
-    def unary(self, meta, children):
+    def unary(self, children):
         op, operand = children
-        return s.Unary(self._at(op), str(op), operand)
+        return s.Unary(_ToSyntax._at(op), str(op), operand)
 
-    def prefix_update(self, meta, children):
+    def prefix_update(self, children):
         op, target = children
-        return s.Update(self._at(op), str(op), True, target)
+        return s.Update(_ToSyntax._at(op), str(op), True, target)
 
-    def postfix_update(self, meta, children):
+    def postfix_update(self, children):
         target, op = children
-        return s.Update(self._at(op), str(op), False, target)
+        return s.Update(_ToSyntax._at(op), str(op), False, target)
 
-    def index(self, meta, children):
+    def index(self, children):
         operand, index = children
-        return s.Index(self._at(meta), operand, index)
+        return s.Index(operand.pos, operand, index)
 
-    def field(self, meta, children):
+    def field(self, children):
         operand, name = children
-        return s.Field(self._at(name), operand, str(name))
+        return s.Field(_ToSyntax._at(name), operand, str(name))
 
-    def arguments(self, meta, children):
+    def arguments(self, children):
         return tuple(children)
 
-    def call(self, meta, children):
+    def call(self, children):
         name, args = children
-        return s.Call(self._at(name), str(name), args or (), False)
+        return s.Call(_ToSyntax._at(name), str(name), args or (), False)
 
-    def constructor(self, meta, children):
+    def constructor(self, children):
         type_name, args = children
         return s.Call(type_name.pos, type_name.name, args or (), True)
 
-    def name(self, meta, children):
+    def name(self, children):
         (token,) = children
-        return s.Name(self._at(token), str(token))
+        return s.Name(_ToSyntax._at(token), str(token))
 
-    def float_constant(self, meta, children):
+    def float_constant(self, children):
         (token,) = children
-        return s.FloatLiteral(self._at(token), float(str(token).rstrip("fF")))
+        return s.FloatLiteral(_ToSyntax._at(token), float(str(token).rstrip("fF")))
 
-    def int_constant(self, meta, children):
+    def int_constant(self, children):
         (token,) = children
-        pos = self._at(token)
+        pos = _ToSyntax._at(token)
         value = _int_value(str(token))
         if value is None:
             raise ShaderError(
@@ -332,9 +322,9 @@ class _ToSyntax(Transformer):
             raise ShaderError(self._path, pos.line, pos.column, f"integer {token} does not fit in 32 bits")
         return s.IntLiteral(pos, value)
 
-    def bool_constant(self, meta, children):
+    def bool_constant(self, children):
         (token,) = children
-        return s.BoolLiteral(self._at(token), str(token) == "true")
+        return s.BoolLiteral(_ToSyntax._at(token), str(token) == "true")
 
 
 def _int_value(text: str) -> int | None:

@@ -1,5 +1,6 @@
 """The syntax tree of a shader as written, before any type is known (:mod:`core.glsl.parser` builds it,
-:mod:`core.glsl.checker` reads it). Every node carries its position in the ``.brdf`` file."""
+:mod:`core.glsl.checker` reads it). Every node carries its position in the shader text (line 1 is the
+shader's first line; the checker reports errors in the ``.brdf`` file's lines)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from typing import NamedTuple
 
 
 class Position(NamedTuple):
-    """1-based line and column in the ``.brdf`` file."""
+    """1-based line and column in the shader text."""
 
     line: int
     column: int

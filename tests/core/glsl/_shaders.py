@@ -14,10 +14,14 @@ GOOD_FIXTURES = sorted(FIXTURES.glob("*.brdf"))
 BAD_FIXTURES = sorted((FIXTURES / "bad").glob("*.brdf"))
 
 
+SHADER_LINE = 3
+
+
 def brdf_text(shader: str, params: str = "") -> str:
-    """A .brdf file holding ``shader``; its first shader line is line 5 of the file."""
+    """A .brdf file holding ``shader`` and the parameter lines ``params``; the shader section comes first so
+    that its first line is line ``SHADER_LINE`` of the file whatever the parameters."""
     return (
-        f"analytic\n::begin parameters\n{params}\n::end parameters\n::begin shader\n{shader}\n::end shader\n"
+        f"analytic\n::begin shader\n{shader}\n::end shader\n::begin parameters\n{params}\n::end parameters\n"
     )
 
 
