@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import threading
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -30,6 +31,8 @@ from core.glsl.codegen import BATCH_NAME, ENTRY_NAME, build_module
 from core.glsl.parser import parse_shader
 
 OPTIMIZATION_LEVEL = 2
+# LLVM's parser, optimizer and JIT share llvmlite's global context: one compilation at a time
+_LLVM_LOCK = threading.Lock()
 
 _BATCH_SIGNATURE = ctypes.CFUNCTYPE(
     None, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p
@@ -129,33 +132,35 @@ class CompiledBrdf:
 
 
 def compile_brdf(brdf_file: BrdfFile) -> CompiledBrdf:
-    """Compile the shader of ``brdf_file`` to native code.
+    """Compile the shader of ``brdf_file`` to native code (in double precision, optimized at O2). Safe to
+    call from several threads (the LLVM part runs one at a time).
 
     Raises
     ------
     ShaderError
         The shader does not parse or does not type-check; the message names the file, line and column.
     """
-    _initialize_llvm()
     unit = parse_shader(brdf_file.shader, brdf_file.path, brdf_file.shader_line)
     program = check_program(unit, brdf_file.params, brdf_file.path, brdf_file.shader_line)
-    module_ir = build_module(program, name=Path(brdf_file.path).stem or "shader")
-
-    machine = _target_machine()
-    module = llvm.parse_assembly(str(module_ir))
-    module.triple = machine.triple
-    module.data_layout = str(machine.target_data)
-    module.verify()
-    tuning = llvm.create_pipeline_tuning_options(speed_level=OPTIMIZATION_LEVEL)
-    pass_builder = llvm.create_pass_builder(machine, tuning)
-    pass_builder.getModulePassManager().run(module, pass_builder)
-
-    engine = llvm.create_mcjit_compiler(module, machine)
-    engine.finalize_object()
+    module_ir = str(build_module(program, name=Path(brdf_file.path).stem or "shader"))
+    with _LLVM_LOCK:
+        _initialize_llvm()
+        machine = _target_machine()
+        module = llvm.parse_assembly(module_ir)
+        module.triple = machine.triple
+        module.data_layout = str(machine.target_data)
+        module.verify()
+        tuning = llvm.create_pipeline_tuning_options(speed_level=OPTIMIZATION_LEVEL)
+        pass_builder = llvm.create_pass_builder(machine, tuning)
+        pass_builder.getModulePassManager().run(module, pass_builder)
+        engine = llvm.create_mcjit_compiler(module, machine)
+        engine.finalize_object()
+        address = engine.get_function_address(ENTRY_NAME)
+        batch_address = engine.get_function_address(BATCH_NAME)
     return CompiledBrdf(
         source=brdf_file,
-        address=engine.get_function_address(ENTRY_NAME),
-        batch_address=engine.get_function_address(BATCH_NAME),
+        address=address,
+        batch_address=batch_address,
         uses_tangents=program.uses_tangents,
         reads_uniforms=program.reads_uniforms,
         _engine=engine,

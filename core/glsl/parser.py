@@ -162,169 +162,164 @@ def _unpack(children: list) -> list:
     return [child for child in children if child is not None]
 
 
+def _position(token: Token) -> s.Position:
+    return s.Position(token.line, token.column)
+
+
 class _ToSyntax(Transformer):
     """Builds the :mod:`core.glsl.syntax` nodes as lark reduces each grammar rule or alias (one method each);
     positions come from the tokens."""
 
-    @staticmethod
-    def _at(token: Token) -> s.Position:
-        return s.Position(token.line, token.column)
-
     # ---- declarations
-    def start(self, children):
+    def start(self, children: list) -> s.TranslationUnit:
         return s.TranslationUnit(tuple(children))
 
-    def type_specifier(self, children):
+    def type_specifier(self, children: list) -> s.TypeName:
         (token,) = children
-        return s.TypeName(_ToSyntax._at(token), str(token))
+        return s.TypeName(_position(token), str(token))
 
-    def qualifier(self, children):
+    def qualifier(self, children: list) -> s.Qualifier:
         (token,) = children
-        return s.Qualifier(_ToSyntax._at(token), str(token))
+        return s.Qualifier(_position(token), str(token))
 
-    def init_declarator(self, children):
+    def init_declarator(self, children: list) -> s.Declarator:
         name, initializer = children
-        return s.Declarator(_ToSyntax._at(name), str(name), initializer)
+        return s.Declarator(_position(name), str(name), initializer)
 
-    def declaration(self, children):
+    def declaration(self, children: list) -> s.Declaration:
         qualifiers = tuple(c for c in children if isinstance(c, s.Qualifier))
         (type_name,) = (c for c in children if isinstance(c, s.TypeName))
         declarators = tuple(c for c in children if isinstance(c, s.Declarator))
         pos = qualifiers[0].pos if qualifiers else type_name.pos
         return s.Declaration(pos, qualifiers, type_name, declarators)
 
-    def parameter(self, children):
+    def parameter(self, children: list) -> s.Parameter:
         *qualifiers, type_name, name = children
         pos = qualifiers[0].pos if qualifiers else type_name.pos
         return s.Parameter(pos, tuple(qualifiers), type_name, None if name is None else str(name))
 
-    def function_header(self, children):
+    def function_header(self, children: list) -> s.FunctionDeclaration:
         return_type, name, *params = children
-        return s.FunctionDeclaration(
-            _ToSyntax._at(name), return_type, str(name), tuple(_unpack(params)), None
-        )
+        return s.FunctionDeclaration(_position(name), return_type, str(name), tuple(_unpack(params)), None)
 
-    def function_definition(self, children):
+    def function_definition(self, children: list) -> s.FunctionDeclaration:
         header, body = children
         return s.FunctionDeclaration(header.pos, header.return_type, header.name, header.params, body)
 
-    def function_prototype(self, children):
+    def function_prototype(self, children: list) -> s.FunctionDeclaration:
         (header,) = children
         return header
 
     # ---- statements
-    def compound_statement(self, children):
+    def compound_statement(self, children: list) -> s.Block:
         return s.Block(children[0].pos if children else s.Position(0, 0), tuple(children))
 
-    def expression_statement(self, children):
+    def expression_statement(self, children: list) -> s.ExpressionStatement:
         (expression,) = children
         return s.ExpressionStatement(s.Position(0, 0) if expression is None else expression.pos, expression)
 
-    def if_statement(self, children):
+    def if_statement(self, children: list) -> s.If:
         keyword, condition, then, _else, otherwise = children
-        return s.If(_ToSyntax._at(keyword), condition, then, otherwise)
+        return s.If(_position(keyword), condition, then, otherwise)
 
-    def for_statement(self, children):
+    def for_statement(self, children: list) -> s.For:
         keyword, init, condition, step, body = children
-        return s.For(_ToSyntax._at(keyword), init, condition, step, body)
+        return s.For(_position(keyword), init, condition, step, body)
 
-    def while_statement(self, children):
+    def while_statement(self, children: list) -> s.While:
         keyword, condition, body = children
-        return s.While(_ToSyntax._at(keyword), condition, body)
+        return s.While(_position(keyword), condition, body)
 
-    def do_statement(self, children):
+    def do_statement(self, children: list) -> s.DoWhile:
         keyword, body, _while, condition = children
-        return s.DoWhile(_ToSyntax._at(keyword), body, condition)
+        return s.DoWhile(_position(keyword), body, condition)
 
-    def return_statement(self, children):
+    def return_statement(self, children: list) -> s.Return:
         keyword, value = children
-        return s.Return(_ToSyntax._at(keyword), value)
+        return s.Return(_position(keyword), value)
 
-    def break_statement(self, children):
-        return s.Break(_ToSyntax._at(children[0]))
+    def break_statement(self, children: list) -> s.Break:
+        return s.Break(_position(children[0]))
 
-    def continue_statement(self, children):
-        return s.Continue(_ToSyntax._at(children[0]))
+    def continue_statement(self, children: list) -> s.Continue:
+        return s.Continue(_position(children[0]))
 
-    def discard_statement(self, children):
-        return s.Discard(_ToSyntax._at(children[0]))
+    def discard_statement(self, children: list) -> s.Discard:
+        return s.Discard(_position(children[0]))
 
     # ---- expressions
-    def sequence(self, children):
+    def sequence(self, children: list) -> s.Sequence:
         left, comma, right = children
         items = left.items if isinstance(left, s.Sequence) else (left,)
-        return s.Sequence(_ToSyntax._at(comma), (*items, right))
+        return s.Sequence(_position(comma), (*items, right))
 
-    def assignment_operator(self, children):
+    def assignment_operator(self, children: list) -> Token:
         (token,) = children
         return token
 
-    def assignment(self, children):
+    def assignment(self, children: list) -> s.Assignment:
         target, op, value = children
-        return s.Assignment(_ToSyntax._at(op), str(op), target, value)
+        return s.Assignment(_position(op), str(op), target, value)
 
-    def conditional(self, children):
+    def conditional(self, children: list) -> s.Conditional:
         condition, question, if_true, if_false = children
-        return s.Conditional(_ToSyntax._at(question), condition, if_true, if_false)
+        return s.Conditional(_position(question), condition, if_true, if_false)
 
-    def binary(self, children):
+    def binary(self, children: list) -> s.Binary:
         left, op, right = children
-        return s.Binary(_ToSyntax._at(op), str(op), left, right)
+        return s.Binary(_position(op), str(op), left, right)
 
-    def unary(self, children):
+    def unary(self, children: list) -> s.Unary:
         op, operand = children
-        return s.Unary(_ToSyntax._at(op), str(op), operand)
+        return s.Unary(_position(op), str(op), operand)
 
-    def prefix_update(self, children):
+    def prefix_update(self, children: list) -> s.Update:
         op, target = children
-        return s.Update(_ToSyntax._at(op), str(op), True, target)
+        return s.Update(_position(op), str(op), True, target)
 
-    def postfix_update(self, children):
+    def postfix_update(self, children: list) -> s.Update:
         target, op = children
-        return s.Update(_ToSyntax._at(op), str(op), False, target)
+        return s.Update(_position(op), str(op), False, target)
 
-    def index(self, children):
+    def index(self, children: list) -> s.Index:
         operand, index = children
         return s.Index(operand.pos, operand, index)
 
-    def field(self, children):
+    def field(self, children: list) -> s.Field:
         operand, name = children
-        return s.Field(_ToSyntax._at(name), operand, str(name))
+        return s.Field(_position(name), operand, str(name))
 
-    def arguments(self, children):
+    def arguments(self, children: list) -> tuple[s.Expression, ...]:
         return tuple(children)
 
-    def call(self, children):
+    def call(self, children: list) -> s.Call:
         name, args = children
-        return s.Call(_ToSyntax._at(name), str(name), args or (), False)
+        return s.Call(_position(name), str(name), args or (), False)
 
-    def constructor(self, children):
+    def constructor(self, children: list) -> s.Call:
         type_name, args = children
         return s.Call(type_name.pos, type_name.name, args or (), True)
 
-    def name(self, children):
+    def name(self, children: list) -> s.Name:
         (token,) = children
-        return s.Name(_ToSyntax._at(token), str(token))
+        return s.Name(_position(token), str(token))
 
-    def float_constant(self, children):
+    def float_constant(self, children: list) -> s.FloatLiteral:
         (token,) = children
-        return s.FloatLiteral(_ToSyntax._at(token), float(str(token).rstrip("fF")))
+        return s.FloatLiteral(_position(token), float(str(token).rstrip("fF")))
 
-    def int_constant(self, children):
+    def int_constant(self, children: list) -> s.IntLiteral:
         (token,) = children
-        pos = _ToSyntax._at(token)
         value = _int_value(str(token))
         if value is None:
-            raise ShaderError(
-                self._path, pos.line, pos.column, f"'{token}' is not an integer (octal digits are 0-7)"
-            )
+            raise _BadToken(token, f"'{token}' is not an integer (octal digits are 0-7)")
         if value > 2**31:  # 2**31 itself may follow a unary minus
-            raise ShaderError(self._path, pos.line, pos.column, f"integer {token} does not fit in 32 bits")
-        return s.IntLiteral(pos, value)
+            raise _BadToken(token, f"integer {token} does not fit in 32 bits")
+        return s.IntLiteral(_position(token), value)
 
-    def bool_constant(self, children):
+    def bool_constant(self, children: list) -> s.BoolLiteral:
         (token,) = children
-        return s.BoolLiteral(_ToSyntax._at(token), str(token) == "true")
+        return s.BoolLiteral(_position(token), str(token) == "true")
 
 
 def _int_value(text: str) -> int | None:

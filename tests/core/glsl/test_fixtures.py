@@ -196,7 +196,7 @@ def vectors(L: np.ndarray, V: np.ndarray, p: np.ndarray) -> np.ndarray:
     c[:, [0, 1]] = c[:, [1, 0]]
     c[:, 2] += lv[:, 0] * lv[:, 1]
     w = np.concatenate([lv, np.sqrt(dot2(lv))[:, None]], axis=1) / 2 + 0.5
-    total = w[:, 0] * 1.0 + w[:, 1] * 2.0 + w[:, 2] * 3.0
+    total = np.cos(w[:, 0]) * 1.0 + np.cos(w[:, 1]) * 2.0 + np.cos(w[:, 2]) * 3.0
     reflected = -L - 2 * (-L[:, 2:3]) * np.array([0.0, 0.0, 1.0])
     k = np.cross(L, V) + reflected * np.sqrt(dot(L - V, L - V))[:, None]
     k[:, 2] = -k[:, 2]
