@@ -3,7 +3,7 @@
 Why: a snapshot builds an adaptive tree, draws samples and a ratio map. Most of that is compiled code that
 releases the interpreter lock, but its numpy glue does not, and neither do the VTK and matplotlib calls
 that draw the lobe and the slice on the GUI thread at the same moment: in a thread of the GUI process the
-two took turns on the lock, and a 25 ms snapshot took 45-70 ms while the lobe's redraw slowed down too.
+two would take turns on the lock, and a 25 ms snapshot would take 45-70 ms and slow the lobe's redraw too.
 In a process of its own it runs beside the GUI at full speed; the worker thread that asks for it waits on a
 pipe, which releases the lock.
 
