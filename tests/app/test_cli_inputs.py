@@ -180,8 +180,25 @@ def corpus_open(tmp_path: Path) -> list[list[str]]:
     return [["open", "--quit-after", "x"], ["open", "a.json", "b.json"], ["open", "--bogus"]]
 
 
+def corpus_check_models(tmp_path: Path) -> list[list[str]]:
+    folder = tmp_path / "models"
+    folder.mkdir(exist_ok=True)
+    shader = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(0.3); }"
+    (folder / "grey.brdf").write_text(f"analytic\n::begin shader\n{shader}\n::end shader\n")
+    empty = tmp_path / "no_models"
+    empty.mkdir(exist_ok=True)
+    base = ["check-models", str(folder)]
+    cases = [["check-models"], ["check-models", str(tmp_path / "none")], ["check-models", str(empty)]]
+    cases += [["check-models", str(folder / "grey.brdf")], [*base, "--bogus"]]
+    cases += substitute(base, "--grid", [*BAD_NUMBERS, "1", "17", "2.5", "-3"])
+    table = tmp_path / "table.csv"
+    table.mkdir(exist_ok=True)
+    return cases + substitute(base, "--csv", [str(tmp_path), str(table), str(tmp_path / "no" / "x.csv"), ""])
+
+
 @pytest.mark.parametrize(
-    "command", ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open", "fit", "export"]
+    "command",
+    ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open", "fit", "export", "check-models"],
 )
 def test_bad_arguments_of_each_command(capsys, tmp_path, command):
     sweep(capsys, command, CORPORA[command](tmp_path))
@@ -270,6 +287,7 @@ CORPORA = {
     "open": corpus_open,
     "fit": corpus_fit,
     "export": corpus_export,
+    "check-models": corpus_check_models,
 }
 """Each command's corpus of bad arguments (``render``'s, which needs a scene, is :func:`corpus_render`)."""
 
