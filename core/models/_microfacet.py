@@ -1,6 +1,7 @@
 """Microfacet building blocks shared by the models: reflection about a half vector, the half vector of a
-reflection pair, and Beckmann's distribution (its density, an exact sampler and the density of the reflected
-direction).
+reflection pair, Beckmann's distribution (its density, an exact sampler and the density of the reflected
+direction), and the anisotropic GGX distribution (its density, Smith's masking and the sampler of visible
+normals).
 
 Beckmann (P. Beckmann and A. Spizzichino, *The Scattering of Electromagnetic Waves from Rough Surfaces*, 1963):
 facet slopes are Gaussian. With RMS slopes ``ax``, ``ay`` along x and y the density of facet normals per unit
@@ -8,6 +9,11 @@ projected area, for a unit ``h``, is ``D(h) = exp(-(h.x^2/ax^2 + h.y^2/ay^2) / h
 (isotropic: ``exp(-tan^2(theta_h) / m^2) / (pi m^2 cos^4(theta_h))``); ``D(h) cos(theta_h)`` integrates to 1
 over the hemisphere. Used by Cook-Torrance, Ward (whose lobe is the anisotropic Beckmann one, Walter 2005) and
 the coupled model.
+
+Anisotropic GGX (Trowbridge-Reitz; Walter et al. 2007, Heitz 2014): with roughnesses ``ax``, ``ay`` along x
+and y, ``D(h) = 1 / (pi ax ay (h.x^2/ax^2 + h.y^2/ay^2 + h.z^2)^2)`` for unit ``h`` (no tangent, finite at
+``h.z = 0``), and Smith's masking ``G1(v) = 2 v.z / (v.z + sqrt(v.z^2 + ax^2 v.x^2 + ay^2 v.y^2))``. Used by
+GGX (``ax = ay``) and the Disney principled model.
 
 All densities are per unit solid angle.
 """
@@ -100,3 +106,73 @@ def beckmann_reflection_pdf(wo, wi, ax, ay):
     if norm == 0.0:
         return 0.0
     return beckmann_pdf_h(hx, hy, hz, ax, ay) / (2.0 * norm)  # 4 |wo.h| = 2 |wi + wo|
+
+
+@njit(inline="always", nogil=True, cache=True)
+def ggx_anisotropic_d(hx, hy, hz, ax, ay):
+    """Anisotropic GGX ``D`` at unit ``h`` (0 below the horizon)."""
+    if hz <= 0.0:
+        return 0.0
+    t = (hx / ax) ** 2 + (hy / ay) ** 2 + hz * hz
+    return 1.0 / (PI * ax * ay * t * t)
+
+
+@njit(inline="always", nogil=True, cache=True)
+def ggx_anisotropic_g1_over_cos(v, ax, ay):
+    """``G1(v) / v.z`` for ``v.z >= 0`` in the form ``2 / (v.z + sqrt(v.z^2 + ax^2 v.x^2 + ay^2 v.y^2))``,
+    finite at grazing ``v`` (``ax``, ``ay`` > 0)."""
+    z = v[2]
+    return 2.0 / (z + math.sqrt(z * z + (ax * v[0]) ** 2 + (ay * v[1]) ** 2))
+
+
+@kernel
+def ggx_visible_normal(wo, ax, ay, u1, u2):
+    """E. Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), 2018: a microfacet normal
+    ``h`` with density ``D_v(h) = G1(wo) max(0, wo.h) D(h) / wo.z`` for ``wo.z >= 0``, by stretching ``wo``
+    to the unit-roughness configuration, sampling the projected hemisphere there, and unstretching."""
+    vx = ax * wo[0]
+    vy = ay * wo[1]
+    vz = wo[2]
+    inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
+    vx *= inv
+    vy *= inv
+    vz *= inv
+    lensq = vx * vx + vy * vy
+    if lensq > 0.0:
+        il = 1.0 / math.sqrt(lensq)
+        t1x, t1y, t1z = -vy * il, vx * il, 0.0
+    else:
+        t1x, t1y, t1z = 1.0, 0.0, 0.0
+    # t2 = v x t1
+    t2x = vy * t1z - vz * t1y
+    t2y = vz * t1x - vx * t1z
+    t2z = vx * t1y - vy * t1x
+    r = math.sqrt(u1)
+    phi = TWO_PI * u2
+    a = r * math.cos(phi)
+    b = r * math.sin(phi)
+    s = 0.5 * (1.0 + vz)
+    b = (1.0 - s) * math.sqrt(max(0.0, 1.0 - a * a)) + s * b
+    w = math.sqrt(max(0.0, 1.0 - a * a - b * b))
+    nx = a * t1x + b * t2x + w * vx
+    ny = a * t1y + b * t2y + w * vy
+    nz = a * t1z + b * t2z + w * vz
+    hx = ax * nx
+    hy = ay * ny
+    hz = max(0.0, nz)
+    inv = 1.0 / math.sqrt(hx * hx + hy * hy + hz * hz)
+    return hx * inv, hy * inv, hz * inv
+
+
+@njit(inline="always", nogil=True, cache=True)
+def ggx_visible_normal_reflection_pdf(wo, wi, ax, ay):
+    """Density per unit solid angle of ``wi`` = ``wo`` (``wo.z >= 0``) reflected about a
+    :func:`ggx_visible_normal`: ``D_v(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z)``.
+
+    Visible normals face ``wo``, so ``wo.h = |wi + wo| / 2 > 0`` holds for ``h = (wi + wo) / |wi + wo|``; ``D``
+    is 0 below the horizon, so pairs with ``(wi + wo).z <= 0`` have density 0 (no flip to the upper side).
+    """
+    if wi[2] + wo[2] <= 0.0:
+        return 0.0
+    hx, hy, hz, _ = upper_half_vector(wo, wi)
+    return 0.25 * ggx_anisotropic_g1_over_cos(wo, ax, ay) * ggx_anisotropic_d(hx, hy, hz, ax, ay)

@@ -33,7 +33,7 @@ from numba import njit
 from core.jit import kernel
 from core.model import Model, Param, Traits, register
 from core.models._fresnel import fresnel_conductor
-from core.models._microfacet import reflect_about, upper_half_vector
+from core.models._microfacet import ggx_visible_normal, reflect_about, upper_half_vector
 from core.models.lobes import (
     cosine_hemisphere,
     cosine_hemisphere_pdf,
@@ -44,7 +44,6 @@ from core.models.lobes import (
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
-TWO_PI = 2.0 * math.pi
 
 # Kernel vector: alpha, eta (3), k (3), kd (3), then (derived) the probability of the specular lobe.
 P_LOBE = 10
@@ -84,40 +83,9 @@ def eval_ggx(wi, wo, p):
 
 @kernel
 def visible_normal(wo, alpha, u1, u2):
-    """Heitz (2018): a microfacet normal from ``D_v`` for ``wo.z >= 0``, by stretching to the unit-roughness
-    configuration, sampling the projected hemisphere there, and unstretching."""
-    vx = alpha * wo[0]
-    vy = alpha * wo[1]
-    vz = wo[2]
-    inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
-    vx *= inv
-    vy *= inv
-    vz *= inv
-    lensq = vx * vx + vy * vy
-    if lensq > 0.0:
-        il = 1.0 / math.sqrt(lensq)
-        t1x, t1y, t1z = -vy * il, vx * il, 0.0
-    else:
-        t1x, t1y, t1z = 1.0, 0.0, 0.0
-    # t2 = v x t1
-    t2x = vy * t1z - vz * t1y
-    t2y = vz * t1x - vx * t1z
-    t2z = vx * t1y - vy * t1x
-    r = math.sqrt(u1)
-    phi = TWO_PI * u2
-    a = r * math.cos(phi)
-    b = r * math.sin(phi)
-    s = 0.5 * (1.0 + vz)
-    b = (1.0 - s) * math.sqrt(max(0.0, 1.0 - a * a)) + s * b
-    w = math.sqrt(max(0.0, 1.0 - a * a - b * b))
-    nx = a * t1x + b * t2x + w * vx
-    ny = a * t1y + b * t2y + w * vy
-    nz = a * t1z + b * t2z + w * vz
-    hx = alpha * nx
-    hy = alpha * ny
-    hz = max(0.0, nz)
-    inv = 1.0 / math.sqrt(hx * hx + hy * hy + hz * hz)
-    return hx * inv, hy * inv, hz * inv
+    """Heitz (2018): a microfacet normal from ``D_v`` for ``wo.z >= 0``
+    (:func:`core.models._microfacet.ggx_visible_normal` with ``ax = ay = alpha``)."""
+    return ggx_visible_normal(wo, alpha, alpha, u1, u2)
 
 
 @kernel
