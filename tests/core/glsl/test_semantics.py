@@ -10,6 +10,7 @@ import threading
 import numpy as np
 import pytest
 
+from core.errors import ParameterError
 from core.glsl import ShaderError
 from tests.core.glsl._shaders import SHADER_LINE, compile_shader, shader_value
 
@@ -300,6 +301,10 @@ def test_uniforms_in_declaration_order():
     p[4] = 0.0
     assert compiled.evaluate(normal, normal, p)[0].tolist() == [-1.0, -1.0, -1.0]
     assert compiled.reads_uniforms == {"a", "b", "c", "flag"}
+    with pytest.raises(ParameterError, match="expected 6 parameter values"):
+        compiled.evaluate(normal, normal, np.zeros(5))
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        compiled.evaluate(normal[:, :2], normal[:, :2])
 
 
 def test_reads_uniforms_only_from_reachable_code():
