@@ -69,7 +69,7 @@ def direction_pairs(polar_angles: int) -> tuple[np.ndarray, np.ndarray]:
 
 def sampler_check(path: Path) -> bool | None:
     """Whether the adaptive samplers pass ``brdf-studio check`` on the model of ``path``: True, False, or None
-    when not run. Called for each file that opens.
+    when not run. Called for each file that opens and agrees with Mesa.
 
     A hook: the adaptive samplers' statistical check of imported models is not wired in yet, so this returns
     None and the table leaves the column out.

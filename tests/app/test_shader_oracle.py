@@ -106,6 +106,25 @@ def test_the_oracle_agrees_with_numpy(case, pairs):
     assert agreement.nan_both == agreement.nan_by_rounding == 0
 
 
+def test_without_mesas_egl_the_error_names_the_missing_package(monkeypatch):
+    import ctypes.util
+
+    import moderngl
+
+    from app.shader_oracle import OracleUnavailableError, ShaderOracle
+
+    def no_context(**kwargs):
+        raise Exception("eglGetDisplay failed")
+
+    real = ctypes.util.find_library
+    monkeypatch.setattr(moderngl, "create_standalone_context", no_context)
+    monkeypatch.setattr(ctypes.util, "find_library", lambda name: None if name == "EGL_mesa" else real(name))
+    with pytest.raises(
+        OracleUnavailableError, match=r"libEGL_mesa\.so\.0 is missing \(Debian package libegl-mesa0\)"
+    ):
+        ShaderOracle()
+
+
 def test_colour_and_bool_uniforms_reach_the_shader():
     L = np.array([[0.0, 0.0, 1.0]])
     params = [("color", "albedo", (0.8, 0.5, 0.2)), ("bool", "tinted", True)]
