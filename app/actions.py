@@ -41,6 +41,7 @@ ACTIONS: list[ActionSpec] = [
     ActionSpec("&File", "Save &as ...", "save_project_as", shortcut="Ctrl+Shift+S", attribute="save_as_action"),
     ActionSpec("&File", "&Import mesh ...", "import_mesh", shortcut="Ctrl+I", attribute="import_action", separator_before=True),
     ActionSpec("&File", "Load &MERL file ...", "load_measured", shortcut="Ctrl+L", attribute="merl_action"),
+    ActionSpec("&File", "Import mo&del ...", "import_model", shortcut="Ctrl+Shift+M", attribute="import_model_action"),
     ActionSpec("&File/&Export", "&Sample set (CSV, NPY, PLY) ...", "export_samples", shortcut="Ctrl+E"),
     ActionSpec("&File/&Export", "&Plots (PNG, SVG) ...", "export_plots", shortcut="Ctrl+Shift+E"),
     ActionSpec("&File/&Export", "&Render images (EXR, PNG) ...", "export_render", ("exr",)),

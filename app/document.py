@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from app.evented import Event, EventedModel, Items
+from app.model_library import fit_params
 from app.objects import PartLister, SceneObject, mesh_parts, scene_objects, unique_name
 from app.view_state import ViewState
 from core.errors import BrdfStudioError, ParameterError
@@ -105,7 +106,9 @@ class Document(EventedModel[Scene], ViewState):
 
             brdf = load_measured(mat.measured)
         else:
-            brdf = get_model(mat.model or "").bind(mat.params)
+            model = get_model(mat.model or "")
+            # a model file's values fitted to its version in use (an undo step may hold an older version's)
+            brdf = model.bind(fit_params(model, mat.params) if model.source is not None else mat.params)
         self._brdfs[mat.name] = (key, brdf)
         return brdf
 
@@ -176,6 +179,27 @@ class Document(EventedModel[Scene], ViewState):
             mat.measured, mat.model, mat.params = None, model, dict(m.defaults())
 
         self._material_edit(f"Switch to {m.label}", material, change)
+
+    def model_file_reloaded(self, path: str) -> None:
+        """A new version of the model file ``path`` is in use (:class:`app.model_library.ModelLibrary`): its
+        materials keep the values the new version accepts and take its defaults for the others (one undo
+        step, when a value changed), and every view of them hears of it."""
+        indices = frozenset(i for i, m in enumerate(self.scene.materials) if m.model == path)
+        if not indices:
+            return
+        model = get_model(path)
+        fitted = {i: fit_params(model, self.scene.materials[i].params) for i in indices}
+        for i in indices:
+            self._brdfs.pop(self.scene.materials[i].name, None)
+        if any(fitted[i] != self.scene.materials[i].params for i in indices):
+
+            def change(scene: Scene) -> None:
+                for i, params in fitted.items():
+                    scene.materials[i].params = params
+
+            self.edit(f"Reload {Path(path).name}", change)
+        else:
+            self.events.materials.emit(indices)
 
     def set_measured(self, path: str, material: str | None = None) -> None:
         """Make a material measured from a MERL or RGL file (read now, so a bad file raises before any edit)."""

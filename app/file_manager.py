@@ -1,6 +1,6 @@
-"""Projects and files for the main window: new, open, save, import meshes, load MERL files, drops, the
-crash-recovery autosave. Dialogs and questions go through the window (``ask_unsaved``, ``ask_restore``,
-``show_error``) so that tests answer them without modal dialogs.
+"""Projects and files for the main window: new, open, save, import meshes and model files, load MERL files,
+drops, the crash-recovery autosave. Dialogs and questions go through the window (``ask_unsaved``,
+``ask_restore``, ``ask_trust``, ``show_error``) so that tests answer them without modal dialogs.
 
 Autosave: unsaved edits are written (atomically, to the config folder, never over the project file)
 :data:`AUTOSAVE_AFTER_EDIT_MS` after the last edit, and by the window's periodic timer while edits go on
@@ -21,6 +21,7 @@ from app import settings
 from app.document import default_scene
 from app.project import load_project, save_project, scene_from_autosave
 from core.errors import BrdfStudioError
+from core.model_files import SUFFIXES as MODEL_SUFFIXES
 from core.scene import MESH_FORMATS
 
 if TYPE_CHECKING:
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
 
 MESH_FILTER = "Meshes (" + " ".join(f"*{s}" for s in MESH_FORMATS) + ")"
 PROJECT_FILTER = "Projects (*.json)"
+MODEL_FILTER = "Model files (" + " ".join(f"*{s}" for s in MODEL_SUFFIXES) + ")"
 _IMPORTS = itertools.count()
 AUTOSAVE_AFTER_EDIT_MS = 2000
 """Quiet time after an edit before it is autosaved (an edit burst is written once)."""
@@ -86,11 +88,14 @@ class FileManager:
             if path is None:
                 return False
         path = Path(path)
+        notes: list[str] = []
         try:
-            scene = load_project(path, self.document.parts)
+            scene = load_project(path, self.document.parts, self._model_opener(notes))
         except BrdfStudioError as exc:
             self.window.show_error("Cannot open the project", str(exc))
             return False
+        finally:
+            self._tell_model_notes(notes)
         self.document.replace(scene, path.resolve())
         if remember:
             settings.add_recent(path)
@@ -161,6 +166,53 @@ class FileManager:
             self._status(f"Imported {', '.join(names)}")
         return names
 
+    def import_model(self, path: Path | str | None = None) -> bool:
+        """Open a model file (``.brdf``, ``.py``) as the current material's model (a new material's when the
+        project has none); the app watches it from now on. A bad file shows why; nothing changes."""
+        if path is None:
+            path = self.dialog_path(False, "Import model", MODEL_FILTER)
+            if path is None:
+                return False
+        full = str(Path(path).resolve())
+        doc = self.document
+        try:
+            model = self.window.model_files.open(full)
+            if doc.current_material is None:
+                doc.add_material(full, name=Path(full).stem)
+            else:
+                doc.set_model(full)
+        except BrdfStudioError as exc:
+            self.window.show_error("Cannot import the model", str(exc))
+            return False
+        self._status(f"Imported {model.label} from {full}; saving the file reloads it", 6000)
+        return True
+
+    def _model_opener(self, notes: list[str]):
+        """The :data:`app.project.ModelOpener` of a project being opened: asks before it runs a ``.py`` file
+        (``window.ask_trust``), opens the file in the app's library, and notes each material left on the
+        built-in fallback and why."""
+        from app.model_library import FALLBACK_MODEL
+
+        library = self.window.model_files
+
+        def open_model(path: Path, material: str) -> bool:
+            fallback = f"material '{material}' uses the built-in model '{FALLBACK_MODEL}' instead"
+            if not library.allowed(path, self.window.ask_trust):
+                notes.append(f"{path}: not loaded (running a Python model file was declined): {fallback}")
+                return False
+            try:
+                library.open(path)
+            except BrdfStudioError as exc:
+                notes.append(f"{exc}: {fallback}")
+                return False
+            return True
+
+        return open_model
+
+    def _tell_model_notes(self, notes: list[str]) -> None:
+        if notes:
+            self.window.show_error("Model files", "\n".join(dict.fromkeys(notes)))
+
     def load_measured(self, path: Path | str | None = None) -> bool:
         """Make the current material measured from a MERL file (a bad file shows why; nothing changes)."""
         if path is None:
@@ -175,16 +227,19 @@ class FileManager:
         return True
 
     def open_dropped(self, paths: list[Path]) -> None:
-        """Projects open, meshes import, MERL files load into the current material."""
+        """Projects open, meshes import, MERL files load into the current material, model files become its
+        model."""
         meshes = [p for p in paths if p.suffix.lower() in MESH_FORMATS]
         for p in paths:
             if p.suffix.lower() == ".json":
                 self.open_project(p)
             elif p.suffix.lower() in (".binary", ".bsdf"):
                 self.load_measured(p)
+            elif p.suffix.lower() in MODEL_SUFFIXES:
+                self.import_model(p)
             elif p not in meshes:
                 self.window.show_error(
-                    "Cannot open the file", f"'{p.name}' is not a project, mesh or MERL file"
+                    "Cannot open the file", f"'{p.name}' is not a project, mesh, MERL or model file"
                 )
         if meshes:
             self.import_mesh(meshes)
@@ -278,13 +333,18 @@ class FileManager:
         edits are autosaved by this session before the old file is removed (a crash in between loses
         nothing); an autosave that cannot be read is set aside in the config folder, not deleted."""
         for path in settings.orphaned_autosaves():
+            notes: list[str] = []
             try:
                 payload = settings.read_autosave(path)
-                scene = scene_from_autosave(payload["document"], self.document.parts)
+                scene = scene_from_autosave(
+                    payload["document"], self.document.parts, self._model_opener(notes)
+                )
             except (ValueError, KeyError, TypeError, BrdfStudioError) as exc:
                 kept = settings.set_aside(path)
                 self.window.show_error("Cannot restore", f"{exc} (kept as {kept})")
                 continue
+            finally:
+                self._tell_model_notes(notes)
             when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(payload.get("time", 0)))
             if ask and not self.window.ask_restore(when):
                 path.unlink(missing_ok=True)

@@ -32,6 +32,8 @@ from app.editors.scene_items import PropertiesStack, SceneItemEditor
 from app.editors.scene_tree import SceneTree
 from app.file_manager import FileManager
 from app.jobs import Job, JobRunner
+from app.model_library import ModelLibrary
+from app.model_watcher import ModelFileWatcher
 from app.redraw import Redrawer
 from app.views.explore import ExplorePanel
 from app.views.quadtree import SamplingView
@@ -79,6 +81,10 @@ class MainWindow(QMainWindow):
         self.ask_unsaved = self._ask_unsaved
         """Asks Save / Discard / Cancel; replaceable (tests answer without a modal dialog)."""
         self.ask_restore = self._ask_restore
+        self.ask_trust = self._ask_trust
+        """Asks whether to run a Python model file a project names (``path -> bool``); replaceable."""
+        self.model_files = ModelLibrary()
+        """The model files opened (imports, drops, projects): each one's version in use and its problem."""
         self.resize(1400, 900)
 
         self.explore = ExplorePanel(self.document)
@@ -103,6 +109,8 @@ class MainWindow(QMainWindow):
 
         self.redraw = Redrawer(self)
         self.files = FileManager(self)
+        self.model_watcher = ModelFileWatcher(self.model_files, self.jobs, self)
+        self.model_files.reloaded.connect(self._model_file_reloaded)
         self.sampling_view.options_changed.connect(lambda: self.schedule("sampling"))
         self.tabs.currentChanged.connect(lambda _: self.schedule("tab"))
         self.menus = install_actions(self)
@@ -125,7 +133,7 @@ class MainWindow(QMainWindow):
                 f"Compiled kernels: {label}", 1500)))  # fmt: skip
 
     def _build_docks(self) -> None:
-        self.material_editor = MaterialEditor(self.document)
+        self.material_editor = MaterialEditor(self.document, library=self.model_files)
         self.material_editor.error.connect(lambda msg: self.show_error("Material", msg))
         self.material_editor.load_measured_requested.connect(lambda: self.load_measured())
         self.object_editor = ObjectEditor(self.document)
@@ -273,6 +281,16 @@ class MainWindow(QMainWindow):
     def load_measured(self, path: Path | str | None = None) -> bool:
         return self.files.load_measured(path)
 
+    def import_model(self, path: Path | str | None = None) -> bool:
+        return self.files.import_model(path)
+
+    def _model_file_reloaded(self, path: str) -> None:
+        """A saved model file compiled: its materials and their views follow, and a render of them restarts."""
+        self.document.model_file_reloaded(path)
+        self.statusBar().showMessage(f"Reloaded {path}", 4000)
+        if self.render_view.running and any(m.model == path for m in self.document.scene.materials):
+            self.render_view.start()
+
     def autosave(self) -> None:
         self.files.autosave()
 
@@ -362,6 +380,13 @@ class MainWindow(QMainWindow):
         answer = QMessageBox.question(self, APP_NAME, "The project has unsaved changes. Save them first?",
                                       buttons.Save | buttons.Discard | buttons.Cancel, buttons.Save)  # fmt: skip
         return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "cancel")
+
+    def _ask_trust(self, path: str) -> bool:
+        buttons = QMessageBox.StandardButton
+        answer = QMessageBox.question(self, APP_NAME, f"The project uses the Python model file\n{path}\n\nLoading "
+                                      "it runs its code. Load it? (No: its materials use a built-in model.)",
+                                      buttons.Yes | buttons.No, buttons.No)  # fmt: skip
+        return answer == buttons.Yes
 
     def _ask_restore(self, when: str) -> bool:
         buttons = QMessageBox.StandardButton

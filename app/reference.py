@@ -34,12 +34,17 @@ has the lowest error at equal time on the demo scene, docs/renderer.md)."""
 
 
 def scene_key(scene: Scene, width: int, height: int) -> str:
-    """What a reference is of: the scene as rendered (not how: sampler, budget and seed are left out) and the
-    image size."""
+    """What a reference is of: the scene as rendered (not how: sampler, budget and seed are left out), the
+    image size, and the content in use of its model files (a file saved anew is another scene)."""
+    from app.model_library import model_texts
+
     data = scene_to_dict(scene)
     render = data.pop("render")
     data["render"] = {"max_depth": render["max_depth"], "rr_depth": render["rr_depth"]}
     data["size"] = [int(width), int(height)]
+    texts = model_texts(scene)
+    if texts:  # (absent otherwise: the keys of scenes of built-in models stay as they were)
+        data["model_files"] = {p: hashlib.sha256(t.encode("utf-8")).hexdigest() for p, t in texts.items()}
     text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -14,6 +14,7 @@ from pathlib import Path
 from PySide6.QtCore import QObject, Signal
 
 from app import reference as ref_files
+from app.model_library import model_texts
 from app.reference import SAMPLER, Reference, ReferenceStore, location, scene_key
 from app.render_process import RenderServer
 from core.scene import Scene, scene_to_dict
@@ -73,7 +74,7 @@ class ReferenceRunner(QObject):
         width, height = self.size
         self.job = self.server.submit({
             "scene": scene_to_dict(self.scene), "base_dir": str(self.scene.base_dir), "source": self.scene.source,
-            "strategies": [SAMPLER], "mode": "spp", "budget": ref_files.CHUNK_SPP, "width": width, "height": height,
+            "model_texts": model_texts(self.scene), "strategies": [SAMPLER], "mode": "spp", "budget": ref_files.CHUNK_SPP, "width": width, "height": height,
             "seed": SEED_BASE + chunk, "reference": None,
         })  # fmt: skip
         done = self.reference.spp if self.reference is not None else 0

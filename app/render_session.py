@@ -257,8 +257,9 @@ def serve(commands: Connection, events: Connection) -> None:
     their events on ``events``, until ``("quit",)`` arrives or the app's end of the pipe closes.
 
     Commands: ``("start", job)`` with ``job`` a dict (``id``, ``scene`` as a dict, ``base_dir``, ``source``,
-    ``strategies``, ``mode``, ``budget``, ``width``, ``height``, ``seed``, ``reference`` and, for tests,
-    ``hold_s``: an uninterruptible pause before preparing, standing in for a long compilation);
+    ``model_texts``: the text of each model file the scene names as the app uses it, ``strategies``,
+    ``mode``, ``budget``, ``width``, ``height``, ``seed``, ``reference`` and, for tests, ``hold_s``: an
+    uninterruptible pause before preparing, standing in for a long compilation);
     ``("cancel", job_id)``; ``("quit",)``. A listener thread reads them while the main thread renders, so a
     cancel is seen between two preparation steps or two passes. Before the first job, the main thread loads
     the renderer's kernels (:data:`WARM_STRATEGIES`) and stops as soon as a job is waiting.
@@ -343,6 +344,10 @@ def _run_job(
 
             send({"kind": "status", "text": "Holding (test) ..."})
             time.sleep(float(job["hold_s"]))  # deaf to cancel, as a compilation is
+        from core.model_files import pin_text
+
+        for path, text in job.get("model_texts", {}).items():
+            pin_text(path, text)  # the app's version in use, whatever the file holds now
         scene = scene_from_dict(
             job["scene"], source=job["source"], base_dir=job["base_dir"], check_files=False
         )

@@ -1,4 +1,5 @@
-"""Per-user files of the app: recent projects and crash-recovery autosaves (JSON in a config folder).
+"""Per-user files of the app: recent projects, crash-recovery autosaves and the answers about Python model
+files (JSON in a config folder).
 
 The folder is ``$BRDF_STUDIO_CONFIG_DIR`` if set (the tests set it), else ``$XDG_CONFIG_HOME/brdf-studio`` or
 ``~/.config/brdf-studio``. Plain files, no Qt, so they are testable and readable by hand.
@@ -46,6 +47,34 @@ def add_recent(path: Path) -> list[Path]:
     with contextlib.suppress(OSError):
         atomic_write_text(config_dir() / "recent.json", json.dumps([str(p) for p in items], indent=1))
     return items
+
+
+# ---- Python model files a project names ----------------------------------------------------------------
+# Loading a ``.py`` model file runs its code: the app asks before it loads one that a project (or an autosave)
+# names, and keeps the answer for that file's content: ``model-files.json`` maps an absolute path to the
+# SHA-256 of the text answered about and the answer. Another content is asked about again.
+def _model_answers() -> dict[str, Any]:
+    try:
+        raw = json.loads((config_dir() / "model-files.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return raw if isinstance(raw, dict) else {}
+
+
+def model_file_answer(path: str | os.PathLike[str], digest: str) -> bool | None:
+    """Whether the user let the app run the model file ``path`` with content ``digest`` (None: not asked)."""
+    entry = _model_answers().get(str(path))
+    if isinstance(entry, dict) and entry.get("digest") == digest and isinstance(entry.get("run"), bool):
+        return bool(entry["run"])
+    return None
+
+
+def remember_model_file_answer(path: str | os.PathLike[str], digest: str, run: bool) -> None:
+    """Keep the answer about the model file ``path`` with content ``digest`` (replacing the file's last)."""
+    answers = _model_answers()
+    answers[str(path)] = {"digest": digest, "run": bool(run)}
+    with contextlib.suppress(OSError):
+        atomic_write_text(config_dir() / "model-files.json", json.dumps(answers, indent=1))
 
 
 # ---- crash recovery ------------------------------------------------------------------------------------

@@ -9,10 +9,11 @@ pipe, which releases the lock.
 
 The process is started once ('spawn', safe with Qt), lazily or by :func:`prewarm`, and kept for the app's
 lifetime, so kernels and trees built in it stay in its memory (and on disk, in the table cache both processes
-share). It receives a *spec* of the material (model name and parameter values, or the measured file's path),
-not the BRDF object: measured tables are large, and the child rebuilds and keeps the few BRDFs it was asked
-about. Errors raised in it (:class:`core.errors.BrdfStudioError`) come back as themselves; if the process
-dies, the next request starts a new one (once per request); if the app dies, the process ends by itself.
+share). It receives a *spec* of the material (model name and parameter values, or the measured file's path;
+for a model file, also the text the app uses, :mod:`app.model_library`), not the BRDF object: measured
+tables are large, and the child rebuilds and keeps the few BRDFs it was asked about. Errors raised in it
+(:class:`core.errors.BrdfStudioError`) come back as themselves; if the process dies, the next request starts
+a new one (once per request); if the app dies, the process ends by itself.
 
 The process does one request at a time. The table's facts wait in it for a background build of the full
 table (the app's sampler view does not: it asks again a moment later). A new value of a slider drag must
@@ -36,8 +37,10 @@ from typing import Any
 
 from core.errors import BrdfStudioError
 
-Spec = tuple[str, str | None, tuple]
-"""``(model name, measured file or None, sorted parameter items)``: what the child needs to rebuild a BRDF."""
+Spec = tuple[str, str | None, tuple, str | None]
+"""``(model name, measured file or None, sorted parameter items, text of the model file or None)``: what the
+child needs to rebuild a BRDF. A model file's text is the version the app uses (a saved edit is a new spec;
+a broken one never reaches the child)."""
 
 _POOL: ProcessPoolExecutor | None = None
 _LOCK = threading.Lock()
@@ -54,8 +57,11 @@ _GENERATION: Any = None
 
 def spec_of(model: str, measured: str | None, params: dict) -> Spec:
     """The spec of a material; colours read from a project file are lists, made tuples (a spec is a key)."""
+    from core.model_files import is_model_file, pinned_text
+
     items = ((k, tuple(v) if isinstance(v, list | tuple) else v) for k, v in params.items())
-    return (model, measured, tuple(sorted(items)))
+    text = pinned_text(model) if model and is_model_file(model) else None
+    return (model, measured, tuple(sorted(items)), text)
 
 
 def _pool() -> ProcessPoolExecutor:
@@ -129,11 +135,15 @@ def _watch_parent(parent: int) -> None:
 def _brdf(spec: Spec) -> Any:
     hit = _BRDFS.get(spec)
     if hit is None:
-        model, measured, params = spec
+        model, measured, params, text = spec
         if measured:
             from core.merl import measured_brdf
 
             hit = measured_brdf(measured)
+        elif text is not None:
+            from core.model_files import load_model_file
+
+            hit = load_model_file(model, text).bind(dict(params))
         else:
             from core.model import get_model
 

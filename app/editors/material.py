@@ -1,5 +1,6 @@
-"""The material editor: which material, which model (or a MERL file), the generated parameter editor,
-notes and tags, and computed facts beside the parameters (traits, albedo at a few angles, adaptive table)."""
+"""The material editor: which material, which model (a built-in, a model file, or a MERL file), the
+generated parameter editor, notes and tags, and computed facts beside the parameters (traits, albedo at a
+few angles, adaptive table). A model file's panel shows its path, its error and its notices."""
 
 from __future__ import annotations
 
@@ -18,10 +19,13 @@ from PySide6.QtWidgets import (
 )
 
 from app.document import Document
+from app.editors.model_file import ModelFilePanel
 from app.editors.params import ParamEditor
 from app.editors.rows import EmissionRow
+from app.model_library import ModelLibrary
 from core.errors import BrdfStudioError
 from core.model import Model, all_models, get_model
+from core.model_files import is_model_file
 
 INFO_THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
 MEASURED = "(measured)"
@@ -47,14 +51,18 @@ def trait_badges(model: Model) -> str:
 
 class MaterialEditor(QWidget):
     """Edits the document's current material. Emits ``load_measured_requested`` and ``error(str)``; the main
-    window owns file dialogs and error reporting."""
+    window owns file dialogs and error reporting. The model chooser lists the built-in models, then the
+    files of ``library`` (the model files the app has opened)."""
 
     load_measured_requested = Signal()
     error = Signal(str)
 
-    def __init__(self, document: Document, parent: QWidget | None = None):
+    def __init__(
+        self, document: Document, parent: QWidget | None = None, library: ModelLibrary | None = None
+    ):
         super().__init__(parent)
         self.document = document
+        self.library = library if library is not None else ModelLibrary()
         self.material_box = QComboBox()
         self.material_box.setToolTip("The material being edited")
         self.new_button = QPushButton("New")
@@ -62,14 +70,14 @@ class MaterialEditor(QWidget):
         self.delete_button = QPushButton("Delete")
         self.model_box = QComboBox()
         self.model_box.setToolTip("The BRDF model of this material")
-        for m in all_models():
-            self.model_box.addItem(m.label, m.name)
+        self._fill_models()
         self.merl_button = QPushButton("Load MERL ...")
         self.merl_button.setToolTip("Use a measured BRDF (MERL .binary file) for this material")
         self.citation = QLabel()
         self.citation.setWordWrap(True)
         self.citation.setStyleSheet("color: #555; font-size: 9pt")
         self.badges = QLabel()
+        self.model_file = ModelFilePanel()
         self.params_box = QGroupBox("Parameters")
         self.params_layout = QVBoxLayout(self.params_box)
         self.param_editor: ParamEditor | None = None
@@ -104,6 +112,7 @@ class MaterialEditor(QWidget):
         layout.addLayout(form)
         layout.addWidget(self.citation)
         layout.addWidget(self.badges)
+        layout.addWidget(self.model_file)
         layout.addWidget(self.params_box)
         info_box = QGroupBox("Computed")
         QVBoxLayout(info_box).addWidget(self.info)
@@ -124,7 +133,25 @@ class MaterialEditor(QWidget):
         self.tags.editingFinished.connect(lambda: self._guard(document.set_tags, self.tags.text().split(",")))
         document.events.materials.connect(self._materials_changed)
         document.selection_changed.connect(self.refresh)
+        self.library.changed.connect(self._model_file_changed)
         self.refresh_names()
+        self.refresh()
+
+    def _fill_models(self) -> None:
+        """The built-in models, then the opened model files (the measured item, when shown, stays last)."""
+        self.model_box.blockSignals(True)
+        self.model_box.clear()
+        for m in [*all_models(), *self.library.models()]:
+            self.model_box.addItem(m.label, m.name)
+        self.model_box.blockSignals(False)
+
+    def _model_file_changed(self, path: str) -> None:
+        """A model file was opened, reloaded, or its problem changed: list it, show it if it is the
+        current material's."""
+        if self.model_box.findData(path) < 0:
+            self._fill_models()
+        else:  # a new version may have a new label
+            self.model_box.setItemText(self.model_box.findData(path), self.library.files[path].model.label)
         self.refresh()
 
     def _materials_changed(self, items) -> None:
@@ -186,8 +213,14 @@ class MaterialEditor(QWidget):
         else:
             model = get_model(mat.model or "")
             self.model_box.blockSignals(True)
+            if self.model_box.findData(mat.model) < 0:  # a model file set without the library (the API)
+                self.model_box.addItem(model.label, mat.model)
             self.model_box.setCurrentIndex(self.model_box.findData(mat.model))
             self.model_box.blockSignals(False)
+        from_file = not measured and is_model_file(mat.model or "")
+        if from_file:
+            self.model_file.show_file(self.library.get(mat.model or ""), mat.model or "")
+        self.model_file.setVisible(from_file)
         self.citation.setText(model.citation)
         self.badges.setText(trait_badges(model))
         if self.param_editor is None or self.param_editor.model is not model:

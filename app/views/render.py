@@ -191,11 +191,13 @@ class RenderPanel(QWidget):
 
     def request(self, scene: Scene) -> dict:
         """The job sent to the render process for ``scene`` with the panel's settings."""
+        from app.model_library import model_texts
         from core.scene import scene_to_dict
 
         mode = self.mode.currentData()
         return {
             "scene": scene_to_dict(scene),
+            "model_texts": model_texts(scene),
             "base_dir": str(scene.base_dir),
             "source": scene.source,
             "strategies": self.strategies(),

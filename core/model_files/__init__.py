@@ -90,16 +90,39 @@ def read_text(path: str | os.PathLike[str]) -> str:
 
 _LOADED: dict[tuple[str, str], Model] = {}
 _LOCK = threading.Lock()
+_PINNED: dict[str, str] = {}
+
+
+def pin_text(path: str | os.PathLike[str], text: str | None) -> None:
+    """Load the model file ``path`` from ``text`` in this process from now on, whatever the file holds
+    (``None``: from the file again).
+
+    The desktop app pins the last version of a watched file that compiled: while the file holds a broken
+    edit, every lookup of the path (a scene's checks, the renderer, the samplers) keeps that version; the
+    app's render and sampler processes are sent the text and pin it too."""
+    full = os.path.abspath(os.fspath(path))
+    with _LOCK:
+        if text is None:
+            _PINNED.pop(full, None)
+        else:
+            _PINNED[full] = text
+
+
+def pinned_text(path: str | os.PathLike[str]) -> str | None:
+    """The text :func:`pin_text` fixed for ``path`` in this process, or ``None``."""
+    return _PINNED.get(os.path.abspath(os.fspath(path)))
 
 
 def load_model_file(path: str | os.PathLike[str], text: str | None = None) -> Model:
     """The model a ``.brdf`` or ``.py`` file declares, compiled (``ModelFileError`` naming the file and line).
 
     ``text`` is the file's content when it is already known (a model sent from another process); the path
-    then only names it."""
+    then only names it. Without it, the text :func:`pin_text` fixed for the path, else the file's."""
     from core.model_files import python, shader
 
     full = os.path.abspath(os.fspath(path))
+    if text is None:
+        text = _PINNED.get(full)
     if text is None:
         text = read_text(full)
     digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
