@@ -396,10 +396,13 @@ def test_disney_matches_principled_fixture():
         pytest.skip(f"the fixture {FIXTURE.name} is not in the tree yet")
     from core.glsl import compile_brdf, read_brdf_file
 
-    compiled = compile_brdf(read_brdf_file(FIXTURE))
+    shader = read_brdf_file(FIXTURE)
+    assert [p.name for p in shader.params] == [p.name for p in DISNEY.params]
+    assert shader.default_parameters().tolist() == DISNEY.user_vector(DISNEY.defaults()).tolist()
+    compiled = compile_brdf(shader)
     wo, wi = _grid_pairs()
     for values in SETTINGS:
-        p = DISNEY.user_vector(DISNEY.resolve(values))  # the file declares the parameters in this order
+        p = DISNEY.user_vector(DISNEY.resolve(values))  # the file's layout: its declaration order
         expected = DISNEY.bind(values).eval(wo, wi)
         got = np.asarray(compiled.evaluate(wi, wo, p))
         np.testing.assert_allclose(got, expected, rtol=1e-9, atol=0.0, err_msg=str(values))
