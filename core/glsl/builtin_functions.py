@@ -3,8 +3,9 @@ lowering to LLVM IR on scalar doubles (what the code generator emits), side by s
 
 Definitions follow the GLSL 1.20 specification (section 8) word for word where it gives one, so that edge
 cases behave as it says: ``min(x, y) = y < x ? y : x`` (a NaN in ``x`` is returned), ``clamp = min(max(x, lo),
-hi)``, ``mix = x (1 - a) + y a``, ``mod = x - y floor(x / y)``, ``step = x < edge ? 0 : 1``. ``pow`` is C's
-(a negative base with a non-integer exponent gives NaN). Integer arguments convert to float (GLSL 1.20 has
+hi)``, ``mix = x (1 - a) + y a``, ``mod = x - y floor(x / y)``, ``step = x < edge ? 0 : 1``. ``pow`` of a
+negative base is NaN whatever the exponent, as GPUs compute it (``exp2(y log2 x)``; the specification leaves
+it undefined): the translation shows what BRDF Explorer shows, and the host reports the NaN. Integer arguments convert to float (GLSL 1.20 has
 no integer overloads). sinh, cosh and tanh come from GLSL 1.30.
 """
 
@@ -114,6 +115,10 @@ def _step(ops: FloatOps, edge: ir.Value, x: ir.Value) -> ir.Value:
 def _smoothstep(ops: FloatOps, edge0: ir.Value, edge1: ir.Value, x: ir.Value) -> ir.Value:
     t = _clamp(ops, ops.div(ops.sub(x, edge0), ops.sub(edge1, edge0)), ops.const(0.0), ops.const(1.0))
     return ops.mul(ops.mul(t, t), ops.sub(ops.const(3.0), ops.mul(ops.const(2.0), t)))
+
+
+def _pow(ops: FloatOps, x: ir.Value, y: ir.Value) -> ir.Value:
+    return ops.select(ops.less(x, ops.const(0.0)), ops.const(math.nan), ops.intrinsic("pow", x, y))
 
 
 def _sign(ops: FloatOps, x: ir.Value) -> ir.Value:
@@ -259,7 +264,7 @@ _generic("abs", _intrinsic("fabs"), 1)
 for _name in ("tan", "asin", "acos", "atan", "sinh", "cosh", "tanh"):
     _generic(_name, _libm(_name), 1)
 _generic("atan", _libm("atan2"), 2)
-_generic("pow", _intrinsic("pow"), 2)
+_generic("pow", _pow, 2)
 _generic("inversesqrt", _inversesqrt, 1)
 _generic("radians", _radians, 1)
 _generic("degrees", _degrees, 1)

@@ -19,6 +19,12 @@ PI = 3.14159265358979323846
 # ---- numpy spellings of the GLSL the fixtures use (GLSL's own definitions, evaluated in the same order)
 
 
+def gpow(x: np.ndarray, y: float) -> np.ndarray:
+    """GLSL's pow as GPUs compute it (and core.glsl does): NaN for a negative base."""
+    with np.errstate(invalid="ignore"):
+        return np.where(x < 0.0, np.nan, np.abs(x) ** y)
+
+
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
@@ -129,9 +135,9 @@ def microfacet_toggles(L: np.ndarray, V: np.ndarray, p: np.ndarray) -> np.ndarra
     if exact_fresnel:
         c = v_h
         g = np.sqrt(ior * ior + c * c - 1)
-        f = 0.5 * (g - c) ** 2 / (g + c) ** 2 * (1 + (c * (g + c) - 1) ** 2 / (c * (g - c) + 1) ** 2)
+        f = 0.5 * gpow(g - c, 2) / gpow(g + c, 2) * (1 + gpow(c * (g + c) - 1, 2) / gpow(c * (g - c) + 1, 2))
     else:
-        f = f0 + (1 - f0) * (1 - v_h) ** 5
+        f = f0 + (1 - f0) * gpow(1 - v_h, 5)
     if use_smith:
 
         def g1(c):
@@ -184,7 +190,7 @@ def globals_and_shadowing(L: np.ndarray, V: np.ndarray, p: np.ndarray) -> np.nda
     H = normalize(L + V)
     h = H - H[:, 2:3] * np.array([0.0, 0.0, 1.0])
     r, e = 2.0 * radius, n * 0.5
-    lump = (e + 1) / (PI * r * r) * (1 - dot(h, h) / (r * r)) ** e
+    lump = (e + 1) / (PI * r * r) * gpow(1 - dot(h, h) / (r * r), e)
     return np.stack([shadowing + lump, shadowing, shadowing], axis=1)
 
 
