@@ -133,6 +133,9 @@ MATERIALS = (
     Material("poulin_fournier", "poulin_fournier", None, ANISO_VIEWS),
     Material("lafortune", "lafortune", None, ANISO_VIEWS),
     Material("oren_nayar(sigma=0.5)", "oren_nayar", {"sigma": 0.5}),
+    Material(
+        "disney(anisotropic=0.8,clearcoat=1)", "disney", {"anisotropic": 0.8, "clearcoat": 1.0}, ANISO_VIEWS
+    ),
     Material("merl:red_plastic_ct", "merl"),
 )
 
