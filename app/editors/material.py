@@ -148,11 +148,14 @@ class MaterialEditor(QWidget):
     def _model_file_changed(self, path: str) -> None:
         """A model file was opened, reloaded, or its problem changed: list it, show it if it is the
         current material's."""
-        if self.model_box.findData(path) < 0:
-            self._fill_models()
-        else:  # a new version may have a new label
+        listed = self.model_box.findData(path) >= 0
+        if listed:  # a new version may have a new label
             self.model_box.setItemText(self.model_box.findData(path), self.library.files[path].model.label)
-        self.refresh()
+        else:
+            self._fill_models()
+        doc = self.document
+        if not listed or doc.current_material is None or doc.material().model == path:
+            self.refresh()  # (the list refilled, or the material of that file: its panel)
 
     def _materials_changed(self, items) -> None:
         names = self.document.material_names()
