@@ -1,7 +1,11 @@
 """The scene (project) file: a versioned JSON schema, loading with readable errors, atomic saving.
 
 Plain data only: this module knows nothing of the renderer. The desktop app edits a :class:`Scene` and saves
-it; the renderer loads meshes and images from the paths it names. Paths are relative to the scene file.
+it; the renderer loads meshes and images from the paths it names. Paths are relative to the scene file. A
+material's model may be a model file (``"model": "materials/my.brdf"``, :mod:`core.model_files`): its path is
+made absolute when the scene is read, so that every consumer (the renderer's ``make_brdf(mat.model, ...)``,
+the samplers, the app) opens the same file whatever the working directory, and :func:`save_scene` writes it
+relative to the saved file again.
 
 A minimal scene::
 
@@ -45,6 +49,7 @@ from pydantic import (
 
 from core.errors import BrdfStudioError, FileFormatError
 from core.io import atomic_write_text
+from core.model_files import is_model_file, load_model_file
 
 SCENE_VERSION = 2
 READABLE_VERSIONS = (1, 2)
@@ -151,6 +156,10 @@ class Mesh(_Strict):
 
 class Material(_Strict):
     """An analytic model with parameters, or a measured (MERL ``.binary`` or RGL ``.bsdf``) file; optionally emissive.
+
+    ``model`` is a registered model's name or a model file (``.brdf``, ``.py``), written relative to the scene
+    file and held as an absolute path once the scene is read (:func:`scene_from_dict`); ``params`` then take
+    the file's own parameter names.
 
     An emissive material turns every mesh that uses it into an area light of radiance ``emission``
     (emitting on the side its triangles' normals point to).
@@ -374,8 +383,17 @@ def scene_from_dict(
         raise SceneError(_format_validation(source, exc)) from None
     scene.version = SCENE_VERSION  # read as the current version; saved as such
     scene.set_origin(base_dir if base_dir is not None else Path.cwd(), source)
+    for mat in scene.materials:
+        if mat.model is not None and is_model_file(mat.model):
+            mat.model = model_file_path(scene, mat.model)
     validate_scene(scene, check_files=check_files)
     return scene
+
+
+def model_file_path(scene: Scene, written: str) -> str:
+    """The absolute, normalized path of a model file that ``scene`` names as ``written`` (relative to the
+    scene file's folder, or absolute)."""
+    return os.path.normpath(scene.resolve(written))
 
 
 def validate_scene(scene: Scene, check_files: bool = True) -> None:
@@ -399,7 +417,9 @@ def validate_scene(scene: Scene, check_files: bool = True) -> None:
             )
         if mat.model is not None:
             try:
-                model = get_model(mat.model)
+                model = get_model(
+                    model_file_path(scene, mat.model) if is_model_file(mat.model) else mat.model
+                )
             except BrdfStudioError as exc:
                 raise scene.error(f"{where}.model", str(exc)) from None
             for key, value in mat.params.items():
@@ -612,9 +632,26 @@ def scene_digest(scene: Scene, *extra: Any) -> str:
         files.add(scene.environment.path)
     for rel in sorted(files):
         h.update(scene.resolve(rel).read_bytes())
+    for model in sorted({m.model for m in scene.materials if m.model and is_model_file(m.model)}):
+        h.update(load_model_file(model_file_path(scene, model)).source.digest.encode())  # type: ignore[union-attr]
     return h.hexdigest()
 
 
 def save_scene(scene: Scene, path: str | os.PathLike[str]) -> None:
-    """Write ``scene`` as indented JSON, atomically (a crash never leaves a half-written file)."""
-    atomic_write_text(path, json.dumps(scene_to_dict(scene), indent=2) + "\n")
+    """Write ``scene`` as indented JSON, atomically (a crash never leaves a half-written file); a material's
+    model file is written relative to ``path``'s folder (as it was read)."""
+    data = scene_to_dict(scene)
+    folder = Path(path).resolve().parent
+    for mat in data["materials"]:
+        model = mat.get("model")
+        if model and is_model_file(model) and Path(model).is_absolute():
+            mat["model"] = _relative_to(model, folder)
+    atomic_write_text(path, json.dumps(data, indent=2) + "\n")
+
+
+def _relative_to(path: str, folder: Path) -> str:
+    """``path`` relative to ``folder``, with '/' (as a scene file holds paths); unchanged across drives."""
+    try:
+        return Path(os.path.relpath(path, folder)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return path

@@ -2,6 +2,11 @@
 
 Also holds the argument helpers every command that takes a BRDF shares (``--model``, ``--param``,
 ``--measured``) and the ``THETA,PHI`` angle parser.
+
+``--model`` takes a registered name or a model file (``.brdf``, ``.py``; :mod:`core.model_files`), and
+``--param`` the file's own parameter names. What a model file's load noticed without refusing it (values a
+shader returns that a BRDF cannot, taken as 0) is printed on stderr, one ``notice:`` line each, and the
+command goes on.
 """
 
 from __future__ import annotations
@@ -9,23 +14,33 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
 
 from app.commands._args import add_list, name
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.model import BRDF, make_brdf
+from core.model import BRDF, Model, get_model, parse_assignments
+from core.model_files.declarations import param_location
 
 
 def add_brdf_arguments(p: argparse.ArgumentParser) -> None:
     """``--model M``, ``--param k=v ...`` (a list), ``--measured FILE``."""
-    p.add_argument("--model", type=name, metavar="M", help="registered model name (see 'brdf-studio models')")
+    p.add_argument(
+        "--model",
+        type=name,
+        metavar="M",
+        help="a model name (see 'brdf-studio models') or a model file (.brdf, .py)",
+    )
     add_list(
         p,
         "--param",
         split=False,
         metavar="K=V",
         default=[],
-        help="model parameters (a list); a color takes one number or three (kd=0.2,0.5,0.8)",
+        help="model parameters (a list); a color takes one number or three (kd=0.2,0.5,0.8), a bool 0 or 1",
     )
     p.add_argument(
         "--measured",
@@ -49,7 +64,55 @@ def brdf_from_args(args: argparse.Namespace) -> BRDF:
         raise ParameterError("give --model M (see 'brdf-studio models') or --measured FILE")
     if args.model == "merl":
         raise ParameterError("a measured BRDF is read from a file: give --measured FILE")
-    return make_brdf(args.model, args.param)
+    model = model_from_arg(args.model, getattr(args, "command", None))
+    return bind_params(model, args.param)
+
+
+_NOTICED: set[tuple[str, str]] = set()
+"""The model files (path and content) whose notices this process has printed."""
+
+
+def print_notices(model: Model, command: str | None) -> None:
+    """A model file's notices (``model.source.findings``) on stderr, one line each, once per process."""
+    source = model.source
+    if source is None or (source.path, source.digest) in _NOTICED:
+        return
+    _NOTICED.add((source.path, source.digest))
+    prefix = f"brdf-studio {command}: " if command else ""
+    for finding in source.findings:
+        print(f"{prefix}notice: {finding}", file=sys.stderr)
+
+
+def model_from_arg(model_name: str, command: str | None = None) -> Model:
+    """The model ``--model`` names, a registered model or a model file (whose notices are printed)."""
+    model = get_model(model_name)
+    print_notices(model, command)
+    return model
+
+
+def checked_values(
+    model: Model, assignments: Mapping[str, Any] | Sequence[str] | None, option: str = "--param"
+) -> dict[str, Any]:
+    """``K=V`` assignments (``option``'s) as a dict, each name the model's and each value within its range.
+    A model file's value outside its range names the line of the file that declares the parameter:
+    ``path:line: --param n=5000: parameter 'n' of model 'x.brdf' = 5000 is outside its allowed range [1, 1000]``."""
+    values = parse_assignments(assignments)
+    for key, value in values.items():
+        param = model.param(key)  # an unknown name: its message lists the model's parameters
+        if model.source is None:
+            continue
+        try:
+            param.validate(Path(model.source.path).name, value)
+        except ParameterError as exc:
+            raise ParameterError(
+                f"{param_location(model.source, key)}: {option} {key}={value}: {exc}"
+            ) from None
+    return values
+
+
+def bind_params(model: Model, assignments: Mapping[str, Any] | Sequence[str] | None) -> BRDF:
+    """``model`` bound to ``--param`` assignments (:func:`checked_values`)."""
+    return model.bind(checked_values(model, assignments))
 
 
 def parse_angle(text: str, what: str) -> tuple[float, float]:

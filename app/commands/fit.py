@@ -6,14 +6,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 
 from app.commands._args import check_output, seed, whole
+from app.commands.eval import checked_values, model_from_arg
 from core.errors import ParameterError
 from core.fit import METRICS, fit
 from core.io import atomic_write_text
 from core.measured import load_measured
-from core.model import get_model, parse_assignments
+from core.model_files import is_model_file
 
 _positive_int = whole(1, 100)
 
@@ -30,7 +32,10 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     )
     p.add_argument("--measured", required=True, metavar="FILE", help="measured material (.binary or .bsdf)")
     p.add_argument(
-        "--model", required=True, metavar="M", help="analytic model to fit (see 'brdf-studio models')"
+        "--model",
+        required=True,
+        metavar="M",
+        help="analytic model to fit (see 'brdf-studio models'), or a model file (.brdf, .py)",
     )
     p.add_argument("--metric", choices=METRICS, default="log", help="residual metric (default: log)")
     p.add_argument("--fix", nargs="+", default=[], metavar="K=V", help="parameters kept at given values")
@@ -50,21 +55,32 @@ def _text(v: object) -> str:
     return f"{v:.6g}"  # type: ignore[str-format]
 
 
+def material_model(model_name: str, out: Path | None) -> str:
+    """How the written material names its model: a registered name as it is; a model file relative to the
+    folder of ``out`` (a scene file beside it reads it from there), absolute when nothing is written."""
+    if not is_model_file(model_name) or out is None:
+        return model_name
+    try:
+        return Path(os.path.relpath(model_name, out.resolve().parent)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return model_name
+
+
 def run(args: argparse.Namespace) -> int:
-    model = get_model(args.model)
+    model = model_from_arg(args.model, args.command)
     if model.measured:
         raise ParameterError(
             f"'{args.model}' is a measured model; fit an analytic one (see 'brdf-studio models')"
         )
     if args.out is not None:
         check_output(args.out)
-    fixed = parse_assignments(args.fix)
-    for k in fixed:
-        model.param(k)  # a clear error for an unknown name
+    fixed = checked_values(model, args.fix, "--fix")
     source = load_measured(args.measured)
-    result = fit(source, args.model, args.metric, fixed=fixed, starts=args.starts, seed=args.seed)
-    name = args.name or f"{args.model} fit of {Path(args.measured).stem}"
+    result = fit(source, model.name, args.metric, fixed=fixed, starts=args.starts, seed=args.seed)
+    label = Path(args.model).stem if model.source is not None else args.model
+    name = args.name or f"{label} fit of {Path(args.measured).stem}"
     material = result.material(name)
+    material["model"] = material_model(model.name, args.out)
     if args.out is not None:
         atomic_write_text(args.out, json.dumps(material, indent=2) + "\n")
     if args.json:

@@ -1,21 +1,33 @@
-"""``brdf-studio models``: the model library with parameters, defaults, bounds and traits."""
+"""``brdf-studio models``: the model library with parameters, defaults, bounds and traits.
+
+``brdf-studio models [M ...]`` describes only the models named, registered names or model files (``.brdf``,
+``.py``): ``brdf-studio models --json my.brdf`` shows what the file declares, as the other commands read it,
+with the file's path, its SHA-256 and the notices of its load.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 
+from app.commands.eval import model_from_arg
 from core.model import Model, Traits, all_models
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p = sub.add_parser("models", help="list every BRDF model with its parameters and traits")
+    p.add_argument(
+        "models",
+        nargs="*",
+        metavar="M",
+        help="describe only these: model names or model files (.brdf, .py); default every built-in model",
+    )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     return ["models"]
 
 
 def describe(model: Model) -> dict:
-    return {
+    out = {
         "name": model.name,
         "label": model.label,
         "citation": model.citation,
@@ -37,10 +49,18 @@ def describe(model: Model) -> dict:
         ],
         "notes": model.notes,
     }
+    if model.source is not None:
+        out["file"] = {
+            "path": model.source.path,
+            "sha256": model.source.digest,
+            "notices": list(model.source.findings),
+        }
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
-    models = [describe(m) for m in all_models()]
+    chosen = [model_from_arg(m, args.command) for m in args.models] if args.models else all_models()
+    models = [describe(m) for m in chosen]
     if args.json:
         print(json.dumps(models, indent=2))
         return 0

@@ -35,6 +35,7 @@ from numba import carray, cfunc, njit
 from numba import types as nt
 from numba.core.registry import CPUDispatcher
 
+from core.errors import ParameterError
 from core.model import Model, Param, Traits
 from core.model_files import ModelFileError, ModelSource
 from core.model_files.call import (
@@ -46,6 +47,7 @@ from core.model_files.call import (
     pdf_file_model,
     sample_file_model,
 )
+from core.model_files.declarations import python_param_line
 
 _F8 = nt.float64
 _ROW = nt.CPointer(nt.float64)
@@ -169,12 +171,25 @@ def _params(module: types.ModuleType, path: str) -> tuple[Param, ...]:
     return params
 
 
+def _check_defaults(params: tuple[Param, ...], path: str, text: str) -> None:
+    """Each default within its own range, or ``ModelFileError`` at the line of its ``Param(...)``."""
+    for p in params:
+        try:
+            p.validate(Path(path).name, p.default)
+        except ParameterError as exc:
+            line = python_param_line(text, p.name)
+            raise ModelFileError(
+                f"{path}:{line}: the default of {exc}" if line else f"{path}: {exc}"
+            ) from None
+
+
 def load(path: str, text: str, digest: str) -> Model:
     """The model a Python model file's text declares (``path`` names it in messages)."""
     from core.model_files.probe import bad_values, measured_traits
 
     module = _run(path, text, digest)
     params = _params(module, path)
+    _check_defaults(params, path, text)
     eval_fn = _jitted(module, "eval", path)
     if eval_fn is None:
         raise ModelFileError(f"{path}: no 'eval(wi, wo, p)' function")
