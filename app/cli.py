@@ -86,9 +86,11 @@ def _main(argv: list[str]) -> int:
 
 
 def _run(handler: object, args: argparse.Namespace) -> int:
+    from app.commands._args import check_environment
     from core.errors import BrdfStudioError
 
     try:
+        check_environment()
         return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
         text = "; ".join(line for line in str(exc).splitlines() if line.strip())  # one line, always

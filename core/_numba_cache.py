@@ -12,8 +12,10 @@ statements a module runs when imported: jitted code cannot import inside a funct
 the adaptive sampler's ``draw.py`` leaves every model's kernels, the renderer's and the sampler's own
 construction cached; editing ``_fresnel.py`` recompiles the models that import it and everything built on
 them. The folder is ``$BRDF_STUDIO_NUMBA_CACHE`` (default ``~/.cache/brdf-studio/numba``); a stale entry is
-overwritten in place by numba. If the folder cannot be written, numba's default (next to the sources) is
-left in place.
+overwritten in place by numba. A ``$BRDF_STUDIO_NUMBA_CACHE`` that names a file or a place that cannot be
+written is refused by the command line before any command runs (:func:`check_environment`); a program that
+imports the packages itself gets the default folder then, never the packages' own ``__pycache__``. Only when
+no folder can be written is numba's default (next to the sources) left in place.
 """
 
 from __future__ import annotations
@@ -30,6 +32,20 @@ ROOT = Path(__file__).resolve().parent.parent
 """The folder holding the packages."""
 
 _configured: Path | None = None
+ENV_VAR = "BRDF_STUDIO_NUMBA_CACHE"
+
+
+def check_environment() -> None:
+    """``$BRDF_STUDIO_NUMBA_CACHE``, when set, names a folder that can be written
+    (:class:`~core.errors.OutputError` naming the variable otherwise)."""
+    from core.cache import folder_problem
+
+    env = os.environ.get(ENV_VAR)
+    problem = folder_problem(env) if env else None
+    if problem is not None:
+        from core.errors import OutputError
+
+        raise OutputError(f"{ENV_VAR}='{env}' {problem}; set it to a folder that can be written, or unset it")
 
 
 def module_file(name: str, root: Path = ROOT) -> Path | None:
@@ -184,14 +200,12 @@ def configure() -> Path | None:
         return _configured
     import numba
 
-    env = os.environ.get("BRDF_STUDIO_NUMBA_CACHE")
-    folder = Path(env) if env else Path.home() / ".cache" / "brdf-studio" / "numba"
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / f".probe-{os.getpid()}"
-        probe.write_text("")
-        probe.unlink()
-    except OSError:
+    from core.cache import folder_problem
+
+    env = os.environ.get(ENV_VAR)
+    candidates = ([Path(env)] if env else []) + [Path.home() / ".cache" / "brdf-studio" / "numba"]
+    folder = next((f for f in candidates if folder_problem(f) is None), None)
+    if folder is None:
         return None
     numba.config.CACHE_DIR = str(folder)
     _install_locator()

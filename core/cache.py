@@ -5,15 +5,20 @@ Entries live in ``$BRDF_STUDIO_CACHE`` or else ``~/.cache/brdf-studio``, one fol
 on: model name, the kernel parameter vector's bytes (so a measured BRDF's table data is covered too), the
 sampler options and the code version. Each file carries a checksum of its arrays; a file that is truncated,
 unreadable or whose checksum does not match is deleted and reported as missing, so the caller rebuilds it.
-The cache is an optimization: a folder that cannot be written is skipped silently.
+The cache is an optimization: when the default folder cannot be written, tables are not cached, silently.
+A folder the user names (``$BRDF_STUDIO_CACHE``, a scene's ``sampler_options.cache``) must be one that can be
+written: :func:`folder_problem` says why it cannot; a file or an unwritable place with one line (the command line
+checks the variable before any command runs), rather than running without the cache the user asked for.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import io
 import os
+import tempfile
 import zipfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -25,6 +30,44 @@ from core.io import atomic_write_bytes
 
 ENV_VAR = "BRDF_STUDIO_CACHE"
 _CHECKSUM = "__checksum__"
+
+
+def folder_problem(folder: str | os.PathLike[str], create: bool = True) -> str | None:
+    """Why ``folder`` cannot hold cache entries (``"is a file, not a folder"``, ``"cannot be written
+    (Permission denied)"``), or None. ``create``: make it if missing (as the cache would); otherwise a
+    missing folder is judged by the nearest folder above it that exists (checks that must not create it,
+    such as a scene's validation)."""
+    p = Path(folder).expanduser()
+    try:
+        if p.exists() and not p.is_dir():
+            return "is a file, not a folder"
+        if create:
+            p.mkdir(parents=True, exist_ok=True)
+        probe_in = p
+        while not probe_in.exists():
+            probe_in = probe_in.parent
+        if not probe_in.is_dir():
+            return f"cannot be made: '{probe_in}' is a file"
+        fd, probe = tempfile.mkstemp(prefix=".probe-", dir=probe_in)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:  # (/proc says "No such file or directory": no reason is better than that one)
+        return "cannot be written" + (
+            f" ({exc.strerror})" if exc.strerror and exc.errno != errno.ENOENT else ""
+        )
+    return None
+
+
+def check_environment() -> None:
+    """``$BRDF_STUDIO_CACHE``, when set, names a folder that can be written (:class:`OutputError`
+    otherwise, naming the variable)."""
+    env = os.environ.get(ENV_VAR)
+    if env:
+        problem = folder_problem(env)
+        if problem is not None:
+            raise OutputError(
+                f"{ENV_VAR}='{env}' {problem}; set it to a folder that can be written, or unset it"
+            )
 
 
 def default_folder() -> Path:

@@ -34,6 +34,7 @@ import hashlib
 import json
 import math
 import os
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -48,7 +49,7 @@ from pydantic import (
 )
 
 from core.errors import BrdfStudioError, FileFormatError
-from core.io import atomic_write_text
+from core.io import atomic_write_text, read_bounded
 from core.model_files import is_model_file, load_model_file
 
 SCENE_VERSION = 2
@@ -320,16 +321,57 @@ def _loc_text(loc: tuple[Any, ...]) -> str:
     return out or "(top level)"
 
 
+_UNION_TAG = re.compile(r"^(constrained-[a-z]+|[a-z][a-z-]*\[.*\])$")
+"""The step pydantic adds to the location of an error in one member of a union (``scale`` is one number or
+a list: ``scale.constrained-float``, ``scale.tuple[constrained-float, ...]``); a type's name, not a field."""
+_UNION_WORDS = {"tuple": "a list of numbers", "list": "a list", "constrained-float": "a number",
+                "constrained-int": "a whole number", "constrained-str": "text"}  # fmt: skip
+
+
+def _union_errors(errors: list[Any]) -> list[Any]:
+    """``errors`` with each union's members merged into what the user meant: the member whose form the value
+    has (its error, the member's name left out of the location: ``scale: Input should be less than or equal
+    to 1000000``), or, when the value has none of their forms, ``scale: expected a list of numbers or a
+    number``."""
+    out: list[Any] = []
+    groups: dict[tuple[Any, ...], list[Any]] = {}
+    for err in errors:
+        loc = tuple(err["loc"])
+        at = next((i for i, p in enumerate(loc) if isinstance(p, str) and _UNION_TAG.match(p)), None)
+        if at is None:
+            out.append(err)
+            continue
+        field = loc[:at]
+        if field not in groups:
+            groups[field] = []
+            out.append(field)  # the union's place among the errors: its first member's
+        groups[field].append({**err, "loc": field + loc[at + 1 :], "member": loc[at]})
+    merged: list[Any] = []
+    for item in out:
+        if not isinstance(item, tuple):
+            merged.append(item)
+            continue
+        members = groups[item]
+        formed = [e for e in members if not e["type"].endswith(("_type", "_parsing"))]
+        if formed:
+            merged += formed
+            continue
+        words = dict.fromkeys(_UNION_WORDS.get(e["member"].split("[")[0], e["member"]) for e in members)
+        merged.append({"loc": item, "type": "union", "msg": "expected " + " or ".join(words)})
+    return merged
+
+
 def _format_validation(source: str, exc: ValidationError) -> str:
     lines = []
-    for err in exc.errors()[:6]:
+    errors = _union_errors(list(exc.errors()))
+    for err in errors[:6]:
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
             msg = "unknown field (check the spelling)"
         elif err["type"] == "missing":
             msg = "required field is missing"
         lines.append(f"{source}: {_loc_text(tuple(err['loc']))}: {msg}")
-    more = len(exc.errors()) - len(lines)
+    more = len(errors) - len(lines)
     if more > 0:
         lines.append(f"... and {more} more problem(s)")
     return "\n".join(lines)
@@ -587,30 +629,68 @@ def _check_file(scene: Scene, where: str, rel: str, formats: tuple[str, ...], ch
     if check_files:
         full = scene.resolve(rel)
         if not full.is_file():
+            if full.exists():
+                raise scene.error(where, f"'{rel}' is not a regular file (looked at {full})")
             raise scene.error(where, f"file '{rel}' not found (looked for {full})")
 
 
-def load_scene(path: str | os.PathLike[str], check_files: bool = True) -> Scene:
-    """Read and validate a scene file; raises :class:`SceneError` with the file and field at fault."""
-    p = Path(path)
-    source = p.name
+MAX_SCENE_BYTES = 64 << 20
+"""The largest scene file read (a scene names its meshes and images; its own JSON is a few kilobytes)."""
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object names the same key twice (``json`` would keep the last value without a word)."""
+
+    def __init__(self, key: str):
+        super().__init__(f"the key '{key}' appears twice in one object (each key once)")
+        self.key = key
+
+
+def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``json``'s ``object_pairs_hook`` refusing a key given twice (:class:`DuplicateKeyError`)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise DuplicateKeyError(key)
+        out[key] = value
+    return out
+
+
+def parse_scene_json(text: str, source: str) -> Any:
+    """The JSON value of a scene file's ``text``; :class:`SceneError` naming ``source`` and the line for
+    invalid JSON, and the key for a key given twice in one object."""
     try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: scene file not found") from None
-    except IsADirectoryError:
-        raise SceneError(f"{path}: is a folder, not a scene file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: cannot read the scene file: {exc}") from None
-    try:
-        data = json.loads(text)
+        return json.loads(text, object_pairs_hook=unique_keys)
+    except DuplicateKeyError as exc:
+        raise SceneError(f"{source}: {exc}") from None
     except json.JSONDecodeError as exc:
         raise SceneError(
             f"{source}: line {exc.lineno}, column {exc.colno}: invalid JSON: {exc.msg}"
         ) from None
     except RecursionError:
         raise SceneError(f"{source}: the JSON is nested too deeply (a scene is a few levels deep)") from None
-    return scene_from_dict(data, source=source, base_dir=p.resolve().parent, check_files=check_files)
+
+
+def read_scene_json(path: str | os.PathLike[str]) -> Any:
+    """The JSON value of the scene (project) file at ``path``, read within :data:`MAX_SCENE_BYTES` (a device
+    such as ``/dev/zero`` is refused before it is read); :class:`SceneError` saying what is wrong."""
+    p = Path(path)
+    try:
+        text = read_bounded(p, MAX_SCENE_BYTES, "scene file", SceneError).decode("utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder, not a scene file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc}") from None
+    return parse_scene_json(text, p.name)
+
+
+def load_scene(path: str | os.PathLike[str], check_files: bool = True) -> Scene:
+    """Read and validate a scene file; raises :class:`SceneError` with the file and field at fault."""
+    p = Path(path)
+    data = read_scene_json(p)
+    return scene_from_dict(data, source=p.name, base_dir=p.resolve().parent, check_files=check_files)
 
 
 def scene_to_dict(scene: Scene) -> dict[str, Any]:

@@ -17,6 +17,7 @@ Nothing here runs Dask at import: the imports are inside the functions.
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 import traceback
@@ -28,6 +29,26 @@ from typing import Any
 from core.errors import BrdfStudioError, FileFormatError
 from core.measured import SUFFIXES
 from core.study import Row, StudyConfig
+
+WORKER_BYTES = 768 << 20
+"""An upper estimate of the memory of one local worker process running a task: the interpreter with numpy,
+numba and Dask, the study's compiled kernels, one measured table and its samplers' tables."""
+
+
+def local_worker_limit() -> tuple[int, str]:
+    """The most local worker processes this machine holds, and why: one per core this process may run on,
+    and no more than :data:`~core.budget.MEMORY_FRACTION` of the available memory holds at
+    :data:`WORKER_BYTES` each (more would only queue for the cores, or swap)."""
+    from core.budget import MEMORY_FRACTION, available_memory, format_bytes
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    memory = available_memory()
+    limit = max(1, min(cores, int(MEMORY_FRACTION * memory // WORKER_BYTES)))
+    why = (
+        f"{cores} core{'s' if cores != 1 else ''}, {format_bytes(memory)} of memory available at up to "
+        f"{format_bytes(WORKER_BYTES)} a worker"
+    )
+    return limit, why
 
 
 @dataclass(frozen=True)
@@ -73,6 +94,21 @@ def material_files(folder: str | os.PathLike[str]) -> list[Path]:
     if not files:
         raise FileFormatError(f"materials folder '{d}' holds no measured file ({', '.join(SUFFIXES)})")
     return files
+
+
+def unreadable_files(files: Sequence[Path]) -> list[tuple[Path, str]]:
+    """The files of ``files`` that cannot be read as measured materials, each with its reader's message.
+    Each file is read once, here, before any task is submitted: a corrupt file is one line, instead of one
+    failed task per view angle on the workers."""
+    from core.measured import load_measured
+
+    bad = []
+    for path in files:
+        try:
+            load_measured(path)
+        except BrdfStudioError as exc:
+            bad.append((path, str(exc)))
+    return bad
 
 
 def run_task(task: Task, config: StudyConfig) -> list[dict[str, Any]]:
@@ -124,7 +160,7 @@ def run_folder_study(
                     threads_per_worker=1,
                     processes=True,
                     dashboard_address=":0",
-                    silence_logs=40,
+                    silence_logs=logging.CRITICAL,  # a failed task is reported once, by the caller
                 )
             finally:
                 if saved is None:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.errors import ParameterError
 from renderer.embree import EmbreeScene, EmbreeUnavailable
 
 MISS = -1
@@ -25,6 +26,17 @@ BACKEND_ENV = "BRDF_STUDIO_EMBREE"
 BACKENDS = ("direct", "embreex")
 _THREAD_PREFIX = "embree-rays"
 _FAR = np.float32(1e30)
+
+
+def backend_from_environment() -> str:
+    """The backend ``$BRDF_STUDIO_EMBREE`` chooses (``"direct"`` when unset); a value that is not one of
+    :data:`BACKENDS` is a :class:`~core.errors.ParameterError` naming the variable and the choices."""
+    backend = os.environ.get(BACKEND_ENV) or "direct"
+    if backend not in BACKENDS:
+        raise ParameterError(
+            f"{BACKEND_ENV}={backend!r}: expected one of {', '.join(BACKENDS)} (or leave it unset for direct)"
+        )
+    return backend
 
 
 @dataclass
@@ -49,9 +61,9 @@ class Accel:
         chunk: int = 32768,
         backend: str | None = None,
     ):
-        backend = backend or os.environ.get(BACKEND_ENV) or "direct"
+        backend = backend or backend_from_environment()
         if backend not in BACKENDS:
-            raise ValueError(f"{BACKEND_ENV}={backend!r}: expected one of {', '.join(BACKENDS)}")
+            raise ParameterError(f"backend {backend!r}: expected one of {', '.join(BACKENDS)}")
         self._direct: EmbreeScene | None = None
         if backend == "direct":
             try:

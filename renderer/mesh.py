@@ -12,7 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from core.io import check_input_size
 from core.scene import SceneError, Transform
+
+MAX_MESH_BYTES = 2 << 30
+"""The largest mesh file read (trimesh holds several times a file's size while it parses it)."""
 
 
 @dataclass
@@ -56,8 +60,12 @@ def load_mesh_file(path: Path, transform: Transform | None = None, where: str = 
     """Read ``path`` into triangle groups in world space; raises :class:`SceneError` naming ``where``."""
     import trimesh
 
-    if not path.is_file():
-        raise SceneError(f"{where}: file '{path}' not found")
+    try:
+        check_input_size(path, MAX_MESH_BYTES, "mesh file", SceneError)
+    except OSError:
+        raise SceneError(f"{where}: file '{path}' not found") from None
+    except SceneError as exc:
+        raise SceneError(f"{where}: {exc}") from None
     try:
         loaded = trimesh.load_scene(
             str(path), split_objects=True, split_groups=True, group_material=False, process=False

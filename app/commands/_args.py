@@ -19,8 +19,11 @@ Forms (the same in every command):
 from __future__ import annotations
 
 import argparse
+import errno
 import math
+import os
 import sys
+import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -38,8 +41,25 @@ MAX_EXPOSURE = 64.0
 """Stops either way (2^64 is beyond any radiance a float32 image holds)."""
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """argparse's parser, with its errors as one line (the usage is one ``--help`` away)."""
+    """argparse's parser, with its errors as one line (the usage is one ``--help`` away); a number starting
+    with '-' (``-inf``, ``-1e5``) is a value, never taken for an option."""
+
+    def _parse_optional(self, arg_string: str) -> Any:
+        # argparse takes an argument starting with '-' for an option unless it looks like -1 or -.5, so that
+        # "--theta -inf" ended in "expected one argument"; a number of any form is a value, which the
+        # option's type then checks ("must be a finite number in [0, 90], got '-inf'").
+        if arg_string.startswith("-") and _is_number(arg_string):
+            return None
+        return super()._parse_optional(arg_string)
 
     def error(self, message: str) -> NoReturn:
         print(f"{self.prog}: error: {message} (see '{self.prog} --help')", file=sys.stderr)
@@ -171,8 +191,9 @@ def with_extension(stem: Path, ext: str) -> Path:
 
 
 def check_output(path: str | Path) -> Path:
-    """An output path that can be written: not a folder, in a folder that exists (checked before any work,
-    so a long computation does not end on an unwritable name); :class:`~core.errors.OutputError` otherwise."""
+    """An output path that can be written: not a folder, in a folder that exists and takes new files (checked
+    before any work, so a long computation does not end on an unwritable name); :class:`~core.errors.OutputError`
+    otherwise."""
     from core.errors import OutputError
 
     p = Path(path)
@@ -183,4 +204,25 @@ def check_output(path: str | Path) -> Path:
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise OutputError(f"cannot write '{p}': folder '{folder}' does not exist")
+    try:  # a probe as the atomic write will do it: permissions, a read-only disk, /proc or /sys
+        fd, probe = tempfile.mkstemp(prefix=f".{p.name[:64]}.", suffix=".probe", dir=folder)
+    except OSError as exc:  # (/proc says "No such file or directory": no reason is better than that one)
+        why = f" ({exc.strerror})" if exc.strerror and exc.errno != errno.ENOENT else ""
+        raise OutputError(f"cannot write '{p}': folder '{folder}' is not writable{why}") from None
+    os.close(fd)
+    os.unlink(probe)
     return p
+
+
+def check_environment() -> None:
+    """The variables that configure every command, checked before one runs: ``BRDF_STUDIO_CACHE`` and
+    ``BRDF_STUDIO_NUMBA_CACHE`` name folders that can be written, ``BRDF_STUDIO_EMBREE`` one of its backends.
+    A bad one is a :class:`~core.errors.BrdfStudioError` naming the variable (one line, exit code 2)."""
+    from core import _numba_cache, cache
+
+    cache.check_environment()
+    _numba_cache.check_environment()
+    if os.environ.get("BRDF_STUDIO_EMBREE"):  # the renderer is imported only to check a value that is set
+        from renderer.accel import backend_from_environment
+
+        backend_from_environment()

@@ -7,21 +7,46 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 from pathlib import Path
 
 from tqdm import tqdm
 
-from core.errors import ParameterError
+from core.errors import FileFormatError
 from core.study import StudyConfig, write_results
-from core.study_folder import material_files, run_folder_study
+from core.study_folder import local_worker_limit, material_files, run_folder_study, unreadable_files
+
+DEFAULT_WORKERS = 2
+NAMED_BAD_FILES = 3
+"""How many unreadable files the refusal names, each with its reason (the line stays readable)."""
+
+
+def local_workers(asked: int | None) -> int:
+    """The local cluster's size: ``--workers`` (default :data:`DEFAULT_WORKERS`) capped to what the machine
+    holds (:func:`core.study_folder.local_worker_limit`); a request above it is capped with a note saying so."""
+    limit, why = local_worker_limit()
+    workers = DEFAULT_WORKERS if asked is None else asked
+    if workers <= limit:
+        return workers
+    if asked is not None:
+        print(f"brdf-studio bench: note: --workers {asked} capped to {limit}, what this machine holds ({why})",
+              file=sys.stderr)  # fmt: skip
+    return limit
 
 
 def run_folder(args: argparse.Namespace, config: StudyConfig) -> int:
-    if args.workers < 1:
-        raise ParameterError(f"--workers must be at least 1, got {args.workers}")
+    workers = local_workers(args.workers) if args.scheduler is None else 0
     files = material_files(args.materials)
+    bad = unreadable_files(files)
+    if bad:
+        named = "; ".join(why for _, why in bad[:NAMED_BAD_FILES])
+        more = f"; and {len(bad) - NAMED_BAD_FILES} more" if len(bad) > NAMED_BAD_FILES else ""
+        raise FileFormatError(
+            f"{len(bad)} of {len(files)} measured files of '{args.materials}' cannot be read: {named}{more}; "
+            "fix or move them"
+        )
     total = len(files) * len(config.thetas)
-    where = f"scheduler {args.scheduler}" if args.scheduler else f"a local cluster of {args.workers} workers"
+    where = f"scheduler {args.scheduler}" if args.scheduler else f"a local cluster of {workers} workers"
     print(f"{len(files)} materials x {len(config.thetas)} view angles = {total} tasks on {where}")
     with tqdm(total=total, desc="sampler study", unit="task", disable=None) as bar:
 
@@ -32,7 +57,7 @@ def run_folder(args: argparse.Namespace, config: StudyConfig) -> int:
         study = run_folder_study(
             args.materials,
             config,
-            workers=args.workers,
+            workers=workers,
             address=args.scheduler,
             progress=progress,
             files=files,

@@ -7,8 +7,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from app.commands._args import add_list, theta
-from core.errors import UnknownNameError
+from app.commands._args import add_list, theta, whole
+from core.errors import ParameterError, UnknownNameError
 from core.model import get_model
 from core.sampling import sampler_names
 from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results
@@ -31,8 +31,28 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     p.add_argument("--out", type=Path, default=Path("results/samplers"), help="results folder")
     p.add_argument("--materials", type=Path, metavar="DIR", help="every measured file of DIR, as Dask tasks")
     p.add_argument("--scheduler", metavar="ADDRESS", help="with --materials: an existing Dask scheduler")
-    p.add_argument("--workers", type=int, default=2, help="with --materials: local Dask workers (default 2)")
+    p.add_argument(
+        "--workers",
+        type=whole(1, 1_000_000),
+        default=None,
+        metavar="N",
+        help="with --materials: local Dask workers (default 2; at most what the machine's cores and memory hold)",
+    )
     return ["bench"]
+
+
+def _check_cluster_options(args: argparse.Namespace) -> None:
+    """``--scheduler`` and ``--workers`` belong to the folder study: refused without ``--materials`` (they
+    would be ignored), and together (the scheduler's own workers run the tasks)."""
+    if args.materials is None:
+        for flag, value in (("--scheduler", args.scheduler), ("--workers", args.workers)):
+            if value is not None:
+                raise ParameterError(f"{flag} runs the folder study on Dask: it needs --materials DIR")
+    elif args.scheduler is not None and args.workers is not None:
+        raise ParameterError(
+            "--workers starts a local cluster; with --scheduler the scheduler's workers run the tasks "
+            "(give one or the other)"
+        )
 
 
 def _config(args: argparse.Namespace) -> StudyConfig:
@@ -62,6 +82,7 @@ def _measured_default() -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
+    _check_cluster_options(args)
     cfg = _config(args)
     if args.materials is not None:  # the folder study on Dask (app/commands/_folder_study.py)
         from app.commands._folder_study import run_folder

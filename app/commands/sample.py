@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.commands._args import azimuth, name, number, seed, theta, whole
+from app.commands._args import azimuth, check_output, name, number, seed, theta, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
 from core.budget import BudgetError, format_bytes, round_down
-from core.errors import OutputError, ParameterError
+from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.io import atomic_write
 from core.model import LUMINANCE
@@ -116,17 +116,16 @@ def encode(table: np.ndarray, suffix: str) -> bytes:
 def _check_output(path: Path, suffix: str, n: int) -> None:
     if suffix not in FORMATS:
         raise ParameterError(f"output '{path}' must end in one of {', '.join(FORMATS)}")
-    if path.is_dir():
-        raise OutputError(f"cannot write '{path}': it is a folder")
+    check_output(path)
     folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise OutputError(f"cannot write '{path}': folder '{folder}' does not exist")
     need = n * BYTES_PER_ROW[suffix]
     free = shutil.disk_usage(folder).free
     if need > free:
+        fits = free // BYTES_PER_ROW[suffix]
+        advice = f"use -n {round_down(fits)} or fewer" if fits >= 1 else "free some space or write elsewhere"
         raise BudgetError(
             f"{n:.3g} directions as {suffix} need up to {format_bytes(need)} of disk; '{folder}' has "
-            f"{format_bytes(free)} free; use -n {round_down(free // BYTES_PER_ROW[suffix])} or fewer"
+            f"{format_bytes(free)} free; {advice}"
         )
 
 

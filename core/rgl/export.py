@@ -92,10 +92,11 @@ class _NDF:
 
     def __call__(self, m: np.ndarray) -> np.ndarray:
         flat = m.reshape(-1, 3)
-        d = (self._raw(flat) * self.scale if self.scale > 0.0 else 0.0) + (
-            self.share if self.scale > 0.0 else 1.0
-        ) / PI
-        return np.asarray(d).reshape(m.shape[:-1])
+        if self.scale > 0.0:
+            d = self._raw(flat) * self.scale + self.share / PI
+        else:  # no retro-reflection at all (a black material): the uniform NDF, a valid table of any shape
+            d = np.full(flat.shape[0], 1.0 / PI)
+        return d.reshape(m.shape[:-1])
 
     def projected_area(self, w: np.ndarray) -> np.ndarray:
         flat = w.reshape(-1, 3)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import FileFormatError
-from core.io import atomic_write
+from core.io import atomic_write, read_bounded
 
 MAGIC = b"tensor_file\0"
 VERSION = (1, 0)
@@ -39,6 +39,8 @@ DTYPES: dict[int, np.dtype] = {
 }
 CODES = {dt: code for code, dt in DTYPES.items()}
 ALIGN = 8
+MAX_BYTES = 1 << 30
+"""The largest tensor file read (the RGL database's anisotropic materials are tens of megabytes)."""
 
 
 def read_tensor_file(path: str | os.PathLike[str], what: str = "tensor file") -> dict[str, np.ndarray]:
@@ -50,7 +52,7 @@ def read_tensor_file(path: str | os.PathLike[str], what: str = "tensor file") ->
     if not p.is_file():
         raise FileFormatError(f"{where} is not a regular file")
     try:
-        data = p.read_bytes()
+        data = read_bounded(p, MAX_BYTES, what)
     except OSError as exc:
         raise FileFormatError(f"{where} cannot be read: {exc.strerror or exc}") from None
     size = len(data)

@@ -253,9 +253,10 @@ class SamplerOption:
 
     ``kind``: ``"int"`` (a whole number in ``[lo, hi]``), ``"float"`` (a finite number in ``[lo, hi]``, or
     ``(lo, hi]`` with ``lo_open``), ``"bool"``, ``"choice"`` (one of ``choices``) or ``"cache"`` (true, false
-    or a folder). :func:`make_sampler` checks every option against the declaration before any work, so an
-    unknown key, a wrong type or a value out of range is a :class:`ParameterError` naming the option and its
-    range (``sampler_options`` of a scene file, ``--n-max`` on the command line, the app's fields).
+    or a folder that can be written). :func:`make_sampler` checks every option against the declaration before
+    any work, so an unknown key, a wrong type, a value out of range or a cache folder that cannot be written is
+    a :class:`ParameterError` naming the option and its range (``sampler_options`` of a scene file,
+    ``--n-max`` on the command line, the app's fields).
     """
 
     name: str
@@ -296,9 +297,9 @@ class SamplerOption:
                 if low in ("false", "no", "off"):
                     return False
                 if self.kind == "cache" and value.strip() and "\0" not in value:
-                    return value
+                    return self._cache_folder(where, value)
             if self.kind == "cache" and isinstance(value, os.PathLike):
-                return value
+                return self._cache_folder(where, value)
             raise bad
         if isinstance(value, bool) or not isinstance(value, int | float | str | np.integer | np.floating):
             raise bad
@@ -316,6 +317,18 @@ class SamplerOption:
                 raise bad
             return int(number)
         return number
+
+    @staticmethod
+    def _cache_folder(where: str, folder: str | os.PathLike[str]) -> str | os.PathLike[str]:
+        """A cache folder the user named: refused when it is a file or cannot be written (the tables the
+        user asked to keep would silently not be kept). Not made here: a missing folder is judged by the
+        nearest one above it, and made when the first table is stored."""
+        from core.cache import folder_problem
+
+        problem = folder_problem(folder, create=False)
+        if problem is not None:
+            raise ParameterError(f"{where}: the folder '{folder}' {problem}")
+        return folder
 
 
 SamplerFactory = Callable[..., Sampler]

@@ -11,6 +11,7 @@ MERL and mesh corpora use hypothesis with a fixed derandomized seed, a small set
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 from pathlib import Path
@@ -524,3 +525,206 @@ def test_generated_broken_meshes(capsys, scene_dir, lines, suffix):
     out.unlink(missing_ok=True)
     code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), out)
     check_answer(code, err, out)
+
+
+# ------------------------------------------------------------------------- the last inputs that slipped through
+def _one_line(command: str, code: int, err: str, *expected: str) -> None:
+    """A clear answer (exit 2, one line) that says each of ``expected``."""
+    assert problem(command, code, err) is None, err
+    for text in expected:
+        assert text in err, err
+
+
+@pytest.mark.parametrize(
+    ("variable", "value", "expected"),
+    [
+        ("BRDF_STUDIO_EMBREE", "bogus", "BRDF_STUDIO_EMBREE='bogus': expected one of direct, embreex"),
+        ("BRDF_STUDIO_CACHE", "{file}", "is a file, not a folder"),
+        ("BRDF_STUDIO_CACHE", "{file}/below", "cannot be written"),
+        ("BRDF_STUDIO_CACHE", "/proc/brdf-studio-cache", "cannot be written"),
+        ("BRDF_STUDIO_NUMBA_CACHE", "{file}", "is a file, not a folder"),
+        ("BRDF_STUDIO_NUMBA_CACHE", "/proc/brdf-studio-numba", "cannot be written"),
+    ],
+)
+def test_a_bad_environment_variable_is_refused_before_any_command(
+    capsys, tmp_path, monkeypatch, variable, value, expected
+):
+    (tmp_path / "a_file").write_text("not a folder")
+    monkeypatch.setenv(variable, value.format(file=tmp_path / "a_file"))
+    code, _, err = run_cli(capsys, ["models"])
+    _one_line("models", code, err, variable, expected, "unset")
+
+
+def test_an_unusable_numba_cache_never_puts_kernels_in_the_package(tmp_path):
+    """Kernels of a program that imports the packages itself (no command line to refuse the variable) go to
+    the default folder, not to the packages' __pycache__."""
+    import subprocess
+    import sys
+
+    (tmp_path / "a_file").write_text("")
+    env = {**os.environ, "BRDF_STUDIO_NUMBA_CACHE": str(tmp_path / "a_file"), "HOME": str(tmp_path)}
+    folder = subprocess.run(
+        [sys.executable, "-c", "import core, numba; print(numba.config.CACHE_DIR)"],
+        env=env, capture_output=True, text=True, check=True, cwd=Path(__file__).resolve().parents[2],
+    ).stdout.strip()  # fmt: skip
+    assert folder == str(tmp_path / ".cache" / "brdf-studio" / "numba")
+
+
+def test_the_folder_study_refuses_junk_files_in_one_line(capsys, tmp_path):
+    """Every file is read before any task is submitted; the refusal names the first few with their reasons."""
+    junk = tmp_path / "junk"
+    junk.mkdir()
+    (junk / "a.binary").write_bytes(np.arange(300, dtype="<i4").tobytes())
+    (junk / "b.bsdf").write_text("hello")
+    (junk / "c.bsdf").write_bytes(bytes(range(256)))
+    (junk / "d.binary").write_bytes(b"")
+    (junk / "notes.txt").write_text("not a material: not listed")
+    code, _, err = run_cli(
+        capsys, ["bench", "samplers", "--quick", "--materials", str(junk), "--out", str(tmp_path / "out")]
+    )
+    said = ("4 of 4 measured files", "a.binary", "b.bsdf", "c.bsdf", "and 1 more", "fix or move")
+    _one_line("bench", code, err, *said)
+    assert "d.binary" not in err and "notes.txt" not in err
+    assert not (tmp_path / "out").exists()  # refused before any work
+
+
+@pytest.mark.parametrize(
+    ("extra", "expected"),
+    [
+        (
+            ["--scheduler", "tcp://127.0.0.1:1"],
+            "--scheduler runs the folder study on Dask: it needs --materials",
+        ),
+        (["--workers", "4"], "--workers runs the folder study on Dask: it needs --materials"),
+        (
+            ["--materials", "{folder}", "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"],
+            "one or the other",
+        ),
+        (["--materials", "{folder}", "--workers", "0"], "--workers: must be a whole number in [1, 1e6]"),
+    ],
+)
+def test_cluster_options_without_the_folder_study_are_refused(capsys, tmp_path, extra, expected):
+    argv = ["bench", "samplers", "--quick", "--out", str(tmp_path / "out")]
+    argv += [e.format(folder=tmp_path) for e in extra]
+    code, _, err = run_cli(capsys, argv)
+    _one_line("bench", code, err, expected)
+
+
+def test_workers_are_capped_to_what_the_machine_holds(capsys, monkeypatch):
+    from app.commands._folder_study import local_workers
+    from core.study_folder import local_worker_limit
+
+    limit, _ = local_worker_limit()
+    cores = len(os.sched_getaffinity(0))
+    assert 1 <= limit <= cores  # and this test's machine has 4 GiB (the fixture): at most 4 of 768 MiB
+    assert local_workers(1000) == limit
+    note = capsys.readouterr().err.strip()
+    assert note.startswith(
+        f"brdf-studio bench: note: --workers 1000 capped to {limit}, what this machine holds"
+    )
+    assert f"{cores} core" in note and "GiB of memory available" in note
+    assert local_workers(1) == 1 and local_workers(None) == min(2, limit)
+    assert capsys.readouterr().err == ""  # nothing to say when nothing was capped
+    monkeypatch.setenv("BRDF_STUDIO_MEMORY", str(1 << 30))  # 0.8 GiB of room: one worker of 768 MiB
+    assert local_workers(8) == 1
+
+
+@pytest.mark.parametrize("cache", ["{file}", "{file}/tables", "/proc/brdf-studio-tables"])
+def test_a_scene_cache_folder_that_cannot_be_written_is_refused(capsys, scene_dir, tmp_path, cache):
+    (tmp_path / "a_file").write_text("")
+    scene = json.loads(json.dumps(SCENE))
+    scene["render"] = {**scene["render"], "sampler": "adaptive"}
+    scene["render"]["sampler_options"] = {"cache": cache.format(file=tmp_path / "a_file")}
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "o.exr")
+    _one_line("render", code, err, "render.sampler_options", "option 'cache'")
+    assert "is a file, not a folder" in err or "cannot be" in err
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom"])
+def test_an_endless_device_is_refused_before_it_is_read(capsys, scene_dir, tmp_path, device):
+    t0 = time.perf_counter()
+    code, _, err = run_cli(capsys, ["render", device, "--quiet", "-o", str(tmp_path / "o.exr")])
+    _one_line("render", code, err, f"scene file '{device}' is a device, not a file")
+    (scene_dir / "endless.obj").unlink(missing_ok=True)
+    (scene_dir / "endless.obj").symlink_to(device)
+    scene = json.loads(json.dumps(SCENE))
+    scene["meshes"][1]["path"] = "endless.obj"
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "o.exr")
+    _one_line("render", code, err, "meshes[1].path", "'endless.obj' is not a regular file")
+    (tmp_path / "endless.bsdf").symlink_to(device)
+    code, _, err = run_cli(capsys, ["albedo", "--measured", str(tmp_path / "endless.bsdf"), "--theta", "30"])
+    _one_line("albedo", code, err, "endless.bsdf' is not a regular file")
+    assert time.perf_counter() - t0 < 30.0  # nothing was read
+
+
+def test_files_larger_than_their_kind_are_refused_before_they_are_read(capsys, scene_dir, tmp_path):
+    """Sparse files (no disk used): their size is read, never their content."""
+    from core.rgl.tensor_file import MAX_BYTES
+    from core.scene import MAX_SCENE_BYTES
+
+    big_scene = tmp_path / "big.json"
+    with open(big_scene, "wb") as fh:
+        fh.truncate(MAX_SCENE_BYTES + 1)
+    code, _, err = run_cli(capsys, ["render", str(big_scene), "--quiet", "-o", str(tmp_path / "o.exr")])
+    _one_line(
+        "render", code, err, f"big.json' is too large: 64 MiB ({MAX_SCENE_BYTES + 1} bytes); at most 64 MiB"
+    )
+    big_bsdf = tmp_path / "big.bsdf"
+    with open(big_bsdf, "wb") as fh:
+        fh.truncate(2 * MAX_BYTES)
+    code, _, err = run_cli(capsys, ["albedo", "--measured", str(big_bsdf), "--theta", "30"])
+    _one_line("albedo", code, err, "big.bsdf' is too large: 2 GiB", "at most 1 GiB")
+
+
+def test_messages_say_what_is_wrong(capsys, scene_dir, tmp_path):
+    sample = ["sample", "--model", "lambert", "--sampler", "cosine", "-n", "10"]
+    code, _, err = run_cli(capsys, [*sample, "--theta", "30", "-o", "/proc/brdf-studio.csv"])
+    _one_line("sample", code, err, "folder '/proc' is not writable")
+    assert "-n" not in err
+    for value in ("-inf", "-nan", "-1e5"):
+        code, _, err = run_cli(capsys, [*sample, "--theta", value, "-o", str(tmp_path / "x.csv")])
+        _one_line("sample", code, err, "--theta: must be", f"got '{value}'")
+    code, _, err = run_cli(capsys, [*sample, "--theta", "-inf", "-o", str(tmp_path / "x.csv")])
+    assert "must be a finite number in [0, 90]" in err
+    for scale, expected in ((1e200, "scale: Input should be less than or equal to 1000000"),
+                            ([1, 2, 1e200], "scale[2]: Input should be less than or equal to 1000000"),
+                            ("big", "scale: expected a list of numbers or a number")):  # fmt: skip
+        scene = json.loads(json.dumps(SCENE))
+        scene["meshes"][1]["transform"] = {"scale": scale}
+        code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "o.exr")
+        _one_line("render", code, err, f"meshes[1].transform.{expected}")
+        assert "constrained" not in err and "tuple[" not in err
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ('{"version": 2, "version": 1}', "version"),
+        (json.dumps(SCENE)[:-1] + ', "render": {"spp": 1}}', "render"),
+        (json.dumps(SCENE).replace('"spp": 1', '"spp": 1, "spp": 2'), "spp"),
+    ],
+)
+def test_duplicate_json_keys_are_refused_naming_the_key(capsys, scene_dir, tmp_path, text, key):
+    code, err = render_scene_json(capsys, scene_dir, text, tmp_path / "o.exr")
+    _one_line("render", code, err, f"broken.json: the key '{key}' appears twice in one object")
+
+
+def test_a_black_material_exports_and_renders_with_rgl_warp(capsys, scene_dir, tmp_path):
+    from core.measured import load_measured
+
+    out = tmp_path / "black.bsdf"
+    code, stdout, err = run_cli(capsys, ["export", "--model", "lambert", "--param", "kd=0", "-o", str(out)])
+    assert code == 0 and out.is_file() and "-> rgl" in stdout, err
+    back = load_measured(out)
+    wi = np.array([[0.0, 0.0, 1.0], [0.5, 0.0, 0.866], [0.0, -0.6, 0.8]])
+    assert np.all(back.eval(wi, wi[::-1]) == 0.0)
+    scene = json.loads(json.dumps(SCENE))
+    scene["materials"][1] = {"name": "ball", "model": "lambert", "params": {"kd": 0}}
+    options = {"n_theta": 4, "vndf": 16, "samples": 8}  # small tables: a test of validity, not of quality
+    scene["render"] = {**scene["render"], "sampler": "rgl_warp", "sampler_options": options}
+    (scene_dir / "black.json").write_text(json.dumps(scene))
+    image = tmp_path / "black.exr"
+    argv = ["render", str(scene_dir / "black.json"), "--sampler", "rgl_warp", "--quiet", "-o", str(image)]
+    code, _, err = run_cli(capsys, [*argv, "--spp", "2"])
+    assert code == 0, err
+    check_answer(code, err, image)

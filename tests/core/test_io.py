@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 
@@ -64,3 +65,52 @@ def test_csv_rows_are_written_whole_with_the_first_rows_keys_as_header(tmp_path)
     assert [p.name for p in tmp_path.iterdir()] == ["table.csv"]  # no temporary file left beside it
     write_csv_rows(path, [])
     assert path.read_text() == ""
+
+
+def test_bounded_reads_refuse_devices_folders_and_large_files_before_reading(tmp_path):
+    from core.errors import FileFormatError
+    from core.io import check_input_size, read_bounded
+
+    small = tmp_path / "small.json"
+    small.write_bytes(b"x" * 100)
+    assert read_bounded(small, 100, "scene file") == b"x" * 100
+    assert check_input_size(small, 100, "mesh file") == 100
+    sparse = tmp_path / "sparse.bsdf"
+    with open(sparse, "wb") as fh:
+        fh.truncate(1 << 40)  # a terabyte that takes no disk: only its size may be read
+    for check in (read_bounded, check_input_size):
+        with pytest.raises(
+            FileFormatError, match=r"'.*small.json' is too large: 100 B \(100 bytes\); at most 99"
+        ):
+            check(small, 99, "scene file")
+        with pytest.raises(FileFormatError, match=r"is too large: 1 TiB .* at most 1 MiB \(1048576 bytes\)"):
+            check(sparse, 1 << 20, "RGL .bsdf file")
+        with pytest.raises(FileFormatError, match="scene file '/dev/zero' is a device, not a file"):
+            check("/dev/zero", 1 << 20, "scene file")
+    with pytest.raises(FileFormatError, match="is a folder, not a file"):
+        check_input_size(tmp_path, 1 << 20, "mesh file")
+    with pytest.raises(IsADirectoryError):  # as open() says it: the scene's reader words it
+        read_bounded(tmp_path, 1 << 20, "scene file")
+
+
+def test_a_bounded_read_of_an_endless_pipe_stops_at_the_limit(tmp_path):
+    import threading
+
+    from core.errors import FileFormatError
+    from core.io import check_input_size, read_bounded
+
+    fifo = tmp_path / "endless.json"
+    os.mkfifo(fifo)
+
+    def write() -> None:
+        with contextlib.suppress(BrokenPipeError), open(fifo, "wb") as fh:
+            for _ in range(1000):  # 64 MiB at most, far beyond the limit
+                fh.write(b"x" * 65536)
+
+    writer = threading.Thread(target=write, daemon=True)
+    writer.start()
+    with pytest.raises(FileFormatError, match=r"is too large: more than 1 MiB \(1048576 bytes\)"):
+        read_bounded(fifo, 1 << 20, "scene file")
+    writer.join(10)
+    with pytest.raises(FileFormatError, match="is not a regular file"):
+        check_input_size(fifo, 1 << 20, "mesh file")  # a reader that opens it by name would not stop

@@ -50,3 +50,25 @@ def test_weights_follow_the_lobe(samplers):
     warp, cosine = rel_std(samplers["phong"]), rel_std(make_sampler("cosine", brdf))
     assert warp < 0.25 * cosine, (warp, cosine)
     assert math.isfinite(warp)
+
+
+def test_a_black_material_is_a_valid_table_that_reflects_nothing(tmp_path):
+    """A black material has no retro-reflection to estimate an NDF from: its table takes the uniform NDF and
+    keeps the shape of any other material's; it is written and read back, and its draws carry no energy."""
+    from core.rgl.export import ExportOptions, tabulate
+    from core.rgl.material import read_bsdf, write_bsdf
+
+    options = ExportOptions(n_theta_i=4, vndf=(16, 16), samples=(8, 8))
+    black = tabulate(make_brdf("lambert", {"kd": 0.0}), options)
+    grey = tabulate(make_brdf("lambert", {"kd": 0.5}), options)
+    for name in ("ndf", "sigma", "vndf", "luminance", "rgb"):
+        a, b = getattr(black, name), getattr(grey, name)
+        assert a.shape == b.shape and np.all(np.isfinite(a)), name
+    assert np.all(black.ndf > 0.0) and np.all(black.sigma > 0.0) and np.all(black.rgb == 0.0)
+    write_bsdf(tmp_path / "black.bsdf", black)
+    back = read_bsdf(tmp_path / "black.bsdf")
+    assert np.array_equal(back.rgb, black.rgb) and np.array_equal(back.ndf, black.ndf)
+    sampler = make_sampler("rgl_warp", make_brdf("lambert", {"kd": 0.0}), n_theta=4, vndf=16, samples=8)
+    drawn = sampler.sample(degrees_to_dir(40.0, 10.0), 4096, seed=3)
+    assert np.all(np.isfinite(drawn.pdf)) and np.all(drawn.pdf >= 0.0)
+    assert np.all(drawn.f == 0.0)  # no energy, whatever the density
