@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -44,6 +44,32 @@ class Frame:
     spp: int
     elapsed: float
     rays: int = 0
+
+
+class Pass(NamedTuple):
+    """One pass of a progressive render: its ``index`` (the key of its random numbers), the samples per pixel
+    it traces and the number of its first sample (the film's samples per pixel before it)."""
+
+    index: int
+    spp: int
+    first_sample: int
+
+
+def pass_plan(
+    batch: int, done: int = 0, done_spp: int = 0, spp: int | None = None, first_spp: int | None = None
+) -> Iterator[Pass]:
+    """The passes of a progressive render after ``done`` passes of ``done_spp`` samples per pixel: ``batch``
+    samples per pixel each (the last one fewer, to stop at ``spp``; endless without ``spp``), the film's first
+    pass at most ``first_spp``. One render on one machine (:meth:`RenderJob.passes`) and one on a cluster
+    (:mod:`renderer.distributed`) both follow it, so that their passes are the same."""
+    index, total = int(done), int(done_spp)
+    while spp is None or total < spp:
+        n = int(batch) if spp is None else min(int(batch), spp - total)
+        if first_spp is not None and total == 0:
+            n = max(1, min(n, int(first_spp)))
+        yield Pass(index, n, total)
+        index += 1
+        total += n
 
 
 @dataclass
@@ -95,23 +121,18 @@ class RenderJob:
             raise ParameterError(f"samples per pixel must be at least 1, got {spp}")
         if time_s is not None and not time_s > 0:
             raise ParameterError(f"the time budget must be positive, got {time_s}")
-        while True:
+        for step in pass_plan(self.batch, self.passes_done, self.film.spp, spp, first_spp):
             if cancel is not None and cancel.is_set():
-                return
-            if spp is not None and self.film.spp >= spp:
                 return
             if time_s is not None and self.film.spp > 0 and self.elapsed >= time_s:
                 return
-            batch = self.batch if spp is None else min(self.batch, spp - self.film.spp)
-            if first_spp is not None and self.film.spp == 0:
-                batch = max(1, min(batch, int(first_spp)))
             t0 = time.perf_counter()
             self.world.refresh_samplers()  # better tables built in the background, between passes only
             radiance = self.tracer.render_pass(
-                self.passes_done, batch, first_sample=self.film.spp, borrow=True
+                step.index, step.spp, first_sample=step.first_sample, borrow=True
             )
             self.passes_done += 1
-            self.film.add_pass(radiance, batch)
+            self.film.add_pass(radiance, step.spp)
             self.elapsed += time.perf_counter() - t0
             frame = Frame(self.film.image(), self.film.spp, self.elapsed, self.tracer.stats.rays)
             if callback is not None:
@@ -168,6 +189,20 @@ class RenderJob:
         """Samples per pixel of the image: the film's, or those of every band of a finished render in bands."""
         layout = getattr(self, "band_layout", None)
         return self.film.spp if layout is None else int(layout["spp"])
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """The image's ``(width, height)`` in pixels."""
+        return self.tracer.width, self.tracer.height
+
+    @property
+    def rays(self) -> int:
+        """Rays traced by the passes so far."""
+        return self.tracer.stats.rays
+
+    def close(self) -> None:
+        """Release the ray-query device (the job renders no more)."""
+        self.world.accel.close()
 
     def info(self) -> dict[str, Any]:
         """Everything a JSON sidecar records: settings, time, spp, rays, sampler tables, versions."""

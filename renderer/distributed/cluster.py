@@ -1,0 +1,203 @@
+"""The Dask cluster a render runs on: an existing scheduler, or a local cluster of worker processes.
+
+:func:`connect` gives a :class:`RenderCluster` either way. A scheduler whose port does not take a connection
+within :data:`REACH_TIMEOUT` seconds, or that does not answer as a scheduler within :data:`CONNECT_TIMEOUT`
+seconds, is a :class:`ClusterError` (one line, naming the address). A local cluster's
+workers are single-threaded processes with numba kept to one thread each, so that ``n`` workers use ``n``
+cores and nothing is oversubscribed; a worker of an existing cluster renders with as many threads as Dask
+gives it (``dask worker --nthreads``).
+
+Nothing here imports Dask at module level: the imports are inside the functions.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from core.errors import BrdfStudioError, ParameterError
+
+REACH_TIMEOUT = 4.0
+"""Seconds a TCP scheduler's host has to accept a connection (a refused port is refused at once)."""
+CONNECT_TIMEOUT = 6.0
+"""Seconds a scheduler that accepted the connection has to answer as a Dask scheduler."""
+SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+"""The address schemes Dask's communications know."""
+
+
+class ClusterError(BrdfStudioError):
+    """A scheduler that cannot be reached, a local cluster that cannot start, or a worker that cannot render
+    (its message names the worker and what it could not do)."""
+
+
+def check_address(address: str) -> str:
+    """``address`` if it reads as a scheduler address (``tcp://host:port``, ``host:port``, another of
+    :data:`SCHEMES`); otherwise a :class:`ParameterError` that shows the expected form."""
+    text = address.strip()
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    hostport = re.fullmatch(r"(\[[0-9A-Fa-f:.]+\]|[^\s:/\[\]]+):(\d{1,5})/?", rest)
+    ok = scheme in SCHEMES and (scheme == "inproc" or (hostport is not None and 0 < int(hostport[2]) < 65536))
+    if not ok:
+        raise ParameterError(
+            f"'{address}' is not a Dask scheduler address; expected tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
+        )
+    return text if sep else f"tcp://{text}"
+
+
+@dataclass(frozen=True)
+class ClusterState:
+    """What a progress line shows: the workers and their threads, and the render's tasks running on them
+    and waiting."""
+
+    address: str
+    workers: int
+    threads: int
+    running: int = 0
+    waiting: int = 0
+
+    def describe(self) -> str:
+        """``"tcp://10.0.0.5:8786: 4 workers, 8 threads, 6 tasks running, 2 waiting"``."""
+        tasks = f"{self.running} tasks running" + (f", {self.waiting} waiting" if self.waiting else "")
+        return f"{self.address}: {self.workers} workers, {self.threads} threads, {tasks}"
+
+
+class RenderCluster:
+    """A Dask client and, for a local cluster, the cluster it started (closed with it)."""
+
+    def __init__(self, client: Any, local: Any = None, label: str = ""):
+        self.client = client
+        self.local = local
+        self.address = str(client.scheduler.address)
+        self.label = label or self.address
+
+    def threads(self) -> dict[str, int]:
+        """Threads per worker address, as the scheduler knows them now."""
+        workers = self.client.scheduler_info(n_workers=-1).get("workers", {})
+        return {addr: int(w.get("nthreads", 1)) for addr, w in workers.items()}
+
+    def state(self, keys: set[str] | frozenset[str] = frozenset()) -> ClusterState:
+        """The workers, and how many of ``keys`` (a render's tasks) are running on them or waiting."""
+        threads = self.threads()
+        running = 0
+        if keys:
+            processing = self.client.processing()
+            running = sum(1 for ks in processing.values() for k in ks if str(k) in keys)
+        return ClusterState(
+            self.label, len(threads), sum(threads.values()), running, max(0, len(keys) - running)
+        )
+
+    def warm(self, strategies: tuple[str, ...] = ("adaptive_warp",)) -> dict[str, float]:
+        """Load the renderer's kernels for ``strategies`` into every worker now (what a worker's first render
+        would otherwise wait for); returns each worker's seconds."""
+        return self.client.run(_load_kernels, strategies)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.local is not None:
+            self.local.close()
+
+    def __enter__(self) -> RenderCluster:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _check_scheduler(address: str, reach: float = REACH_TIMEOUT, answer: float = CONNECT_TIMEOUT) -> None:
+    """A TCP scheduler checked before a client is made (a client retries a refused port until its timeout,
+    and reads whatever another service answers as its messages): its port takes a connection within
+    ``reach`` seconds and it answers Dask's ``identity`` as a scheduler within ``answer`` seconds; a
+    :class:`ClusterError` naming the address and what failed otherwise."""
+    import asyncio
+    import socket
+    from concurrent.futures import ThreadPoolExecutor
+
+    scheme, _, rest = address.partition("://")
+    if scheme not in ("tcp", "tls"):
+        return
+    host, _, port = rest.rstrip("/").rpartition(":")
+    refused = f"cannot reach the Dask scheduler at '{address}'"
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=reach):
+            pass
+    except TimeoutError:
+        raise ClusterError(f"{refused}: no answer within {reach:g} s") from None
+    except OSError as exc:
+        raise ClusterError(f"{refused}: {(exc.strerror or str(exc) or type(exc).__name__).lower()}") from None
+    if scheme != "tcp":
+        return  # TLS needs the client's security settings: Dask's client checks the rest
+
+    async def identity() -> Any:
+        from distributed.comm import connect as open_comm
+
+        comm = await open_comm(address, timeout=answer)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    try:  # on a thread of its own: the caller may be running an event loop
+        with ThreadPoolExecutor(1) as pool:
+            reply = pool.submit(asyncio.run, asyncio.wait_for(identity(), answer)).result()
+    except TimeoutError:
+        raise ClusterError(f"{refused}: it did not answer as a Dask scheduler within {answer:g} s") from None
+    except Exception:  # noqa: BLE001  (another protocol's bytes read as Dask's: anything can break)
+        reply = None
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        raise ClusterError(
+            f"{refused}: something answers there, but not a Dask scheduler (the dashboard's port, or another "
+            "service's?)"
+        )
+
+
+def _load_kernels(strategies: tuple[str, ...]) -> float:
+    from renderer.warmup import load_kernels
+
+    return sum(seconds for _, seconds in load_kernels(strategies))
+
+
+def connect(
+    address: str | None = None, workers: int | None = None, timeout: float = CONNECT_TIMEOUT
+) -> RenderCluster:
+    """The scheduler at ``address``, or (without one) a new local cluster of ``workers`` processes (default
+    2). Raises :class:`ClusterError` when the scheduler does not answer within ``timeout`` seconds or the
+    local cluster cannot start."""
+    from dask.distributed import Client, LocalCluster
+
+    if address:
+        address = check_address(address)
+        _check_scheduler(address, answer=timeout)
+        try:
+            client = Client(address, timeout=f"{timeout}s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError, MemoryError) as exc:
+            why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ClusterError(f"cannot reach the Dask scheduler at '{address}': {why}") from None
+        return RenderCluster(client, label=address)
+    n = 2 if workers is None else int(workers)
+    if n < 1:
+        raise ParameterError(f"a local cluster needs at least 1 worker, got {n}")
+    saved = os.environ.get("NUMBA_NUM_THREADS")
+    os.environ["NUMBA_NUM_THREADS"] = "1"  # the worker processes start with this environment
+    try:
+        local = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+    except (OSError, TimeoutError, RuntimeError) as exc:
+        raise ClusterError(f"cannot start a local Dask cluster of {n} workers: {exc}") from None
+    finally:
+        if saved is None:
+            os.environ.pop("NUMBA_NUM_THREADS", None)
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = saved
+    client = Client(local, set_as_default=False)
+    return RenderCluster(client, local, label=f"local cluster of {n}")
