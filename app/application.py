@@ -21,8 +21,10 @@ def run_app(
     shown: Callable[[MainWindow], None] | None = None,
 ) -> int:
     """Open the main window on ``path`` (or the demo scene, or an empty project) and run until closed
-    (or ``quit_after`` seconds, for smoke tests). ``restore``: what to do with the unsaved edits of a session
-    that crashed, ``"ask"`` (the default), ``"yes"`` or ``"no"`` (the default with ``quit_after``).
+    (or ``quit_after`` seconds, for smoke tests), or until SIGINT or SIGTERM ends the process with 130 or
+    143, the unsaved edits autosaved (:mod:`app.signal_watcher`). ``restore``: what to do with the unsaved
+    edits of a session that crashed, ``"ask"`` (the default), ``"yes"`` or ``"no"`` (the default with
+    ``quit_after``).
     ``shown(window)`` is called once the window is shown, before the project is opened (tests drive the app
     through it)."""
     import os
@@ -31,6 +33,7 @@ def run_app(
     from PySide6.QtWidgets import QApplication
 
     from app.main_window import APP_NAME, MainWindow
+    from app.signal_watcher import SignalWatcher
 
     if path is not None and not Path(path).is_file():
         raise BrdfStudioError(f"project file '{path}' not found")
@@ -46,16 +49,23 @@ def run_app(
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName(APP_NAME)
     app.setOrganizationName("brdf-studio")
-    window = MainWindow()
-    window.show()
-    if shown is not None:
-        shown(window)
-    if restore is None:
-        restore = "no" if quit_after is not None else "ask"
-    window.start(path, empty=empty, restore=restore)
-    if quit_after is not None:
-        window.ask_unsaved = lambda: "discard"
-        QTimer.singleShot(int(quit_after * 1000), window.close)
+    watcher = SignalWatcher(app)  # from here on Ctrl-C and SIGTERM end the app with its edits autosaved
+    watcher.install()
+    try:
+        window = MainWindow()
+        watcher.window = window
+        window.show()
+        if shown is not None:
+            shown(window)
+        if restore is None:
+            restore = "no" if quit_after is not None else "ask"
+        window.start(path, empty=empty, restore=restore)
+        if quit_after is not None:
+            window.ask_unsaved = lambda: "discard"
+            QTimer.singleShot(int(quit_after * 1000), window.close)
+        code = int(app.exec())
+    finally:
+        watcher.uninstall()
     from app.workers import exit_if_abandoned
 
-    return exit_if_abandoned(int(app.exec()))
+    return exit_if_abandoned(code)

@@ -29,6 +29,7 @@ from typing import Any
 
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 
+from app import child_process
 from app.render_session import TERMINAL_KINDS, serve
 
 
@@ -39,8 +40,11 @@ class _Handle:
         ctx = multiprocessing.get_context("spawn")
         child_commands, self.commands = ctx.Pipe(duplex=False)
         self.events, child_events = ctx.Pipe(duplex=False)
-        self.process = ctx.Process(
-            target=serve, args=(child_commands, child_events), name="brdf-studio-render", daemon=True
+        self.process = ctx.Process(  # SIGINT ignored before serve's module is imported (app.child_process)
+            target=child_process.run,
+            args=(f"{serve.__module__}:{serve.__name__}", child_commands, child_events),
+            name="brdf-studio-render",
+            daemon=True,
         )
         self.started_at = time.monotonic()  # the clock the process's time stamps use (see Timeline)
         self.process.start()

@@ -35,6 +35,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+from app import child_process
 from core.errors import BrdfStudioError
 
 Spec = tuple[str, str | None, tuple, str | None]
@@ -73,8 +74,8 @@ def _pool() -> ProcessPoolExecutor:
             _POOL = ProcessPoolExecutor(
                 max_workers=1,
                 mp_context=context,
-                initializer=_start_child,
-                initargs=(os.getpid(), _GENERATION),
+                initializer=child_process.initialize,  # SIGINT ignored first (app.child_process)
+                initargs=(f"{__name__}:{_start_child.__name__}", os.getpid(), _GENERATION),
             )
         return _POOL
 

@@ -8,6 +8,10 @@ by ``tests/app/test_autosave_crash.py``, which kills it.
         launches on PROJECT as a user would (``restore="ask"``; the question is answered yes), saves the
         project and writes REPORT (whether it was asked, the document it showed, its own autosave before the
         save, the autosaves left after it), then keeps running until it is killed;
+    python -m tests.app.autosave_app hold PROJECT REPORT
+        opens PROJECT, edits it as ``edit`` does but stops the autosave timers, so that the edit is held in
+        memory only, writes REPORT and keeps running until a signal ends it (``tests/app/test_app_signals.py``:
+        the autosave the signal leaves behind is the signal handling's own);
     python -m tests.app.autosave_app saves PROJECT REPORT
         opens PROJECT and saves it over and over, each time with another value of the edited parameter
         (:func:`saved_value`), until it is killed; REPORT (the pid) is written after the first save.
@@ -46,6 +50,9 @@ def main(phase: str, project: Path, report: Path) -> int:
         doc = window.document
         doc.set_param(EDIT["param"], EDIT["value"], material=EDIT["material"])
         doc.add_material("lambert", name=EDIT["added"], params={"kd": 0.25})
+        if phase == "hold":
+            window.files.autosave_soon.stop()
+            window.autosave_timer.stop()
         _write(report, {"pid": os.getpid(), "revision": doc.revision, "dirty": doc.dirty})
 
     def check_and_save(window) -> None:
@@ -81,7 +88,7 @@ def main(phase: str, project: Path, report: Path) -> int:
             timer = QTimer(window)
             timer.timeout.connect(lambda: save_again(window))
             timer.start(0)
-        elif phase == "edit":
+        elif phase in ("edit", "hold"):
             QTimer.singleShot(0, lambda: edit(window))
         else:
             window.ask_restore = lambda when: asked.append(when) or True
