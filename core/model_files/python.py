@@ -20,7 +20,6 @@ Each kernel is wrapped in a numba ``cfunc`` with the native signature of :mod:`c
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import os
 import sys
 import tempfile
@@ -120,8 +119,43 @@ def _module_path(path: str, text: str, digest: str) -> str:
     return str(copy)
 
 
+MODULE_PREFIX = "brdf_studio_model_"
+
+
+def _install_locator() -> None:
+    """Where numba caches a model file's own ``@njit(cache=True)`` functions: a folder per module (per text).
+
+    numba keys a cached function by its file's path and stamp, and records its module's name, which it imports
+    when it loads the entry. A model's module is named by its text, while the file numba sees is the user's or a
+    copy in the temporary folder: entries of one file path written under another name (the same text read from
+    another path first) would fail to load. One folder per module name keeps them apart."""
+    from numba.core import caching, config
+
+    class ModelFileLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+        def __init__(self, py_func: Any, py_file: str) -> None:
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "brdf-studio-numba")
+            self._cache_path = os.path.join(base, "model_files", py_func.__module__)
+
+        def get_cache_path(self) -> str:
+            return self._cache_path
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            if not str(getattr(py_func, "__module__", "")).startswith(MODULE_PREFIX):
+                return None
+            return cls(py_func, py_file)
+
+    classes = caching.CacheImpl._locator_classes
+    if not any(c.__name__ == "ModelFileLocator" for c in classes):
+        classes.insert(0, ModelFileLocator)
+
+
 def _run(path: str, text: str, digest: str) -> types.ModuleType:
-    name = "brdf_studio_model_" + hashlib.sha256(f"{path}\0{digest}".encode()).hexdigest()[:16]
+    # named by the text alone, and its cached functions kept in that name's folder (_install_locator)
+    name = MODULE_PREFIX + digest[:16]
+    _install_locator()
     file = _module_path(path, text, digest)
     module = types.ModuleType(name)
     module.__file__ = file
