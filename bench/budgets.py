@@ -14,7 +14,8 @@ resident memory (``ru_maxrss``):
   slopes are the bytes per path and per RIS candidate the render's budget assumes
   (``renderer/render.py: BYTES_PER_PATH, BYTES_PER_RIS_CANDIDATE``).
 
-``sweep``: the bad-input corpus of ``tests/app/test_cli_inputs.py`` (every command's options, generated broken
+``sweep``: the bad-input corpus of ``tests/app/test_cli_inputs.py`` (every command's options, the environment
+variables, endless devices, oversized files and cluster options of ``corpus_last_inputs``, generated broken
 scenes, MERL headers and mesh files) run in one process: cases, exit codes, answers that are not one clear line,
 non-finite images, seconds.
 
@@ -173,6 +174,20 @@ def sweep(out: Path) -> list[dict]:
     t0 = time.perf_counter()
     results = [run("render", argv) for argv in t.corpus_render(work, scene_dir)]
     tally("render arguments", results, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    results = []
+    for command, argv, env in t.corpus_last_inputs(work, scene_dir):
+        saved = {k: os.environ.get(k) for k in env}
+        os.environ.update(env)
+        try:
+            results.append(run(command, argv))
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
+    tally("env, files, bench", results, time.perf_counter() - t0)
 
     generated: list[dict] = []
     image = scene_dir / "out.exr"

@@ -35,7 +35,6 @@ def local_workers(asked: int | None) -> int:
 
 
 def run_folder(args: argparse.Namespace, config: StudyConfig) -> int:
-    workers = local_workers(args.workers) if args.scheduler is None else 0
     files = material_files(args.materials)
     bad = unreadable_files(files)
     if bad:
@@ -45,6 +44,7 @@ def run_folder(args: argparse.Namespace, config: StudyConfig) -> int:
             f"{len(bad)} of {len(files)} measured files of '{args.materials}' cannot be read: {named}{more}; "
             "fix or move them"
         )
+    workers = local_workers(args.workers) if args.scheduler is None else 0  # (a note only once it will run)
     total = len(files) * len(config.thetas)
     where = f"scheduler {args.scheduler}" if args.scheduler else f"a local cluster of {workers} workers"
     print(f"{len(files)} materials x {len(config.thetas)} view angles = {total} tasks on {where}")

@@ -728,3 +728,117 @@ def test_a_black_material_exports_and_renders_with_rgl_warp(capsys, scene_dir, t
     code, _, err = run_cli(capsys, [*argv, "--spp", "2"])
     assert code == 0, err
     check_answer(code, err, image)
+
+
+def corpus_last_inputs(tmp_path: Path, scene_dir: Path) -> list[tuple[str, list[str], dict[str, str]]]:
+    """The inputs that slipped through until issue 38, as ``(command, argv, environment)``: each must be
+    exit 2 and one line (the tests above check each one's words; ``bench/budgets.py --parts sweep`` runs them
+    with the rest of the corpus)."""
+    a_file = tmp_path / "a_file"
+    a_file.write_text("not a folder")
+    junk = tmp_path / "junk"
+    junk.mkdir(exist_ok=True)
+    (junk / "a.binary").write_bytes(np.arange(300, dtype="<i4").tobytes())
+    (junk / "b.bsdf").write_text("hello")
+    for name, device in (("zero", "/dev/zero"), ("urandom", "/dev/urandom")):
+        for suffix in (".obj", ".bsdf"):
+            link = (scene_dir if suffix == ".obj" else tmp_path) / f"endless_{name}{suffix}"
+            link.unlink(missing_ok=True)
+            link.symlink_to(device)
+    big_scene, big_bsdf = tmp_path / "big.json", tmp_path / "big.bsdf"
+    with open(big_scene, "wb") as fh:
+        fh.truncate((64 << 20) + 1)
+    with open(big_bsdf, "wb") as fh:
+        fh.truncate(2 << 30)
+
+    def scene_file(name: str, edit, text: str | None = None) -> str:  # type: ignore[no-untyped-def]
+        scene = json.loads(json.dumps(SCENE))
+        if edit is not None:
+            edit(scene)
+        path = scene_dir / f"last_{name}.json"
+        path.write_text(text if text is not None else json.dumps(scene))
+        return str(path)
+
+    def cache(folder: str):  # type: ignore[no-untyped-def]
+        def edit(scene: dict) -> None:
+            scene["render"] = {**scene["render"], "sampler": "adaptive", "sampler_options": {"cache": folder}}
+
+        return edit
+
+    def mesh(path: str):  # type: ignore[no-untyped-def]
+        return lambda scene: scene["meshes"][1].update(path=path)
+
+    def scale(value):  # type: ignore[no-untyped-def]
+        return lambda scene: scene["meshes"][1].update(transform={"scale": value})
+
+    out = str(tmp_path / "o.exr")
+    bench = ["bench", "samplers", "--quick", "--out", str(tmp_path / "study")]
+    sample = ["sample", "--model", "lambert", "--sampler", "cosine", "-n", "10"]
+    cases: list[tuple[str, list[str], dict[str, str]]] = [
+        ("models", ["models"], {variable: value})
+        for variable, value in (
+            ("BRDF_STUDIO_EMBREE", "bogus"),
+            ("BRDF_STUDIO_CACHE", str(a_file)),
+            ("BRDF_STUDIO_CACHE", f"{a_file}/below"),
+            ("BRDF_STUDIO_CACHE", "/proc/brdf-studio-cache"),
+            ("BRDF_STUDIO_NUMBA_CACHE", str(a_file)),
+            ("BRDF_STUDIO_NUMBA_CACHE", f"{a_file}/below"),
+            ("BRDF_STUDIO_NUMBA_CACHE", "/proc/brdf-studio-numba"),
+        )
+    ]
+    cases += [
+        ("bench", [*bench, "--materials", str(junk)], {}),
+        ("bench", [*bench, "--materials", str(junk), "--workers", "1000"], {}),
+        ("bench", [*bench, "--scheduler", "tcp://127.0.0.1:1"], {}),
+        ("bench", [*bench, "--workers", "1000"], {}),
+        (
+            "bench",
+            [*bench, "--materials", str(junk), "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"],
+            {},
+        ),
+    ]
+    render = [
+        scene_file("cache_file", cache(str(a_file))),
+        scene_file("cache_below_file", cache(f"{a_file}/tables")),
+        scene_file("cache_proc", cache("/proc/brdf-studio-tables")),
+        "/dev/zero",
+        "/dev/urandom",
+        str(big_scene),
+        scene_file("mesh_zero", mesh("endless_zero.obj")),
+        scene_file("mesh_urandom", mesh("endless_urandom.obj")),
+        scene_file("scale", scale(1e200)),
+        scene_file("scale_list", scale([1, 2, 1e200])),
+        scene_file("scale_word", scale("big")),
+        scene_file("dup_version", None, '{"version": 2, "version": 1}'),
+        scene_file("dup_render", None, json.dumps(SCENE)[:-1] + ', "render": {"spp": 1}}'),
+        scene_file("dup_spp", None, json.dumps(SCENE).replace('"spp": 1', '"spp": 1, "spp": 2')),
+    ]
+    cases += [("render", ["render", path, "--quiet", "-o", out, "--spp", "1"], {}) for path in render]
+    cases += [
+        ("albedo", ["albedo", "--measured", str(p), "--theta", "30"], {})
+        for p in (tmp_path / "endless_zero.bsdf", tmp_path / "endless_urandom.bsdf", big_bsdf)
+    ]
+    cases += [
+        ("sample", [*sample, "--theta", "30", "-o", "/proc/brdf-studio.csv"], {}),
+        ("sample", [*sample, "--theta", "30", "-o", f"{a_file}/x.csv"], {}),
+        *[
+            ("sample", [*sample, "--theta", v, "-o", str(tmp_path / "x.csv")], {})
+            for v in ("-inf", "-nan", "-1e5")
+        ],
+    ]
+    return cases
+
+
+def test_the_last_inputs_are_one_line_each(capsys, scene_dir, tmp_path, monkeypatch):
+    cases = corpus_last_inputs(tmp_path, scene_dir)
+    assert len(cases) == 34
+    found = []
+    for command, argv, env in cases:
+        with monkeypatch.context() as m:
+            for variable, value in env.items():
+                m.setenv(variable, value)
+            code, _, err = run_cli(capsys, argv)
+        why = problem(command, code, err)
+        if why is not None:
+            found.append(f"{env} {argv}: {why}: {err.strip()[:300]}")
+    assert found == []
