@@ -5,6 +5,9 @@ The runner pauses while the render panel's comparison renders (both would share 
 comparison must not), and resumes after it; stopping loses at most the chunk in progress. A change of the
 scene stops it: the chunks rendered so far stay stored under the old scene's key and are used again if the
 scene comes back to it (undo).
+
+With a cluster set (:func:`app.settings.cluster_setting`: a local Dask cluster or a scheduler's address), the
+chunks render there (:mod:`renderer.distributed`) and the status line shows the cluster's workers and tasks.
 """
 
 from __future__ import annotations
@@ -17,8 +20,13 @@ from app import reference as ref_files
 from app.model_library import model_texts
 from app.reference import SAMPLER, Reference, ReferenceStore, location, scene_key
 from app.render_process import RenderServer
+from app.settings import cluster_setting
 from core.scene import Scene, scene_to_dict
 
+CLUSTER_CHUNK_SPP = 512
+"""Samples per pixel of a chunk rendered on a Dask cluster (:class:`app.settings.ClusterSetting`): a chunk,
+with its own seed, is a render every worker prepares anew (geometry, tables read), so chunks are longer there
+than here (:data:`app.reference.CHUNK_SPP`)."""
 SEED_BASE = 1_000_003
 """Chunk ``k`` renders with seed ``SEED_BASE + k`` (never the comparison's seed 0: a reference that shares
 the comparison's random numbers would flatter it)."""
@@ -72,10 +80,12 @@ class ReferenceRunner(QObject):
             return
         chunk = self.reference.chunks if self.reference is not None else 0
         width, height = self.size
+        cluster = cluster_setting().for_job()  # where it runs: read at each chunk, so a change applies next
+        budget = ref_files.CHUNK_SPP if cluster is None else CLUSTER_CHUNK_SPP
         self.job = self.server.submit({
             "scene": scene_to_dict(self.scene), "base_dir": str(self.scene.base_dir), "source": self.scene.source,
-            "model_texts": model_texts(self.scene), "strategies": [SAMPLER], "mode": "spp", "budget": ref_files.CHUNK_SPP, "width": width, "height": height,
-            "seed": SEED_BASE + chunk, "reference": None,
+            "model_texts": model_texts(self.scene), "strategies": [SAMPLER], "mode": "spp", "budget": budget, "width": width, "height": height,
+            "seed": SEED_BASE + chunk, "reference": None, "cluster": cluster,
         })  # fmt: skip
         done = self.reference.spp if self.reference is not None else 0
         self.status.emit(f"Making the reference: {done} of {ref_files.TARGET_SPP} spp ...")
@@ -90,6 +100,13 @@ class ReferenceRunner(QObject):
             kind = event["kind"]
             if kind == "frame":
                 self._last_frame = event
+                if "cluster" in event:  # rendered on a cluster: its state with the progress
+                    done = (self.reference.spp if self.reference is not None else 0) + event["spp"]
+                    self.status.emit(
+                        f"Making the reference: {done} of {ref_files.TARGET_SPP} spp on {event['cluster']} ..."
+                    )
+            elif kind == "status" and event["text"].startswith(("Connecting", "Rendering on")):
+                self.status.emit(event["text"])
             elif kind == "done":
                 self.job = None
                 frame = self._last_frame

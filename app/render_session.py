@@ -18,6 +18,11 @@ end (see :class:`Timeline`: where the seconds before the first images went). :fu
 While no job has come yet, the process loads the kernels a render calls (:func:`renderer.warmup.load_kernels`,
 seconds that the first render would otherwise wait for); a job that arrives meanwhile waits at most for the
 material or the tiny pass in progress.
+
+A job with a ``cluster`` (:class:`app.settings.ClusterSetting` as a dict) renders its passes on Dask
+(:mod:`renderer.distributed`: the same image as here); the process connects once and keeps the connection (a
+local cluster, its workers) for the next jobs with the same setting. Its frames then carry ``"cluster"``, the
+cluster's state in words (workers, tasks).
 """
 
 from __future__ import annotations
@@ -165,13 +170,17 @@ def render_events(
     cancel: threading.Event | None = None,
     timeline: Timeline | None = None,
     first_spp: int | None = FIRST_PASS_SPP,
+    cluster: Any = None,
+    texts: dict[str, str] | None = None,
 ) -> Iterator[dict[str, Any]]:
     """Render ``scene`` with each strategy to the same budget: ``mode`` ``"spp"`` (samples per pixel) or
     ``"time"`` (seconds of rendering each, preparation excluded). Each strategy is prepared and renders its
     first pass (``first_spp`` samples per pixel; ``None``: a full pass) before the next one is prepared;
     then their passes alternate. Setting ``cancel`` stops the render between two preparation steps or two
     passes (the generator then ends without ``done``). With a ``timeline``, its steps are marked and it is
-    yielded (a ``timing`` event) after each strategy's first frame and at the end."""
+    yielded (a ``timing`` event) after each strategy's first frame and at the end. With a ``cluster``
+    (:class:`renderer.distributed.RenderCluster`) the passes run there (``texts``: model files' texts sent in
+    place of the files, :func:`renderer.distributed.prepare_distributed`)."""
     from renderer.image_io import image_errors
     from renderer.render import prepare
 
@@ -194,28 +203,41 @@ def render_events(
             "rmse": float("nan"),
             "relmse": float("nan"),
         }
+        state = getattr(passes_of.get(name), "state", None)  # a render on a cluster
+        if state is not None:
+            event["cluster"] = state.describe()
         if reference is not None:
             event.update(image_errors(frame.image, reference))
         return event
 
     passes: dict[str, Iterator[Any]] = {}
+    passes_of: dict[str, Any] = {}  # each strategy's job
     active: list[str] = []
     for name in strategies:
         steps: list[str] = []
         yield {"kind": "status", "text": f"Preparing '{name}': geometry, kernels, sampler tables ..."}
         mark(f"prepare {name}")
         options = dict(scene.render.sampler_options) if name == scene.render.sampler else {}
-        if name.startswith("adaptive"):
+        if name.startswith("adaptive") and cluster is None:
             # a coarse table at once and the full one in the background, swapped in between passes: the
             # first image comes in seconds (core.sampling.adaptive.sampler, "progressive")
             options["progressive"] = True
         try:
-            job = prepare(
-                scene, sampler=name, sampler_options=options, width=width, height=height, seed=seed,
-                on_step=lambda label, i, n, steps=steps: on_step(label, i, n, steps),
-            )  # fmt: skip
+            if cluster is not None:
+                from renderer.distributed import prepare_distributed
+
+                job = prepare_distributed(
+                    cluster, scene, sampler=name, sampler_options=options, width=width, height=height, seed=seed,
+                    on_step=lambda label, i, n, steps=steps: on_step(label, i, n, steps), texts=texts,
+                )  # fmt: skip
+            else:
+                job = prepare(
+                    scene, sampler=name, sampler_options=options, width=width, height=height, seed=seed,
+                    on_step=lambda label, i, n, steps=steps: on_step(label, i, n, steps),
+                )  # fmt: skip
         except RenderCancelled:
             return
+        passes_of[name] = job
         report = job.prepare_report
         secs = report["seconds"]
         mark(f"prepared {name}: geometry {report.get('geometry_seconds', 0):.2f} s, materials "
@@ -258,8 +280,9 @@ def serve(commands: Connection, events: Connection) -> None:
 
     Commands: ``("start", job)`` with ``job`` a dict (``id``, ``scene`` as a dict, ``base_dir``, ``source``,
     ``model_texts``: the text of each model file the scene names as the app uses it, ``strategies``,
-    ``mode``, ``budget``, ``width``, ``height``, ``seed``, ``reference`` and, for tests, ``hold_s``: an
-    uninterruptible pause before preparing, standing in for a long compilation);
+    ``mode``, ``budget``, ``width``, ``height``, ``seed``, ``reference``, ``cluster`` (optional: where the
+    passes run) and, for tests, ``hold_s``: an uninterruptible pause before preparing, standing in for a long
+    compilation);
     ``("cancel", job_id)``; ``("quit",)``. A listener thread reads them while the main thread renders, so a
     cancel is seen between two preparation steps or two passes. Before the first job, the main thread loads
     the renderer's kernels (:data:`WARM_STRATEGIES`) and stops as soon as a job is waiting.
@@ -288,6 +311,7 @@ def serve(commands: Connection, events: Connection) -> None:
                     if current["id"] == message[1]:
                         current["cancel"].set()
             elif message[0] == "quit":
+                close_cluster()  # a local cluster's workers stop with it
                 os._exit(0)  # nothing to save: a half-built table cache entry is written atomically
 
     def send(job_id: int, event: dict[str, Any]) -> None:
@@ -353,10 +377,12 @@ def _run_job(
         )
         if timeline is not None:
             timeline.mark("scene read")
+        cluster = _cluster(job["cluster"], send) if job.get("cluster") else None
         finished = False
         for event in render_events(
             scene, job["strategies"], job["mode"], job["budget"], job["width"], job["height"],
-            job["seed"], job["reference"], cancel=cancel, timeline=timeline,
+            job["seed"], job["reference"], cancel=cancel, timeline=timeline, cluster=cluster,
+            texts=job.get("model_texts"),
         ):  # fmt: skip
             if cancel.is_set():
                 break
@@ -369,3 +395,37 @@ def _run_job(
     except Exception as exc:  # a bug: report it in the panel, keep the process for the next job
         traceback.print_exc(file=sys.stderr)
         send({"kind": "error", "text": f"internal error: {type(exc).__name__}: {exc}"})
+
+
+_CLUSTER: dict[str, Any] = {}
+"""The render process's connection to a Dask cluster (``setting``, ``cluster``), kept from job to job."""
+
+
+def _cluster(setting: dict[str, Any], send: Any) -> Any:
+    """The cluster of ``setting`` (a :class:`app.settings.ClusterSetting` as a dict): the one connected for an
+    earlier job with the same setting, or a new connection (a :class:`~core.errors.BrdfStudioError` when the
+    scheduler does not answer)."""
+    from app.settings import ClusterSetting
+    from renderer.distributed import connect
+
+    if _CLUSTER.get("setting") == setting:
+        return _CLUSTER["cluster"]
+    close_cluster()
+    wanted = ClusterSetting(**setting)
+    send({"kind": "status", "text": f"Connecting to {wanted.describe()} ..."})
+    cluster = connect(
+        wanted.address if wanted.kind == "address" else None,
+        wanted.workers if wanted.kind == "local" else None,
+    )
+    _CLUSTER.update(setting=setting, cluster=cluster)
+    send({"kind": "status", "text": f"Rendering on {cluster.state().describe()}"})
+    return cluster
+
+
+def close_cluster() -> None:
+    """Close the kept cluster connection (a local cluster stops its workers)."""
+    cluster = _CLUSTER.pop("cluster", None)
+    _CLUSTER.pop("setting", None)
+    if cluster is not None:
+        with contextlib.suppress(Exception):  # on the way out: nothing left to report it to
+            cluster.close()

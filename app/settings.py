@@ -11,6 +11,7 @@ import contextlib
 import json
 import os
 import time
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -75,6 +76,52 @@ def remember_model_file_answer(path: str | os.PathLike[str], digest: str, run: b
     answers[str(path)] = {"digest": digest, "run": bool(run)}
     with contextlib.suppress(OSError):
         atomic_write_text(config_dir() / "model-files.json", json.dumps(answers, indent=1))
+
+
+# ---- where long renders run ---------------------------------------------------------------------------
+CLUSTER_KINDS = ("none", "local", "address")
+
+
+@dataclass(frozen=True)
+class ClusterSetting:
+    """Where *Make reference* and long renders run (``cluster.json``): ``"none"`` (the render process, on
+    this machine), ``"local"`` (a local Dask cluster of ``workers`` processes) or ``"address"`` (the Dask
+    scheduler at ``address``); see :mod:`renderer.distributed`."""
+
+    kind: str = "none"
+    workers: int = 2
+    address: str = ""
+
+    def for_job(self) -> dict[str, Any] | None:
+        """What a render job carries (:mod:`app.render_session`): None on this machine."""
+        return None if self.kind == "none" else asdict(self)
+
+    def describe(self) -> str:
+        if self.kind == "local":
+            return f"a local cluster of {self.workers} workers"
+        if self.kind == "address":
+            return f"the Dask scheduler at {self.address}"
+        return "this machine"
+
+
+def cluster_setting() -> ClusterSetting:
+    """The saved setting; this machine when none is saved or the file does not hold one."""
+    try:
+        raw = json.loads((config_dir() / "cluster.json").read_text(encoding="utf-8"))
+        setting = ClusterSetting(str(raw["kind"]), int(raw.get("workers", 2)), str(raw.get("address", "")))
+    except (OSError, ValueError, KeyError, TypeError):
+        return ClusterSetting()
+    if (
+        setting.kind not in CLUSTER_KINDS
+        or setting.workers < 1
+        or (setting.kind == "address" and not setting.address)
+    ):
+        return ClusterSetting()
+    return setting
+
+
+def set_cluster_setting(setting: ClusterSetting) -> None:
+    atomic_write_text(config_dir() / "cluster.json", json.dumps(asdict(setting), indent=1))
 
 
 # ---- crash recovery ------------------------------------------------------------------------------------

@@ -6,6 +6,7 @@
                        [--compare uniform,adaptive] [--reference REF.exr] [--seed K] [--width W --height H]
                        [--ris M] [--n-max X] [--max-depth D] [--exposure EV]
     brdf-studio render --demo
+    brdf-studio render SCENE.json --spp 4096 --scheduler tcp://HOST:8786   (or --workers N: a local cluster)
 
 Writes ``OUT.exr`` (linear HDR), ``OUT.png`` (tone-mapped sRGB) and ``OUT.json`` (settings, time, spp, versions).
 With ``--compare`` every strategy gets ``OUT_<strategy>.exr/.png/.json`` at the same budget, plus a labelled
@@ -20,6 +21,11 @@ to the EXR and PNG (``--spp`` only: no ``--time``, ``--until-cancelled``, ``--co
 which need the whole image; interrupted, it saves nothing and leaves the previous outputs). Ctrl-C (or SIGTERM) while passes run
 finishes the pass in flight and saves the image of the passes done, then exits with 130 (143); a second
 Ctrl-C stops at once, still saving what the completed passes hold.
+
+With ``--scheduler ADDRESS`` (a running Dask scheduler) or ``--workers N`` (a local cluster of N processes) the
+passes run on Dask workers (:mod:`renderer.distributed`, ``docs/distributed.md``): the same image, bit for
+bit, with the same progress, budgets, Ctrl-C and sidecar (which adds the cluster's part). A scheduler that
+does not answer within seconds is refused with one line.
 """
 
 from __future__ import annotations
@@ -38,6 +44,8 @@ from core.errors import OutputError, ParameterError
 
 MAX_RIS = 1024
 """Candidates per sky sample; the memory budget of a pass bounds it further for large images."""
+MAX_LOCAL_WORKERS = 256
+"""Worker processes of a local cluster (``--workers``)."""
 
 
 def _seconds(value: str) -> float:
@@ -114,7 +122,30 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         help=f"PNG exposure in stops, [-{_args.MAX_EXPOSURE:g}, {_args.MAX_EXPOSURE:g}] (default 0)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    cluster = p.add_mutually_exclusive_group()
+    cluster.add_argument(
+        "--scheduler",
+        type=_scheduler,
+        metavar="ADDRESS",
+        help="render on the Dask scheduler at ADDRESS (tcp://HOST:PORT)",
+    )
+    cluster.add_argument(
+        "--workers",
+        type=whole(1, MAX_LOCAL_WORKERS),
+        metavar="N",
+        help=f"render on a local Dask cluster of N worker processes, [1, {MAX_LOCAL_WORKERS}]",
+    )
     return ["render"]
+
+
+def _scheduler(value: str) -> str:
+    """A Dask scheduler address (``tcp://HOST:PORT``), checked for its form before anything is read."""
+    from renderer.distributed.cluster import check_address
+
+    try:
+        return check_address(value)
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def demo_scene_path() -> Path:
@@ -186,17 +217,27 @@ def _check_collisions(stem: Path, strategies: list[str], protected: list[Path]) 
 
 
 def run(args: argparse.Namespace) -> int:
-    from core.scene import load_scene
-    from renderer.image_io import composite, image_errors, read_exr, write_error_curves, write_exr, write_png
-    from renderer.image_io import write_sidecar as write_json
-    from renderer.render import band_plan, prepare
-
     if args.scene is None and args.compare and args.compare[-1].lower().endswith(".json"):
         args.scene = args.compare.pop()  # "--compare a,b scene.json": the list took the scene
     if args.demo == bool(args.scene):
         raise ParameterError("give a scene file or --demo (one of them)")
     scene_path = demo_scene_path() if args.demo else Path(args.scene)
     stem = _output_stem(args, scene_path)
+    # a scheduler first: one that does not answer is refused in seconds, before the scene is read; a local
+    # cluster starts once the scene and the request are checked
+    cluster = _connect(args) if args.scheduler else None
+    try:
+        return _checked_render(args, scene_path, stem, cluster)
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _checked_render(args: argparse.Namespace, scene_path: Path, stem: Path, cluster) -> int:  # type: ignore[no-untyped-def]
+    from core.scene import load_scene
+    from renderer.image_io import read_exr
+    from renderer.render import band_plan
+
     scene = load_scene(scene_path)
     strategies = _strategies(args, scene.render.sampler)
     _check_collisions(stem, strategies, [scene_path] + ([Path(args.reference)] if args.reference else []))
@@ -218,8 +259,39 @@ def run(args: argparse.Namespace) -> int:
     rows = band_plan(width, height, args.ris)
     if rows is not None:
         check_band_request(args, time_s, strategies, width, height)
+        if args.scheduler or args.workers:
+            raise ParameterError(
+                f"a {width}x{height} render is rendered in bands of rows, on this machine; "
+                "--scheduler and --workers are for renders whose film fits in memory"
+            )
+    if cluster is None and args.workers:
+        cluster = _connect(args)
+        try:
+            return _render(args, scene, stem, strategies, options, reference, spp, time_s, rows, cluster)
+        finally:
+            cluster.close()
+    return _render(args, scene, stem, strategies, options, reference, spp, time_s, rows, cluster)
 
+
+def _connect(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    """The Dask cluster of ``--scheduler``/``--workers``, or None (this machine)."""
+    if not (args.scheduler or args.workers):
+        return None
+    from renderer.distributed import connect
+
+    with _signals.deferred():
+        cluster = connect(args.scheduler, args.workers)
+    if not args.quiet:
+        print(f"rendering on {cluster.state().describe()}", file=sys.stderr)
+    return cluster
+
+
+def _render(args, scene, stem, strategies, options, reference, spp, time_s, rows, cluster) -> int:  # type: ignore[no-untyped-def]
     from tqdm import tqdm
+
+    from renderer.image_io import composite, image_errors, write_error_curves, write_exr, write_png
+    from renderer.image_io import write_sidecar as write_json
+    from renderer.render import prepare
 
     images, curves, summary = [], {}, []
     interrupted = False
@@ -233,27 +305,31 @@ def run(args: argparse.Namespace) -> int:
             bar.set_description(f"{strategy}: prepare {what}")
             bar.refresh()
 
+        settings = dict(
+            sampler=strategy,
+            sampler_options=options[strategy],
+            width=args.width,
+            height=args.height,
+            seed=args.seed,
+            max_depth=args.max_depth,
+            on_step=on_step,
+            ris_candidates=args.ris,
+        )
         with _signals.deferred():  # a Ctrl-C here stops at the next step (and after the last)
-            job = prepare(
-                scene,
-                sampler=strategy,
-                sampler_options=options[strategy],
-                width=args.width,
-                height=args.height,
-                seed=args.seed,
-                max_depth=args.max_depth,
-                on_step=on_step,
-                ris_candidates=args.ris,
-                bands=rows is not None,
-            )
+            if cluster is not None:
+                from renderer.distributed import prepare_distributed
+
+                job = prepare_distributed(cluster, scene, **settings)
+            else:
+                job = prepare(scene, bands=rows is not None, **settings)
         bar.close()
         try:
             _signals.check()  # a Ctrl-C during preparation whose exception a finalizer swallowed
             if reference is not None:
                 h, w = reference.shape[:2]
-                if (job.tracer.width, job.tracer.height) != (w, h):
+                if job.size != (w, h):
                     raise ParameterError(
-                        f"the reference is {w}x{h} but the render is {job.tracer.width}x{job.tracer.height}; "
+                        f"the reference is {w}x{h} but the render is {job.size[0]}x{job.size[1]}; "
                         "use --width/--height"
                     )
             if rows is not None:
@@ -283,7 +359,7 @@ def run(args: argparse.Namespace) -> int:
             images.append(image)
             summary.append((strategy, job, records[-1] if records else None, with_extension(path, ".exr")))
         finally:
-            job.world.accel.close()
+            job.close()
         if interrupted:
             break
 
@@ -330,7 +406,11 @@ def _render_passes(job, strategy, spp, time_s, reference, quiet, image_errors) -
                 bar.n = (
                     frame.spp if spp is not None or forever else min(time_s or 0.0, round(frame.elapsed, 2))
                 )
-                bar.set_postfix(spp=frame.spp, refresh=False)
+                state = getattr(job, "state", None)  # a render on a cluster: its workers and tasks
+                if state is not None:
+                    bar.set_postfix(spp=frame.spp, workers=state.workers, tasks=state.running, refresh=False)
+                else:
+                    bar.set_postfix(spp=frame.spp, refresh=False)
                 bar.refresh()
                 if reference is not None:
                     records.append(
@@ -350,7 +430,7 @@ def _print_summary(summary: list) -> None:  # type: ignore[type-arg]
         f"{'strategy':<14}{'spp':>6}{'seconds':>9}{'Mrays/s':>9}{'prepare s':>10}{'RMSE':>12}{'relMSE':>12}  output"
     )
     for strategy, job, err, out in summary:
-        rps = job.tracer.stats.rays / job.elapsed / 1e6 if job.elapsed > 0 else 0.0
+        rps = job.rays / job.elapsed / 1e6 if job.elapsed > 0 else 0.0
         rmse = f"{err['rmse']:.5g}" if err else "-"
         rel = f"{err['relmse']:.5g}" if err else "-"
         rep = job.prepare_report

@@ -31,6 +31,7 @@ from app.reference import Reference, scene_key
 from app.reference_runner import ReferenceRunner
 from app.render_process import RenderServer
 from app.render_session import check_request
+from app.settings import cluster_setting
 from app.views.error_plot import ErrorPlot
 from app.views.images import ImageView
 from core.errors import BrdfStudioError, OutputError
@@ -44,6 +45,9 @@ most every ``PLOT_INTERVAL_MS``): the window is composed through OpenGL (its 3D 
 widget flushes the whole window, tens of ms in software GL on a loaded machine (measured with
 ``bench/app_latency.py --stacks``: the GUI thread asleep on the GL's futex). One flush per turn, 4 a second.
 A strategy's first image and the last ones are shown at once."""
+LONG_RENDER_SPP = 256
+"""Renders of at least this many samples per pixel (equal spp) run on the render cluster when one is set
+(:class:`app.settings.ClusterSetting`); shorter ones, and equal-time comparisons, run on this machine."""
 
 
 class RenderPanel(QWidget):
@@ -116,6 +120,12 @@ class RenderPanel(QWidget):
             "resumes where it stopped); errors against it are measured live (Ctrl+R)"
         )
         self.reference_button.clicked.connect(self.make_reference)
+        self.cluster_button = QPushButton("Cluster...")
+        self.cluster_button.setToolTip(
+            "Where Make reference and renders of many spp run: this machine, a local Dask cluster or a "
+            "Dask scheduler's address"
+        )
+        self.cluster_button.clicked.connect(self.choose_cluster)
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
         self.mode.currentIndexChanged.connect(self._mode_changed)
@@ -132,7 +142,7 @@ class RenderPanel(QWidget):
             if label:
                 row.addWidget(QLabel(label))
             row.addWidget(w)
-        for b in (self.start_button, self.cancel_button, self.reference_button):
+        for b in (self.start_button, self.cancel_button, self.reference_button, self.cluster_button):
             strategies.addWidget(b)
         for row in (strategies, budget):
             row.addStretch(1)
@@ -207,7 +217,25 @@ class RenderPanel(QWidget):
             "height": self.height_box.value(),
             "seed": 0,
             "reference": self.reference,
+            "cluster": cluster_setting().for_job() if self._long(mode) else None,
         }
+
+    def _long(self, mode: str) -> bool:
+        """Whether the render set up is long enough for the render cluster (:data:`LONG_RENDER_SPP`)."""
+        return mode == "spp" and self.spp.value() >= LONG_RENDER_SPP
+
+    def choose_cluster(self) -> None:
+        """Ask where Make reference and long renders run, and keep the answer."""
+        from app.settings import set_cluster_setting
+        from app.views.cluster_dialog import ClusterDialog
+
+        dialog = ClusterDialog(cluster_setting(), self)
+        if dialog.exec() == ClusterDialog.DialogCode.Accepted:
+            chosen = dialog.setting()
+            set_cluster_setting(chosen)
+            self.set_status(
+                f"Make reference and renders of {LONG_RENDER_SPP} spp or more run on {chosen.describe()}."
+            )
 
     def start(self) -> None:
         """Start a render (cancelling a running one first: Render while rendering restarts)."""
@@ -278,6 +306,8 @@ class RenderPanel(QWidget):
                     {k: event[k] for k in ("spp", "seconds", "rmse", "relmse")}
                 )
                 latest[name] = event
+                if "cluster" in event and self.status_text != f"Rendering on {event['cluster']}":
+                    self.set_status(f"Rendering on {event['cluster']}")
             elif kind in ("done", "error", "cancelled"):
                 ended = True
                 if kind == "done":

@@ -2,19 +2,27 @@
 
 :func:`connect` gives a :class:`RenderCluster` either way. A scheduler whose port does not take a connection
 within :data:`REACH_TIMEOUT` seconds, or that does not answer as a scheduler within :data:`CONNECT_TIMEOUT`
-seconds, is a :class:`ClusterError` (one line, naming the address). A local cluster's
-workers are single-threaded processes with numba kept to one thread each, so that ``n`` workers use ``n``
-cores and nothing is oversubscribed; a worker of an existing cluster renders with as many threads as Dask
-gives it (``dask worker --nthreads``).
+seconds, is a :class:`ClusterError` (one line, naming the address). A local cluster's workers are
+single-threaded processes with numba kept to one thread each, so that ``n`` workers use ``n`` cores and
+nothing is oversubscribed; they ignore Ctrl-C (:mod:`renderer.distributed.local_worker`: the command that
+started them decides what it does, and closes them). A worker of an existing cluster renders with as many
+threads as Dask gives it (``dask worker --nthreads``). A daemonic process (the app's render process), which
+cannot start processes through ``multiprocessing``, gets its local cluster in a process of its own
+(:mod:`renderer.distributed.local_cluster`).
 
 Nothing here imports Dask at module level: the imports are inside the functions.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import multiprocessing
 import os
 import re
+import select
+import subprocess
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +32,10 @@ REACH_TIMEOUT = 4.0
 """Seconds a TCP scheduler's host has to accept a connection (a refused port is refused at once)."""
 CONNECT_TIMEOUT = 6.0
 """Seconds a scheduler that accepted the connection has to answer as a Dask scheduler."""
+LOCAL_PRELOAD = "renderer.distributed.local_worker"
+"""The module a local cluster's workers preload (:mod:`renderer.distributed.local_worker`)."""
+START_TIMEOUT = 120.0
+"""Seconds a local cluster started in a process of its own has to report its scheduler's address."""
 SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
 """The address schemes Dask's communications know."""
 
@@ -168,7 +180,7 @@ def connect(
     """The scheduler at ``address``, or (without one) a new local cluster of ``workers`` processes (default
     2). Raises :class:`ClusterError` when the scheduler does not answer within ``timeout`` seconds or the
     local cluster cannot start."""
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client
 
     if address:
         address = check_address(address)
@@ -182,22 +194,79 @@ def connect(
     n = 2 if workers is None else int(workers)
     if n < 1:
         raise ParameterError(f"a local cluster needs at least 1 worker, got {n}")
+    if multiprocessing.current_process().daemon:
+        # a daemonic process (the app's render process) cannot start worker processes of its own
+        return _separate_local(n, timeout)
+    local = start_local(n)
+    client = Client(local, set_as_default=False)
+    return RenderCluster(client, local, label=f"local cluster of {n}")
+
+
+def start_local(n: int) -> Any:
+    """A ``LocalCluster`` of ``n`` single-threaded worker processes that ignore Ctrl-C, numba on one thread
+    each (a :class:`ClusterError` when it cannot start)."""
+    from dask.distributed import LocalCluster
+
     saved = os.environ.get("NUMBA_NUM_THREADS")
     os.environ["NUMBA_NUM_THREADS"] = "1"  # the worker processes start with this environment
     try:
-        local = LocalCluster(
+        return LocalCluster(
             n_workers=n,
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
             silence_logs=logging.ERROR,
+            preload=[LOCAL_PRELOAD],  # a Ctrl-C in the terminal is the command's: the workers ignore it
         )
-    except (OSError, TimeoutError, RuntimeError) as exc:
+    except (OSError, TimeoutError, RuntimeError, AssertionError) as exc:
         raise ClusterError(f"cannot start a local Dask cluster of {n} workers: {exc}") from None
     finally:
         if saved is None:
             os.environ.pop("NUMBA_NUM_THREADS", None)
         else:
             os.environ["NUMBA_NUM_THREADS"] = saved
-    client = Client(local, set_as_default=False)
-    return RenderCluster(client, local, label=f"local cluster of {n}")
+
+
+class _LocalProcess:
+    """A local cluster in a process of its own (:mod:`renderer.distributed.local_cluster`), ended with it."""
+
+    def __init__(self, proc: subprocess.Popen[bytes]):
+        self.proc = proc
+
+    def close(self, timeout: float = 10.0) -> None:
+        with contextlib.suppress(OSError):
+            if self.proc.stdin is not None:
+                self.proc.stdin.close()  # its signal to close the cluster and end
+        try:
+            self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(timeout)
+
+
+def _separate_local(n: int, timeout: float) -> RenderCluster:
+    """A local cluster of ``n`` workers started in a process of its own (which ends when this process
+    closes it or goes away), and a client of it."""
+    from dask.distributed import Client
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "renderer.distributed.local_cluster", str(n)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    )
+    assert proc.stdout is not None
+    line = b""
+    ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT)
+    if ready:
+        line = proc.stdout.readline()
+    address = line.decode(errors="replace").strip()
+    if not address.startswith("tcp://"):
+        _LocalProcess(proc).close(timeout=2.0)
+        why = address or f"no scheduler address within {START_TIMEOUT:g} s"
+        raise ClusterError(f"cannot start a local Dask cluster of {n} workers: {why}")
+    try:
+        client = Client(address, timeout=f"{timeout}s", set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        _LocalProcess(proc).close(timeout=2.0)
+        raise ClusterError(f"cannot start a local Dask cluster of {n} workers: {exc}") from None
+    return RenderCluster(client, _LocalProcess(proc), label=f"local cluster of {n}")
