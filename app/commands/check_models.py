@@ -4,7 +4,8 @@ For each ``*.brdf`` file (sorted by name): it opens (``core.glsl``: read and com
 default parameters agree with the shader itself run by Mesa's software OpenGL (:mod:`app.shader_oracle`) over
 a grid of direction pairs, L and V both in the upper hemisphere: polar angles from 0 to 89 degrees, azimuths all
 round. Agreement is within 1e-5 relative plus what float32 rounding can change (``docs/model-files.md``, "How
-imported shaders are checked"); NaN must meet NaN. Files that only visualise (parameters named ``show_*``, as
+imported shaders are checked"); NaN must meet NaN. A file that agrees is then sampled: both adaptive samplers
+pass ``brdf-studio check``'s tests on it (:func:`sampler_check`; ``--samples 0`` leaves them out). Files that only visualise (parameters named ``show_*``, as
 BRDF Explorer's showAngles and showVectors) are refused and counted apart.
 
 Prints a table and a summary line; ``--csv OUT`` writes the table. Exit status 0 when every file that is not
@@ -46,6 +47,14 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         help=f"N polar angles from 0 to {LAST_POLAR_ANGLE:g} degrees and 2(N-1) azimuths "
         f"(default {DEFAULT_POLAR_ANGLES}: every 15 and 30 degrees), all ordered pairs of them",
     )
+    p.add_argument(
+        "--samples",
+        type=whole(0, 10**8),
+        default=DEFAULT_SAMPLES,
+        metavar="N",
+        help=f"samples per chi-square test of the adaptive samplers (default {DEFAULT_SAMPLES:g}; 0: no "
+        "sampler check)",
+    )
     p.add_argument("--csv", type=Path, metavar="OUT", help="also write the table to this CSV file")
     return ["check-models"]
 
@@ -67,14 +76,41 @@ def direction_pairs(polar_angles: int) -> tuple[np.ndarray, np.ndarray]:
     return np.repeat(w, len(w), axis=0), np.tile(w, (len(w), 1))
 
 
-def sampler_check(path: Path) -> bool | None:
-    """Whether the adaptive samplers pass ``brdf-studio check`` on the model of ``path``: True, False, or None
-    when not run. Called for each file that opens and agrees with Mesa.
+ADAPTIVE_SAMPLERS = ("adaptive", "adaptive_warp")
+SAMPLER_THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
+"""The outgoing polar angles of the samplers' check, as ``brdf-studio check`` takes them by default."""
+SAMPLER_PHI = 17.0
+DEFAULT_SAMPLES = 100_000
+SAMPLER_TESTS_PER_FILE = 2 * len(ADAPTIVE_SAMPLERS) * len(SAMPLER_THETAS)
+"""Chi-square tests per file: both adaptive samplers x each angle x sphere and disk."""
 
-    A hook: the adaptive samplers' statistical check of imported models is not wired in yet, so this returns
-    None and the table leaves the column out.
-    """
-    return None
+
+@dataclass
+class SamplerCheck:
+    """The adaptive samplers' check of one model: passed, and the reasons of the rows that failed."""
+
+    passed: bool
+    reasons: list[str]
+
+
+def sampler_check(path: Path, samples: int = DEFAULT_SAMPLES, n_tests: int = SAMPLER_TESTS_PER_FILE,
+                  seed: int = 1) -> SamplerCheck:  # fmt: skip
+    """``brdf-studio check`` of both adaptive samplers (``n_max`` 2) on the model of ``path`` at its defaults:
+    at each of :data:`SAMPLER_THETAS`, chi-square on the sphere and on the disk with ``samples`` samples
+    (alpha = 0.01 Sidak-corrected over ``n_tests``: the caller's whole run), the pdf's integral, the acceptance
+    and the leaf bounds. Called for each file that opens and agrees with Mesa."""
+    from app.commands.check import validate
+    from core.model import make_brdf
+    from core.sampling import make_sampler
+
+    brdf = make_brdf(str(path), {})
+    reasons: list[str] = []
+    for strategy in ADAPTIVE_SAMPLERS:
+        sampler = make_sampler(strategy, brdf, n_max=2.0)
+        for theta in SAMPLER_THETAS:
+            row = validate(sampler, theta, SAMPLER_PHI, samples, n_tests, seed)
+            reasons += [f"{strategy} at theta {theta:g}: {why}" for why in row.get("reasons", [])]
+    return SamplerCheck(not reasons, reasons)
 
 
 @dataclass
@@ -115,8 +151,9 @@ class ModelCheck:
         }
 
 
-def check_model(path: Path, L: np.ndarray, V: np.ndarray) -> ModelCheck:
-    """Open ``path``, evaluate it and Mesa on the pairs ``(L, V)`` at its defaults, compare."""
+def check_model(path: Path, L: np.ndarray, V: np.ndarray, samples: int = 0, n_tests: int = 1) -> ModelCheck:
+    """Open ``path``, evaluate it and Mesa on the pairs ``(L, V)`` at its defaults, compare; then, with
+    ``samples``, check the adaptive samplers on it (:func:`sampler_check`, Sidak over ``n_tests``)."""
     from app.float32_agreement import agreement_with_oracle
     from app.shader_oracle import MesaShaderError, version_line
     from core.errors import BrdfStudioError
@@ -170,11 +207,16 @@ def check_model(path: Path, L: np.ndarray, V: np.ndarray) -> ModelCheck:
                 problems.append(f"{count} NaN in {side} only, not from rounding")
         row.message = "; ".join(problems)
         return row
-    row.samplers = sampler_check(path)
+    if samples:
+        try:
+            check = sampler_check(path, samples, n_tests)
+        except BrdfStudioError as error:
+            check = SamplerCheck(False, [str(error)])
+        row.samplers = check.passed
+        if not check.passed:
+            row.message = "the adaptive samplers fail their check: " + "; ".join(check.reasons)
     row.verdict = "FAIL" if row.samplers is False else "pass"
-    if row.samplers is False:
-        row.message = "the adaptive samplers fail their check"
-    elif version_line(brdf.shader):
+    if row.samplers is not False and version_line(brdf.shader):
         row.message = (
             "note: its '#version' line is left out for Mesa: GLSL takes one only on the program's first line, "
             "which holds BRDF Explorer's own"
@@ -238,7 +280,14 @@ def run(args: argparse.Namespace) -> int:
         f"({ULPS} ulps per computed quantity) + {ABSOLUTE_FLOOR:.2g}; NaN against NaN, or on one side "
         "where rounding makes it\n"
     )
-    rows = [check_model(path, L, V) for path in files]
+    n_tests = SAMPLER_TESTS_PER_FILE * len(files)
+    if args.samples:
+        print(
+            f"samplers: {' and '.join(ADAPTIVE_SAMPLERS)} (n_max 2) at theta {', '.join(f'{t:g}' for t in SAMPLER_THETAS)}: "
+            f"chi-square on sphere and disk, {args.samples:g} samples, alpha = 0.01 Sidak-corrected over {n_tests} "
+            "tests; pdf integral, acceptance, leaf bounds\n"
+        )
+    rows = [check_model(path, L, V, args.samples, n_tests) for path in files]
     print_table(rows)
     passed = sum(r.verdict == "pass" for r in rows)
     failed = sum(r.failed for r in rows)

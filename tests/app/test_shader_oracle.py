@@ -246,8 +246,10 @@ def _folder(tmp_path: Path, *files: Path) -> Path:
 
 
 def test_check_models_passes_on_our_fixtures(tmp_path, capsys):
+    """Every fixture opens and agrees with Mesa (the samplers' check is the next test's: it takes minutes
+    for all of them)."""
     fixtures = sorted(FIXTURES.glob("*.brdf")) + sorted(GLSL_FIXTURES.glob("*.brdf"))
-    code, out, err = _run(capsys, str(_folder(tmp_path, *fixtures)), "--grid", "4")
+    code, out, err = _run(capsys, str(_folder(tmp_path, *fixtures)), "--grid", "4", "--samples", "0")
     assert code == 0, out + err
     assert "llvmpipe" in out
     for f in fixtures:
@@ -256,20 +258,34 @@ def test_check_models_passes_on_our_fixtures(tmp_path, capsys):
     assert f"{len(fixtures)} files: {len(fixtures)} pass, 0 fail" in out
 
 
+def test_check_models_runs_the_adaptive_samplers_check_on_a_file(tmp_path, capsys):
+    """Both adaptive samplers pass check's chi-square tests (alpha = 0.01, Sidak over the run's 20 tests),
+    pdf integral, acceptance and leaf bounds on the principled fixture (anisotropic, three lobes)."""
+    code, out, err = _run(
+        capsys, str(_folder(tmp_path, GLSL_FIXTURES / "principled.brdf")), "--grid", "3", "--samples", "20000"
+    )
+    assert code == 0, out + err
+    assert "Sidak-corrected over 20 tests" in out
+    header = next(line for line in out.splitlines() if line.startswith("file"))
+    row = next(line for line in out.splitlines() if line.startswith("principled.brdf"))
+    assert header.split()[-2:] == ["samplers", "verdict"] and row.split()[-2:] == ["pass", "pass"], row
+
+
 def test_check_models_reports_a_broken_file_and_exits_1(tmp_path, capsys):
-    folder = _folder(tmp_path, *FIXTURES.glob("*.brdf"))
+    fixtures = list(FIXTURES.glob("*.brdf"))
+    folder = _folder(tmp_path, *fixtures)
     (folder / "broken.brdf").write_text(
         f"analytic\n::begin parameters\n::end parameters\n::begin shader\n{SIGNATURE}\n{{\n"
         "    return vec3(1.0)\n}\n::end shader\n"
     )
     out_csv = tmp_path / "table.csv"
-    code, out, err = _run(capsys, str(folder), "--grid", "3", "--csv", str(out_csv))
+    code, out, err = _run(capsys, str(folder), "--grid", "3", "--samples", "0", "--csv", str(out_csv))
     assert code == 1 and err == ""
     lines = out.splitlines()
     row = next(i for i, line in enumerate(lines) if line.startswith("broken.brdf"))
     assert lines[row].split()[1] == "no" and lines[row].endswith("FAIL")
     assert "broken.brdf:8" in lines[row + 1]  # the message, at the file's line
-    assert "3 files: 2 pass, 1 FAIL" in out
+    assert f"{len(fixtures) + 1} files: {len(fixtures)} pass, 1 FAIL" in out
     with out_csv.open() as fh:
         rows = {r["file"]: r for r in csv.DictReader(fh)}
     assert rows["broken.brdf"]["verdict"] == "FAIL" and rows["tinted_lambert.brdf"]["verdict"] == "pass"
@@ -281,7 +297,7 @@ def test_check_models_refuses_files_that_only_visualise(tmp_path, capsys):
         "analytic\n::begin parameters\nbool show_thetaH 0\n::end parameters\n::begin shader\n"
         f"{SIGNATURE} {{ return vec3(show_thetaH ? acos(dot(N, normalize(L + V))) : 0.5); }}\n::end shader\n"
     )
-    code, out, _ = _run(capsys, str(folder), "--grid", "3")
+    code, out, _ = _run(capsys, str(folder), "--grid", "3", "--samples", "0")
     assert code == 0
     assert next(line for line in out.splitlines() if line.startswith("angles.brdf")).endswith(
         "refused (visualisation only)"
