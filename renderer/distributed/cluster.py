@@ -86,6 +86,16 @@ class RenderCluster:
         self.local = local
         self.address = str(client.scheduler.address)
         self.label = label or self.address
+        self._sent: dict[str, Any] = {}
+        """The futures of the bytes the last render sent, by digest (:meth:`scatter`)."""
+
+    def scatter(self, data: dict[str, bytes]) -> dict[str, Any]:
+        """Futures of ``data`` (bytes by their SHA-256) on the cluster, for a render's tasks: the bytes the
+        previous render sent are not sent again; those it sent and this one does not are let go."""
+        new = {d: raw for d, raw in data.items() if d not in self._sent}
+        sent = self.client.scatter({f"bytes-{d}": raw for d, raw in new.items()}, hash=False) if new else {}
+        self._sent = {d: sent[f"bytes-{d}"] if d in new else self._sent[d] for d in data}
+        return dict(self._sent)
 
     def threads(self) -> dict[str, int]:
         """Threads per worker address, as the scheduler knows them now."""

@@ -30,6 +30,7 @@ time of the passes.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import threading
 import time
@@ -415,14 +416,12 @@ def prepare_distributed(
         max_depth=settings["max_depth"],
         ris_candidates=settings["ris_candidates"],
     )
-    client = cluster.client
-    scattered = client.scatter({f"scene-file-{d}": files[d] for d in bundle.digests}, hash=False)
-    contents = {d: scattered[f"scene-file-{d}"] for d in bundle.digests}
-    by_key = {
-        f"table-{spec.key[:12]}-{i}": (rel, raw) for i, (rel, raw) in enumerate(sorted(table_files.items()))
-    }
-    scattered = client.scatter({k: raw for k, (_, raw) in by_key.items()}, hash=False) if by_key else {}
-    tables = {rel: scattered[k] for k, (rel, _) in by_key.items()}
+    table_digests = {rel: hashlib.sha256(raw).hexdigest() for rel, raw in table_files.items()}
+    sent = cluster.scatter(
+        {**{d: files[d] for d in bundle.digests}, **{table_digests[r]: raw for r, raw in table_files.items()}}
+    )
+    contents = {d: sent[d] for d in bundle.digests}
+    tables = {rel: sent[d] for rel, d in table_digests.items()}
     report = {
         "seconds": round(time.perf_counter() - t0, 3),
         "materials": materials,

@@ -1,0 +1,218 @@
+"""Renders on Dask (:mod:`renderer.distributed`) against one process: scaling and overhead at a fixed spp.
+
+Each configuration renders the same scene, size, seed and samples per pixel, preparation included (wall
+time from the call to the last image):
+
+- ``one process, N threads``: :func:`renderer.render.prepare` and its passes in this process;
+- ``N local workers``: a local cluster of N single-threaded worker processes, already started and warm
+  (a small render on it first, another seed, so that every worker has imported the renderer, loaded its
+  kernels and read the tables), then :func:`renderer.distributed.prepare_distributed` and its passes: the
+  client's tables and scene files sent, every worker preparing the scene, the blocks, the film;
+- with ``--scheduler ADDRESS``: the cluster at that address instead of local ones (its workers as they are).
+
+The one-process renders are warm too (a render of another seed first, in this process). Round ``r`` renders
+seed ``--seed + r`` in every configuration, so that every round is a new render everywhere (a worker keeps a
+render it prepared: the same seed again would skip its preparation). Rounds alternate the configurations (a
+shared machine's load falls on all of them alike); the table shows each configuration's fastest and median
+round. ``scaling`` is a configuration's median time over the 1-worker cluster's; ``overhead`` is its median
+time over the median of the one-process render with as many threads as the cluster has, minus one.
+``exact`` says whether every round's image equals the one-process image of that round bit for bit.
+
+The error: with ``--reference REF.exr`` (or ``--ref-spp N``: a reference of N spp and another seed rendered
+on the largest cluster, cached under ``--out``) each configuration's RMSE against it, the mean over rounds. The
+images of a round are equal bit for bit, so the RMSE is the same in every configuration and the time ratios
+are ratios at equal error.
+
+Prints the table and writes ``distributed_render.csv`` under ``--out`` (default ``results/bench``).
+
+    .venv/bin/python bench/distributed_render.py [--spp 64] [--workers 1,2] [--rounds 3] [--ref-spp 1024]
+    .venv/bin/python bench/distributed_render.py --scheduler tcp://HOST:8786 [--spp 1024]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.commands.render import demo_scene_path
+from core.io import write_csv_rows
+from core.scene import Scene, load_scene
+from renderer.distributed import RenderCluster, connect, prepare_distributed
+from renderer.image_io import image_errors, read_exr, write_exr
+from renderer.render import prepare
+
+WARM_SEED = 1234
+"""The warm-up renders' seed (the timed ones use ``--seed`` and the following ones)."""
+REF_SEED = 999_983
+"""The seed of a reference rendered by ``--ref-spp`` (not one of the timed renders')."""
+
+
+def make_reference(
+    scene: Scene, args: argparse.Namespace, out: Path, clusters: dict[str, RenderCluster]
+) -> np.ndarray:
+    """A ``--ref-spp`` render of another seed (cached under ``out``), on the largest cluster."""
+    path = out / f"distributed_reference_{args.width}x{args.height}_{args.ref_spp}spp_{REF_SEED}.exr"
+    if path.is_file():
+        print(f"reference: cached {path}", flush=True)
+        return read_exr(path)
+    t0 = time.perf_counter()
+    if clusters:
+        cluster = max(clusters.values(), key=lambda c: sum(c.threads().values()))
+        job = prepare_distributed(cluster, scene, width=args.width, height=args.height, seed=REF_SEED)
+    else:
+        job = prepare(scene, width=args.width, height=args.height, seed=REF_SEED)
+    try:
+        image = job.run(spp=args.ref_spp).image
+    finally:
+        job.close()
+    write_exr(path, image, {"spp": args.ref_spp, "seed": REF_SEED})
+    print(f"reference: {args.ref_spp} spp in {time.perf_counter() - t0:.0f} s -> {path}", flush=True)
+    return image
+
+
+def one_process(scene: Scene, args: argparse.Namespace, threads: int, seed: int) -> tuple[float, np.ndarray]:
+    t0 = time.perf_counter()
+    job = prepare(scene, width=args.width, height=args.height, seed=seed, threads=threads)
+    try:
+        image = job.run(spp=args.spp if seed != WARM_SEED else 1).image
+    finally:
+        job.close()
+    return time.perf_counter() - t0, image
+
+
+def on_cluster(
+    cluster: RenderCluster, scene: Scene, args: argparse.Namespace, seed: int
+) -> tuple[float, np.ndarray, dict]:
+    t0 = time.perf_counter()
+    job = prepare_distributed(cluster, scene, width=args.width, height=args.height, seed=seed)
+    try:
+        spp = args.spp if seed != WARM_SEED else job.batch * 8 * len(cluster.threads())
+        image = job.run(spp=spp).image
+    finally:
+        job.close()
+    return time.perf_counter() - t0, image, job.info()
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scene", help="scene file (default: the bundled demo)")
+    ap.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
+    ap.add_argument("--width", type=int, help="image width (default: the scene's)")
+    ap.add_argument("--height", type=int, help="image height (default: the scene's)")
+    ap.add_argument("--seed", type=int, default=1, help="seed of the timed renders (default 1)")
+    ap.add_argument("--workers", default="1,2", help="local clusters' sizes (default 1,2)")
+    ap.add_argument("--scheduler", metavar="ADDRESS", help="an existing cluster instead of local ones")
+    ap.add_argument("--rounds", type=int, default=3, help="rounds of every configuration (default 3)")
+    ap.add_argument("--reference", metavar="REF.exr", help="an image to measure each render's RMSE against")
+    ap.add_argument("--ref-spp", type=int, default=0, help="without --reference: render one of this many spp")
+    ap.add_argument("--out", default="results/bench", help="output folder")
+    args = ap.parse_args(argv)
+    scene = load_scene(args.scene or demo_scene_path())
+    args.width = args.width or scene.render.width
+    args.height = args.height or scene.render.height
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    clusters: dict[str, RenderCluster] = {}
+    started: dict[str, float] = {}
+    sizes = [] if args.scheduler else [int(n) for n in args.workers.split(",") if n]
+    try:
+        for n in sizes:
+            t0 = time.perf_counter()
+            clusters[f"{n} local workers"] = connect(workers=n)
+            started[f"{n} local workers"] = time.perf_counter() - t0
+        if args.scheduler:
+            clusters["scheduler"] = connect(args.scheduler)
+        threads = {name: sum(c.threads().values()) for name, c in clusters.items()}
+        one = sorted(set(threads.values()) | {1})
+        configs = [f"one process, {t} threads" for t in one] + list(clusters)
+        # warm-up: every configuration renders once (another seed) before any is timed
+        for t in one:
+            one_process(scene, args, t, WARM_SEED)
+        for c in clusters.values():
+            c.warm((scene.render.sampler,))
+            on_cluster(c, scene, args, WARM_SEED)
+        reference = None
+        if args.reference:
+            reference = read_exr(args.reference)
+        elif args.ref_spp > 0:
+            reference = make_reference(scene, args, out, clusters)
+        seconds: dict[str, list[float]] = {c: [] for c in configs}
+        exact: dict[str, bool] = {c: True for c in configs}
+        errors: dict[str, list[float]] = {c: [] for c in configs}
+        infos: dict[str, list[dict]] = {c: [] for c in clusters}
+        for r in range(args.rounds):
+            seed = args.seed + r
+            first: np.ndarray | None = None
+            for config in configs:
+                if config in clusters:
+                    s, image, info = on_cluster(clusters[config], scene, args, seed)
+                    infos[config].append(info)
+                else:
+                    s, image = one_process(scene, args, int(config.split(", ")[1].split()[0]), seed)
+                seconds[config].append(s)
+                first = image if first is None else first
+                exact[config] &= bool(np.array_equal(image, first))
+                if reference is not None:
+                    errors[config].append(image_errors(image, reference)["rmse"])
+                print(f"round {r + 1} (seed {seed}): {config}: {s:.2f} s", flush=True)
+    finally:
+        for c in clusters.values():
+            c.close()
+
+    base = statistics.median(seconds[next(iter(clusters))]) if clusters else None
+    rows = []
+    for config in configs:
+        best, median = min(seconds[config]), statistics.median(seconds[config])
+        t = threads.get(config, int(config.split(", ")[1].split()[0]) if config.startswith("one") else 1)
+        equal = f"one process, {t} threads"
+        row = {
+            "configuration": config,
+            "threads": t,
+            "spp": args.spp,
+            "size": f"{args.width}x{args.height}",
+            "best_s": round(best, 3),
+            "median_s": round(median, 3),
+            "rounds_s": " ".join(f"{s:.3f}" for s in seconds[config]),
+            "scaling_vs_1_worker": round(median / base, 3) if base and config in clusters else "",
+            "overhead": round(median / statistics.median(seconds[equal]) - 1.0, 4)
+            if config in clusters and equal in seconds
+            else "",
+            "exact": exact[config],
+            "rmse": round(statistics.fmean(errors[config]), 6) if errors[config] else "",
+            "cluster_start_s": round(started.get(config, 0.0), 2) if config in started else "",
+        }
+        if infos.get(config):
+            runs = infos[config]
+            row["client_prepare_s"] = round(statistics.median(i["prepare"]["seconds"] for i in runs), 3)
+            row["workers_prepare_s"] = round(
+                statistics.median(i["prepare"]["workers_seconds"] for i in runs), 3
+            )
+            row["passes_s"] = round(statistics.median(i["render_seconds"] for i in runs), 3)
+            row["blocks"] = runs[-1]["cluster"]["blocks"]
+        rows.append(row)
+
+    print(f"\n{scene.source} at {args.width}x{args.height}, {args.spp} spp, seeds {args.seed}-{args.seed + args.rounds - 1}; "
+          f"best and median of {args.rounds} rounds, preparation included")  # fmt: skip
+    print(
+        f"{'configuration':<24}{'threads':>8}{'best s':>9}{'median s':>10}{'scaling':>9}{'overhead':>10}{'exact':>7}"
+        f"{'RMSE':>11}"
+    )
+    for row in rows:
+        scaling = f"{row['scaling_vs_1_worker']:.3f}" if row["scaling_vs_1_worker"] != "" else "-"
+        overhead = f"{row['overhead']:+.1%}" if row["overhead"] != "" else "-"
+        rmse = f"{row['rmse']:.5f}" if row["rmse"] != "" else "-"
+        print(f"{row['configuration']:<24}{row['threads']:>8}{row['best_s']:>9.2f}{row['median_s']:>10.2f}"
+              f"{scaling:>9}{overhead:>10}{'yes' if row['exact'] else 'NO':>7}{rmse:>11}")  # fmt: skip
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    write_csv_rows(out / "distributed_render.csv", [{k: row.get(k, "") for k in keys} for row in rows])
+    print(f"wrote {out / 'distributed_render.csv'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
