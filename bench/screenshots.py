@@ -5,7 +5,9 @@
 Opens the app on the bundled demo scene (under Xvfb when there is no display), drives it to a meaningful
 state (a glossy material at 45 degrees, the sampler view, the demo scene's reference made in the app with
 *Make reference*, then uniform against adaptive sampling at equal time with the live RMSE/relMSE plot and the
-verdict) and grabs each panel from the screen, so the OpenGL views are captured too.
+verdict) and grabs each panel from the screen, so the OpenGL views are captured too. The whole window is also
+shot as large as common screens leave it (:data:`SCREENS`, ``window_<W>x<H>.png``), as
+``tests/app/test_layout.py`` checks it.
 """
 
 from __future__ import annotations
@@ -21,8 +23,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _display import ensure_display  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+SCREENS = ((1366, 768), (1600, 1000), (1920, 1080))
+DESKTOP_PX = 70
+"""What a desktop takes from a screen's height: a window manager's title bar and a panel."""
+SCREEN_SHOTS = tuple(f"window_{w}x{h}" for w, h in SCREENS)
 EXPLORE_SHOTS = (
     "window", "explore", "lobe", "polar", "albedo", "lit_sphere", "direction", "material_editor", "scene_tree",
+    *SCREEN_SHOTS,
 )  # fmt: skip
 
 
@@ -41,7 +48,7 @@ def main() -> int:
     args = parser.parse_args()
     only = {name.strip() for name in args.only.split(",") if name.strip()}
     width, height = (int(v) for v in args.render_size.lower().split("x"))
-    ensure_display()
+    ensure_display("1920x1080x24")  # room for the largest of SCREENS
     os.environ.setdefault("BRDF_STUDIO_CONFIG_DIR", tempfile.mkdtemp(prefix="brdf-studio-shots-"))
 
     from PySide6.QtCore import QRect
@@ -100,6 +107,17 @@ def main() -> int:
     grab(window.direction_editor, "direction")
     grab(window.material_dock, "material_editor")
     grab(window.tree_dock, "scene_tree")
+    if wanted(*SCREEN_SHOTS):
+        size = window.size()
+        for (w, h), name in zip(SCREENS, SCREEN_SHOTS, strict=True):
+            window.resize(w, h - DESKTOP_PX)
+            settle(0.5)
+            window.size_docks_to_content()
+            settle(0.5, until=lambda: window.jobs_idle())
+            grab(window, name)
+        window.resize(size)
+        settle(0.5)
+        window.size_docks_to_content()
 
     if wanted("sampling"):
         window.tabs.setCurrentWidget(window.sampling_panel)

@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (
 )
 
 from app.document import Document
+from app.editors.combo import ElidedComboBox
 from app.editors.model_file import ModelFilePanel
 from app.editors.params import ParamEditor
 from app.editors.rows import EmissionRow
@@ -68,8 +69,7 @@ class MaterialEditor(QWidget):
         self.new_button = QPushButton("New")
         self.new_button.setToolTip("New material (Ctrl+M)")
         self.delete_button = QPushButton("Delete")
-        self.model_box = QComboBox()
-        self.model_box.setToolTip("The BRDF model of this material")
+        self.model_box = ElidedComboBox(min_chars=14)  # a long model name elides: the dock stays narrow
         self._fill_models()
         self.merl_button = QPushButton("Load MERL ...")
         self.merl_button.setToolTip("Use a measured BRDF (MERL .binary file) for this material")
@@ -143,6 +143,7 @@ class MaterialEditor(QWidget):
         self.model_box.clear()
         for m in [*all_models(), *self.library.models()]:
             self.model_box.addItem(m.label, m.name)
+        self.model_box.fit_list()
         self.model_box.blockSignals(False)
 
     def _model_file_changed(self, path: str) -> None:

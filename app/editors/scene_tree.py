@@ -8,19 +8,11 @@ the chooser's list, which is as wide as the longest name). A material's model is
 
 from __future__ import annotations
 
-from PySide6.QtCore import QRect, Qt, Signal
-from PySide6.QtWidgets import (
-    QAbstractItemView,
-    QComboBox,
-    QMenu,
-    QStyle,
-    QStyleOptionComboBox,
-    QStylePainter,
-    QTreeWidget,
-    QTreeWidgetItem,
-)
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import QAbstractItemView, QMenu, QTreeWidget, QTreeWidgetItem
 
 from app.document import Document
+from app.editors.combo import ElidedComboBox
 from core.errors import BrdfStudioError
 from core.scene import PointLight, QuadLight
 
@@ -28,54 +20,19 @@ ROLE_KIND = Qt.ItemDataRole.UserRole
 ROLE_NAME = Qt.ItemDataRole.UserRole + 1
 
 
-class MaterialChooser(QComboBox):
-    """A material chooser that fits the width it is given: it asks for room for
-    :attr:`MIN_CHARS` characters only, shows the current name elided at its end when the name does not fit,
-    and opens a list as wide as the longest name."""
+class MaterialChooser(ElidedComboBox):
+    """A material chooser that fits the width it is given: it asks for room for :attr:`MIN_CHARS` characters
+    only, shows the current name elided at its end when the name does not fit, and opens a list as wide as the
+    longest name."""
 
     MIN_CHARS = 12
 
     def __init__(self, names: list[str], current: str):
-        super().__init__()
-        self.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
-        self.setMinimumContentsLength(self.MIN_CHARS)
+        super().__init__(self.MIN_CHARS)
         self.addItems(names)
         self.setCurrentText(current)
         self.setToolTip(current)
-        self.currentTextChanged.connect(self.setToolTip)
-        longest = max((self.fontMetrics().horizontalAdvance(n) for n in names), default=0)
-        self.view().setMinimumWidth(
-            longest + 2 * self.style().pixelMetric(QStyle.PixelMetric.PM_ScrollBarExtent)
-        )
-
-    def text_rect(self) -> QRect:
-        """Where the current name is drawn (the style's edit field)."""
-        opt = QStyleOptionComboBox()
-        self.initStyleOption(opt)
-        return self.style().subControlRect(
-            QStyle.ComplexControl.CC_ComboBox, opt, QStyle.SubControl.SC_ComboBoxEditField, self
-        )
-
-    def shown_text(self) -> str:
-        """The current name as drawn: whole, or elided at its end to the text's width."""
-        return self.fontMetrics().elidedText(
-            self.currentText(), Qt.TextElideMode.ElideRight, self.text_rect().width()
-        )
-
-    def width_for_all(self) -> int:
-        """The width that shows the longest name whole."""
-        fm = self.fontMetrics()
-        chrome = self.sizeHint().width() - fm.horizontalAdvance("x") * self.MIN_CHARS
-        return chrome + max((fm.horizontalAdvance(self.itemText(i)) for i in range(self.count())), default=0)
-
-    def paintEvent(self, _event) -> None:  # noqa: N802 (Qt name)
-        painter = QStylePainter(self)
-        opt = QStyleOptionComboBox()
-        self.initStyleOption(opt)
-        painter.drawComplexControl(QStyle.ComplexControl.CC_ComboBox, opt)
-        opt.currentText = self.shown_text()
-        painter.drawControl(QStyle.ControlElement.CE_ComboBoxLabel, opt)
-        painter.end()  # now, not when Python collects the painter
+        self.fit_list()
 
 
 class SceneTree(QTreeWidget):

@@ -16,9 +16,11 @@ class AlbedoView(FigureView):
     """Plots ``rho(theta)`` (RGB and luminance); the values are computed off the GUI thread."""
 
     def __init__(self, parent: QWidget | None = None):
-        super().__init__(parent)
+        super().__init__(parent, fit_texts=True)
         self.thetas = np.zeros(0)
         self.values = np.zeros((0, 3))
+        self._shown: str | None = None
+        """The label of the plot shown (``None``: a message)."""
         self.show_message("computing ...")
 
     def show_message(self, text: str) -> None:
@@ -26,6 +28,7 @@ class AlbedoView(FigureView):
         ax.clear()
         ax.set_axis_off()
         ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True, fontsize=10, transform=ax.transAxes)
+        self._shown = None
         self.status.setText(text)
         self.redraw()
 
@@ -47,7 +50,10 @@ class AlbedoView(FigureView):
         ax.set_ylim(0, max(1.05, float(self.values.max()) * 1.05 if self.values.size else 1.05))
         ax.set_xlabel("theta (deg)")
         ax.set_ylabel("directional albedo")
-        ax.set_title(f"albedo vs theta {label}", fontsize=9)
+        ax.set_title(f"albedo vs theta {label}", fontsize=9, wrap=True)
         ax.grid(alpha=0.3)
         self.status.setText(f"max albedo {float(lum.max()):.4f} (luminance)" if lum.size else "")
+        if self._shown != label:  # a new title, or axes after a message: other margins (not on every edit)
+            self._shown = label
+            self.fit_texts()
         self.redraw()

@@ -30,7 +30,10 @@ class ErrorPlot(FigureView):
             size=(7.0, 2.3),
             margins={"left": 0.09, "right": 0.98, "bottom": 0.2, "top": 0.88, "wspace": 0.28},
             status_lines=2,  # the verdict's two lines, whether it is there or not: the canvas keeps its size
+            fit_texts=True,
         )
+        # titles, tick labels and axis labels take ~80 px: room for the curves too, however the panes are split
+        self.canvas.setMinimumHeight(11 * self.fontMetrics().lineSpacing())
         self.figure.clear()
         self.axes_by_metric = {m: self.figure.add_subplot(1, 2, i + 1) for i, (m, _) in enumerate(METRICS)}
         self.axes = self.axes_by_metric["rmse"]
@@ -117,6 +120,7 @@ class ErrorPlot(FigureView):
         self.verdict = equal_time_verdict(curves, "rmse")
         self.status.setText(f"<b>{self.verdict}</b>" if self.verdict else "")
         if stale:
+            self.fit_texts()  # new tick labels may need other margins
             self.redraw()  # new limits or lines: the whole figure (tens of ms)
         else:
             self.update_artists()  # the lines only, over the saved axes (a few ms)

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 
+import numpy as np
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from matplotlib.figure import Figure
@@ -13,6 +15,9 @@ from PySide6.QtGui import QPainter, QStaticText
 from PySide6.QtWidgets import QSizePolicy, QVBoxLayout, QWidget
 
 from core.errors import OutputError
+
+FIT_PASSES = 3
+"""At most this many layout passes fit the margins to the texts (two, when new ticks come with the new size)."""
 
 
 class StatusLine(QWidget):
@@ -55,13 +60,16 @@ class FigureView(QWidget):
     saved copy is missing or stale. Artists that change now and then but cost too much to draw on every
     update (titles: text is slow to draw) can be declared as *overlay*: they are drawn into the saved copy
     when they change (:meth:`update_overlay`), not on every update and without a full draw.
+
+    With ``fit_texts`` the margins are fitted to the texts (:meth:`fit_texts`) whenever the canvas is resized,
+    so that titles, tick labels and legends stay inside a figure of any size.
     """
 
     def __init__(self, parent: QWidget | None = None, polar: bool = False, size=(4.0, 3.0), margins=None,
-                 status_lines: int = 2):  # fmt: skip
+                 status_lines: int = 2, fit_texts: bool = False):  # fmt: skip
         super().__init__(parent)
-        # Fixed margins: a layout engine ("tight") re-measures every text on every draw, which made a redraw
-        # during a slider drag cost hundreds of milliseconds.
+        # Fixed margins between layouts: a layout engine ("tight") re-measures every text on every draw, which
+        # made a redraw during a slider drag cost hundreds of milliseconds. Fitted once per resize instead.
         self.figure = Figure(figsize=size, dpi=90)
         self.figure.subplots_adjust(**(margins or {"left": 0.16, "right": 0.96, "bottom": 0.15, "top": 0.9}))
         self.canvas = FigureCanvasQTAgg(self.figure)
@@ -79,6 +87,25 @@ class FigureView(QWidget):
         self._background_bounds: tuple[float, ...] | None = None
         self.full_draws = 0
         """Full figure draws so far (tests check that data updates avoid them)."""
+        if fit_texts:
+            self.canvas.mpl_connect("resize_event", lambda _event: self.fit_texts())
+
+    def fit_texts(self) -> None:
+        """Margins that keep every text (titles wrapped to the figure's width, tick labels, legends) inside the
+        figure at its current size: one layout pass (a text measurement), for a resize or a new title."""
+        if min(self.figure.bbox.width, self.figure.bbox.height) < 40:
+            return  # not laid out yet
+        pars = self.figure.subplotpars
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "not applied": a figure too small for its texts
+            for _ in range(FIT_PASSES):
+                # Again while the margins move: axes of another size get other ticks ("0.25" where there
+                # was "0.5"), whose labels may need other margins.
+                before = (pars.left, pars.right, pars.bottom, pars.top)
+                self.figure.tight_layout(pad=0.3)
+                if np.allclose(before, (pars.left, pars.right, pars.bottom, pars.top), atol=1e-3):
+                    break
+        self._background = None
 
     def set_animated(self, artists: Iterable[Artist], overlay: Iterable[Artist] = ()) -> None:
         """Declare the artists whose data changes: full draws leave them out of the saved background and

@@ -1,11 +1,12 @@
 """Image views for renders: the image fills its pane (kept fitted as the pane resizes) until the user zooms
-with the wheel or pans by dragging; a double click fits it again; linked views follow each other."""
+with the wheel or pans by dragging; key 1 shows it at its actual size (one image pixel on one screen pixel),
+key F or 0 or a double click fits it again; linked views follow each other."""
 
 from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Qt, Signal
-from PySide6.QtGui import QImage, QPixmap, QTransform, QWheelEvent
+from PySide6.QtGui import QImage, QKeyEvent, QPixmap, QTransform, QWheelEvent
 from PySide6.QtWidgets import QGraphicsPixmapItem, QGraphicsScene, QGraphicsView
 
 
@@ -28,7 +29,8 @@ class ImageView(QGraphicsView):
         self.fitted = True
         """The image fills the pane (until the user zooms or pans)."""
         self.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAsNeeded)
-        self.setToolTip("Wheel: zoom; drag: pan; double click: fit the image to the pane")
+        self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)  # a click gives it the keys
+        self.setToolTip("Wheel: zoom; drag: pan; 1: actual size (1:1); F, 0 or double click: fit to the pane")
         for bar in (self.horizontalScrollBar(), self.verticalScrollBar()):
             bar.valueChanged.connect(lambda _v: self._push())
 
@@ -49,12 +51,40 @@ class ImageView(QGraphicsView):
         if not self._item.pixmap().isNull():
             self._syncing = True  # each view fits itself: nothing to push
             try:
-                self.fitInView(self._item, Qt.AspectRatioMode.KeepAspectRatio)
+                # Not fitInView: it keeps a margin of 2 px on every side. A hair under the exact scale, so
+                # that rounding shows no scroll bar.
+                port, rect = self.viewport().rect(), self._item.boundingRect()
+                scale = min(port.width() / rect.width(), port.height() / rect.height()) * (1.0 - 1e-6)
+                self.setTransform(QTransform.fromScale(scale, scale))
+                self.centerOn(rect.center())
             finally:
                 self._syncing = False
         for other in self._linked:
             if not other.fitted:
                 other.fit()
+
+    def actual_size(self) -> None:
+        """One image pixel on one screen pixel, around the point in the pane's centre (the linked views
+        follow)."""
+        centre = self.mapToScene(self.viewport().rect().center())
+        self.fitted = False
+        scale = 1.0 / self.devicePixelRatioF()
+        self._syncing = True  # pushed once, below, with the scroll position that goes with it
+        try:
+            self.setTransform(QTransform.fromScale(scale, scale))
+            self.centerOn(centre)
+        finally:
+            self._syncing = False
+        self._push()
+
+    def keyPressEvent(self, event: QKeyEvent) -> None:  # noqa: N802
+        key = event.key()
+        if key == Qt.Key.Key_1:
+            self.actual_size()
+        elif key in (Qt.Key.Key_F, Qt.Key.Key_0):
+            self.fit()
+        else:
+            super().keyPressEvent(event)
 
     def resizeEvent(self, event) -> None:  # noqa: N802
         super().resizeEvent(event)

@@ -46,7 +46,10 @@ class PolarView(FigureView):
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(
-            parent, polar=True, margins={"left": 0.08, "right": 0.92, "bottom": 0.02, "top": 0.86}
+            parent,
+            polar=True,
+            margins={"left": 0.08, "right": 0.92, "bottom": 0.02, "top": 0.86},
+            fit_texts=True,
         )
         self.theta = np.zeros(0)
         self.values = np.zeros((0, 3))
@@ -69,7 +72,7 @@ class PolarView(FigureView):
             ax.text(self.LABEL_ANGLE, r, "", fontsize=7, ha="center", va="bottom", color="dimgray")
             for r in RINGS
         ]
-        ax.set_title("f cos(theta_i) in the incidence plane (1/sr)", fontsize=9)
+        ax.set_title("f cos(theta_i) in the incidence plane (1/sr)", fontsize=9, wrap=True)
         ax.legend(loc="upper left", bbox_to_anchor=(-0.12, 1.02), fontsize=7, frameon=False)
         self.r_max = 0.0
         """The radial limit (1/sr): the outer ring."""

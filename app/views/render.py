@@ -20,7 +20,6 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QPushButton,
-    QSizePolicy,
     QSpinBox,
     QSplitter,
     QVBoxLayout,
@@ -33,6 +32,7 @@ from app.render_process import RenderServer
 from app.render_session import check_request
 from app.settings import cluster_setting
 from app.views.error_plot import ErrorPlot
+from app.views.figure import StatusLine
 from app.views.images import ImageView
 from core.errors import BrdfStudioError, OutputError
 from core.sampling import sampler_names
@@ -142,8 +142,11 @@ class RenderPanel(QWidget):
             if label:
                 row.addWidget(QLabel(label))
             row.addWidget(w)
-        for b in (self.start_button, self.cancel_button, self.reference_button, self.cluster_button):
-            strategies.addWidget(b)
+        # Render and Cancel beside the strategies, the other buttons beside the budget: two rows of about the
+        # same width, neither wider than the Sampling tab's.
+        buttons = (self.start_button, self.cancel_button, self.reference_button, self.cluster_button)
+        for i, b in enumerate(buttons):
+            (strategies if i < 2 else budget).addWidget(b)
         for row in (strategies, budget):
             row.addStretch(1)
         controls = QVBoxLayout()
@@ -153,12 +156,11 @@ class RenderPanel(QWidget):
         self.view_a = ImageView()
         self.view_b = ImageView()
         self.view_a.link(self.view_b)
-        self.counter_a = QLabel("")
-        self.counter_b = QLabel("")
-        for counter in (self.counter_a, self.counter_b):
-            # The text changes with every frame: a size that does not depend on it spares a relayout (and a
-            # repaint) of the whole window each time, which cost the GUI thread tens of ms per frame.
-            counter.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        # Two lines each (samples and time; speed and error), of a size that does not depend on the text: a
+        # new text every frame repaints the line only, instead of a relayout and repaint of the whole window
+        # (tens of ms per frame on the GUI thread).
+        self.counter_a = StatusLine(2)
+        self.counter_b = StatusLine(2)
         images = QWidget()
         grid = QGridLayout(images)
         grid.setContentsMargins(0, 0, 0, 0)
@@ -363,7 +365,7 @@ class RenderPanel(QWidget):
         rate = event["rays"] / event["seconds"] / 1e6 if event["seconds"] > 0 else 0.0
         err = f"RMSE {event['rmse']:.4g}" if math.isfinite(event["rmse"]) else "RMSE: no reference"
         counter.setText(
-            f"<b>{name}</b>: {event['spp']} spp, {event['seconds']:.2f} s, {rate:.2f} Mrays/s, {err}"
+            f"<b>{name}</b>: {event['spp']} spp, {event['seconds']:.2f} s<br>{rate:.2f} Mrays/s, {err}"
         )
 
     def _summary(self) -> str:
