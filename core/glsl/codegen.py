@@ -59,14 +59,22 @@ def _zero(t: GlslType) -> ir.Constant:
     return ir.Constant(_scalar_type(t), 0)
 
 
-def build_module(program: p.Program, name: str = "shader") -> ir.Module:
-    """The LLVM IR module of ``program`` with the entry points ``brdf`` and ``brdf_batch``."""
-    return _ModuleBuilder(program, name).module
+def build_module(
+    program: p.Program, name: str = "shader", uniforms: Sequence[float] | None = None
+) -> ir.Module:
+    """The LLVM IR module of ``program`` with the entry points ``brdf`` and ``brdf_batch``.
+
+    ``uniforms``: the parameter vector's values, compiled in as constants (a specialization: the optimizer
+    folds every expression of the parameters alone, such as ``pow(baseColor, 2.2)``, once); the entry points
+    keep their signature and ignore the vector they are given. Without it the parameters are read at each call.
+    """
+    return _ModuleBuilder(program, name, uniforms).module
 
 
 class _ModuleBuilder:
-    def __init__(self, program: p.Program, name: str) -> None:
+    def __init__(self, program: p.Program, name: str, uniforms: Sequence[float] | None = None) -> None:
         self.program = program
+        self.uniforms = None if uniforms is None else [float(u) for u in uniforms]
         self.module = ir.Module(name=name)
         fields: list[ir.Type] = []
         self.frame_fields: dict[p.Variable, int] = {}
@@ -231,7 +239,11 @@ class _FunctionEmitter:
             t = _scalar_type(variable.type)
             return [self.builder.load(pointer, typ=t) for pointer in self.storage(variable)]
         values = []
+        uniforms = self.module_builder.uniforms
         for i in range(variable.type.size):
+            if uniforms is not None:
+                values.append(ir.Constant(DOUBLE, uniforms[variable.slot + i]))
+                continue
             slot = self.builder.gep(
                 self.params_pointer, [ir.Constant(I64, variable.slot + i)], inbounds=True, source_etype=DOUBLE
             )

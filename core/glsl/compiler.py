@@ -17,9 +17,11 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import llvmlite.binding as llvm
 import numpy as np
@@ -29,6 +31,7 @@ from core.glsl.brdf_file import BrdfFile
 from core.glsl.checker import check_program
 from core.glsl.codegen import BATCH_NAME, ENTRY_NAME, build_module
 from core.glsl.parser import parse_shader
+from core.glsl.program import Program
 
 OPTIMIZATION_LEVEL = 2
 # LLVM's parser, optimizer and JIT share llvmlite's global context: one compilation at a time
@@ -48,6 +51,24 @@ def _initialize_llvm() -> None:
     libm = ctypes.util.find_library("m")
     if libm is not None:
         llvm.load_library_permanently(libm)
+
+
+_PROGRAMS: dict[tuple[Any, ...], Program] = {}
+_MAX_PROGRAMS = 64
+
+
+def _checked(brdf_file: BrdfFile) -> Program:
+    """The parsed and checked program of ``brdf_file``'s shader (kept per file: a specialization compiles the
+    same program again with other constants)."""
+    key = (brdf_file.path, brdf_file.shader, brdf_file.shader_line, tuple(brdf_file.params))
+    program = _PROGRAMS.get(key)
+    if program is None:
+        unit = parse_shader(brdf_file.shader, brdf_file.path, brdf_file.shader_line)
+        program = check_program(unit, brdf_file.params, brdf_file.path, brdf_file.shader_line)
+        if len(_PROGRAMS) >= _MAX_PROGRAMS:
+            _PROGRAMS.clear()
+        _PROGRAMS[key] = program
+    return program
 
 
 def _target_machine() -> llvm.TargetMachine:
@@ -131,18 +152,27 @@ class CompiledBrdf:
         return out
 
 
-def compile_brdf(brdf_file: BrdfFile) -> CompiledBrdf:
+def compile_brdf(brdf_file: BrdfFile, uniforms: Sequence[float] | None = None) -> CompiledBrdf:
     """Compile the shader of ``brdf_file`` to native code (in double precision, optimized at O2). Safe to
     call from several threads (the LLVM part runs one at a time).
+
+    ``uniforms``: a parameter vector to compile in as constants (the optimizer then computes what depends on
+    the parameters alone once, here, instead of at every call); the code ignores the ``p`` it is given.
 
     Raises
     ------
     ShaderError
         The shader does not parse or does not type-check; the message names the file, line and column.
     """
-    unit = parse_shader(brdf_file.shader, brdf_file.path, brdf_file.shader_line)
-    program = check_program(unit, brdf_file.params, brdf_file.path, brdf_file.shader_line)
-    module_ir = str(build_module(program, name=Path(brdf_file.path).stem or "shader"))
+    program = _checked(brdf_file)
+    if uniforms is not None:
+        uniforms = [float(u) for u in uniforms]
+        expected = sum(param.slot_count for param in brdf_file.params)
+        if len(uniforms) != expected:
+            raise ParameterError(
+                f"{brdf_file.path}: expected {expected} parameter values, got {len(uniforms)}"
+            )
+    module_ir = str(build_module(program, name=Path(brdf_file.path).stem or "shader", uniforms=uniforms))
     with _LLVM_LOCK:
         _initialize_llvm()
         machine = _target_machine()

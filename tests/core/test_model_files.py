@@ -225,3 +225,34 @@ def test_unreadable_model_files(tmp_path, case):
     with pytest.raises(BrdfStudioError) as info:
         get_model(str(path))
     assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_shader_model_runs_its_code_specialized_to_each_setting(tmp_path, monkeypatch):
+    """A .brdf model's row calls the shader compiled with the row's values as constants: one compile per
+    setting (the same setting binds the same code), values equal to the general code's; past
+    MAX_SPECIALIZATIONS settings the general code serves."""
+    import core.model_files.shader as shader_models
+    from core.glsl import compile_brdf, read_brdf_file
+    from core.model_files.call import EVAL_ADDRESS, HEADER
+
+    path = Path(__file__).parent / "glsl" / "fixtures" / "principled.brdf"
+    general = compile_brdf(read_brdf_file(path))
+    wo, wi = all_pairs(direction_grid()[::3])
+    up = (wi[:, 2] > 0.0) & (wo[:, 2] > 0.0)
+    addresses = []
+    for roughness in (0.3, 0.6, 0.3):
+        brdf = make_brdf(str(path), {"roughness": roughness, "anisotropic": 0.5})
+        addresses.append(brdf.params[EVAL_ADDRESS])
+        expected = general.evaluate(wi[up], wo[up], brdf.params[HEADER:])
+        np.testing.assert_array_equal(eval_batch(brdf.model, wi[up], wo[up], brdf.params), expected)
+    assert addresses[0] == addresses[2] != addresses[1]
+    assert float(general.address) not in addresses
+
+    monkeypatch.setattr(shader_models, "MAX_SPECIALIZATIONS", 0)
+    fresh = _write(tmp_path, "capped.brdf", path.read_text())
+    brdf = make_brdf(str(fresh), {"roughness": 0.4})
+    np.testing.assert_array_equal(
+        eval_batch(brdf.model, wi[up], wo[up], brdf.params),
+        general.evaluate(wi[up], wo[up], brdf.params[HEADER:]),
+    )
+    assert brdf.params[EVAL_ADDRESS] == brdf.model.source.keep[0].address
