@@ -209,6 +209,57 @@ def test_saving_the_file_reloads_the_model_into_the_views(window, shader_file, m
     assert doc.material().model == str(shader_file) and not window.errors
 
 
+def test_saving_the_file_restarts_a_running_render_with_the_new_text(window, shader_file, monkeypatch, qtbot):
+    from app.main_window import demo_scene_path
+
+    assert window.open_project(demo_scene_path(), confirm=False, remember=False)
+    _import(window, shader_file, monkeypatch)  # the demo's first material, on its objects, uses the file
+    sent: list[dict] = []
+    server = window.render_view.server
+    submit = server.submit
+    monkeypatch.setattr(server, "submit", lambda job: sent.append(job) or submit(job))
+    try:
+        window.start_render()
+        assert window.render_view.running and "SCALE = 1.0" in sent[-1]["model_texts"][str(shader_file)]
+        _write(shader_file, shader_text(scale=3.0))
+        qtbot.waitUntil(lambda: len(sent) == 2, timeout=int(RELOAD_S * 1000))
+        assert "SCALE = 3.0" in sent[-1]["model_texts"][str(shader_file)]
+    finally:
+        window.cancel_render()
+        window.tabs.setCurrentWidget(window.explore)
+
+
+def test_the_render_process_renders_the_text_it_is_sent(shader_file, tmp_path):
+    """A job carries the app's version in use; the render process renders it even when the file on disk
+    holds a broken edit (the render session, here in this process)."""
+    import threading
+
+    from app.render_session import _run_job
+    from tests.app.meshes import write_obj
+
+    write_obj(tmp_path / "cubes.obj", {"a": (0, 0, 0), "b": (1.5, 0, 0)})
+    scene = {
+        "version": 2,
+        "materials": [{"name": "mine", "model": str(shader_file), "params": {"n": 30.0}}],
+        "meshes": [{"name": "cubes", "path": "cubes.obj", "material": "mine"}],
+        "environment": {"type": "constant", "radiance": [1.0, 1.0, 1.0]},
+    }
+    good = shader_text(scale=2.0)
+    _write(shader_file, shader_text(broken="float x = = 1.0;"))
+    job = {"scene": scene, "base_dir": str(tmp_path), "source": "test", "model_texts": {str(shader_file): good},
+           "strategies": ["uniform"], "mode": "spp", "budget": 1, "width": 16, "height": 12, "seed": 0,
+           "reference": None}  # fmt: skip
+    events: list[dict] = []
+    try:
+        _run_job(job, threading.Event(), events.append)
+        assert [e["text"] for e in events if e["kind"] == "error"] == []
+        frames = [e for e in events if e["kind"] == "frame"]
+        assert frames and float(np.max(frames[-1]["image"])) > 0.0
+        assert "SCALE = 2.0" in get_model(str(shader_file)).source.text
+    finally:
+        pin_text(shader_file, None)
+
+
 def test_saving_a_python_file_reloads_it_with_its_new_declaration(window, lobe_file, monkeypatch, qtbot):
     _import(window, lobe_file, monkeypatch)
     doc = window.document
