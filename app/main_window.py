@@ -74,6 +74,11 @@ def _warm_up_kernels():
 class MainWindow(QMainWindow):
     def __init__(self, document: Document | None = None, warm_up: bool = True):
         super().__init__()
+        from core.model_files.shader import set_specialization
+
+        set_specialization(
+            False
+        )  # the views evaluate little, and a dragged slider must not compile each step
         self.document = document if document is not None else Document()
         self.jobs = JobRunner()
         self.errors: list[str] = []

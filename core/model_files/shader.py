@@ -29,6 +29,18 @@ def _param(sp) -> Param:  # noqa: ANN001 (core.glsl.ShaderParam)
     return Param(sp.name, float(sp.default), float(sp.lo), float(sp.hi), label=sp.name)
 
 
+SPECIALIZE = True
+"""Whether shader models bind specialized code (:class:`_Specializations`). The desktop app's own process
+turns it off (:func:`set_specialization`): a slider dragged through settings would compile at every step, while
+the views evaluate little; its render and sampler processes keep it on."""
+
+
+def set_specialization(enabled: bool) -> None:
+    """Bind shader models to code specialized to each setting (True, the default) or to the general code."""
+    global SPECIALIZE
+    SPECIALIZE = bool(enabled)
+
+
 MAX_SPECIALIZATIONS = 256
 """Parameter settings of one model compiled with their values as constants; further settings run the
 general code (a specialization's code is never freed: rows in use may hold its address)."""
@@ -51,7 +63,7 @@ class _Specializations:
 
     def address(self, user: np.ndarray) -> int:
         """The specialized entry's address for ``user`` (compiled on first use), or 0 (the general code)."""
-        if not self.enabled:
+        if not (self.enabled and SPECIALIZE):
             return 0
         key = np.ascontiguousarray(user, dtype=np.float64).tobytes()
         with self.lock:

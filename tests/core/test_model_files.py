@@ -235,6 +235,7 @@ def test_a_shader_model_runs_its_code_specialized_to_each_setting(tmp_path, monk
     from core.glsl import compile_brdf, read_brdf_file
     from core.model_files.call import EVAL_ADDRESS, HEADER
 
+    monkeypatch.setattr(shader_models, "SPECIALIZE", True)  # (the app's windows turn it off in their process)
     path = Path(__file__).parent / "glsl" / "fixtures" / "principled.brdf"
     general = compile_brdf(read_brdf_file(path))
     wo, wi = all_pairs(direction_grid()[::3])
@@ -256,3 +257,8 @@ def test_a_shader_model_runs_its_code_specialized_to_each_setting(tmp_path, monk
         general.evaluate(wi[up], wo[up], brdf.params[HEADER:]),
     )
     assert brdf.params[EVAL_ADDRESS] == brdf.model.source.keep[0].address
+
+    monkeypatch.setattr(shader_models, "MAX_SPECIALIZATIONS", 256)
+    shader_models.set_specialization(False)  # as the app's process binds
+    off = make_brdf(str(path), {"roughness": 0.45})
+    assert off.params[EVAL_ADDRESS] == off.model.source.keep[0].address
