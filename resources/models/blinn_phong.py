@@ -2,9 +2,9 @@
 
     f_r = kd / pi + ks (n + 8) / (8 pi) (n.h)^n
 
-Open it wherever a model name goes: ``brdf-studio eval --model resources/models/blinn_phong.py --theta 30``,
-a scene material's ``"model"``, File > Import model... in the app, or ``make_brdf("blinn_phong.py")``. The
-format is described in docs/model-files.md.
+Open it wherever a model name goes: ``brdf-studio eval --model resources/models/blinn_phong.py --wi 30,0
+--wo 30,180``, a scene material's ``"model"``, File > Import model... in the app, or
+``make_brdf("blinn_phong.py")``. The format is described in docs/model-files.md.
 """
 
 import math
