@@ -262,3 +262,62 @@ def test_a_shader_model_runs_its_code_specialized_to_each_setting(tmp_path, monk
     shader_models.set_specialization(False)  # as the app's process binds
     off = make_brdf(str(path), {"roughness": 0.45})
     assert off.params[EVAL_ADDRESS] == off.model.source.keep[0].address
+
+
+_COMPILES_SCRIPT = """
+import json, sys
+import numpy as np
+from numba.core import event
+from core.kernels import eval_batch
+from core.model import make_brdf
+from core.sampling import make_sampler
+
+compiled = []
+
+class Listener(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__module__ + "." + ev.data["dispatcher"].py_func.__qualname__)
+
+    def on_end(self, ev):
+        pass
+
+brdf = make_brdf(sys.argv[1], {})
+wi = np.array([[0.3, 0.1, 0.948]]); wo = np.array([[-0.2, 0.4, 0.894]])
+wi /= np.linalg.norm(wi); wo /= np.linalg.norm(wo)
+with event.install_listener("numba:compile", Listener()):
+    eval_batch(brdf.model, wi, wo, brdf.params)
+    for strategy in ("adaptive", "adaptive_warp"):
+        sampler = make_sampler(strategy, brdf, cache=False)
+        sampler.sample(wo[0], 64, 1)
+        sampler.pdf(wo, wi)
+    from numba import njit
+
+    njit(lambda x: x + 1)(1)  # a canary: the listener sees a compile
+print(json.dumps(compiled))
+"""
+
+
+def test_a_file_model_compiles_none_of_the_built_in_kernels(tmp_path):
+    """A .brdf model reaches evaluation and both adaptive samplers (table build, sampling, density) through
+    the kernels a built-in model uses: once a built-in model has run them (numba's disk cache filled), a fresh
+    process that loads the file compiles no numba function at all."""
+    import json
+    import subprocess
+    import sys
+
+    shader = Path(__file__).parent / "glsl" / "fixtures" / "principled.brdf"
+    root = Path(__file__).resolve().parents[2]
+    runs = {}
+    for model in ("lambert", str(shader)):
+        done = subprocess.run(
+            [sys.executable, "-c", _COMPILES_SCRIPT, model],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
+        assert done.returncode == 0, done.stderr
+        runs[model] = json.loads(done.stdout.strip().splitlines()[-1])
+    for compiled in runs.values():
+        assert compiled and compiled[-1].endswith("<lambda>"), compiled  # the canary
+    assert runs[str(shader)] == [runs[str(shader)][-1]], runs[str(shader)]
