@@ -3,7 +3,8 @@
 Each configuration renders the same scene, size, seed and samples per pixel, preparation included (wall
 time from the call to the last image):
 
-- ``one process, N threads``: :func:`renderer.render.prepare` and its passes in this process;
+- ``one process, N threads``: :func:`renderer.render.prepare` and its passes in a process of that thread
+  count's own (kept from round to round; this one hosts the Dask clients and local clusters);
 - ``N local workers``: a local cluster of N single-threaded worker processes, already started and warm
   (a small render on it first, another seed, so that every worker has imported the renderer, loaded its
   kernels and read the tables), then :func:`renderer.distributed.prepare_distributed` and its passes: the
@@ -84,6 +85,38 @@ def one_process(scene: Scene, args: argparse.Namespace, threads: int, seed: int)
     return time.perf_counter() - t0, image
 
 
+def _one_process_in_child(
+    scene_path: str, args: argparse.Namespace, threads: int, seed: int
+) -> tuple[float, np.ndarray]:
+    """:func:`one_process` in a process of the pool of its thread count (the scene read once there)."""
+    scene = _SCENES.get(scene_path)
+    if scene is None:
+        scene = _SCENES[scene_path] = load_scene(scene_path)
+    return one_process(scene, args, threads, seed)
+
+
+_SCENES: dict[str, Scene] = {}
+
+
+class OneProcess:
+    """The one-process renders of one thread count, in a process of their own kept from round to round: the
+    benchmark's own process hosts the Dask clients and local clusters, and one process renders with one
+    thread count only (as a user's would)."""
+
+    def __init__(self, scene_path: str, threads: int):
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.scene_path, self.threads = scene_path, threads
+        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+
+    def render(self, args: argparse.Namespace, seed: int) -> tuple[float, np.ndarray]:
+        return self.pool.submit(_one_process_in_child, self.scene_path, args, self.threads, seed).result()
+
+    def close(self) -> None:
+        self.pool.shutdown()
+
+
 def on_cluster(
     cluster: RenderCluster, scene: Scene, args: argparse.Namespace, seed: int
 ) -> tuple[float, np.ndarray, dict]:
@@ -111,13 +144,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ref-spp", type=int, default=0, help="without --reference: render one of this many spp")
     ap.add_argument("--out", default="results/bench", help="output folder")
     args = ap.parse_args(argv)
-    scene = load_scene(args.scene or demo_scene_path())
+    scene_path = args.scene or demo_scene_path()
+    scene = load_scene(scene_path)
     args.width = args.width or scene.render.width
     args.height = args.height or scene.render.height
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
     clusters: dict[str, RenderCluster] = {}
+    local: dict[int, OneProcess] = {}
     started: dict[str, float] = {}
     sizes = [] if args.scheduler else [int(n) for n in args.workers.split(",") if n]
     try:
@@ -130,9 +165,10 @@ def main(argv: list[str] | None = None) -> int:
         threads = {name: sum(c.threads().values()) for name, c in clusters.items()}
         one = sorted(set(threads.values()) | {1})
         configs = [f"one process, {t} threads" for t in one] + list(clusters)
+        local.update({t: OneProcess(str(scene_path), t) for t in one})
         # warm-up: every configuration renders once (another seed) before any is timed
         for t in one:
-            one_process(scene, args, t, WARM_SEED)
+            local[t].render(args, WARM_SEED)
         for c in clusters.values():
             c.warm((scene.render.sampler,))
             on_cluster(c, scene, args, WARM_SEED)
@@ -153,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
                     s, image, info = on_cluster(clusters[config], scene, args, seed)
                     infos[config].append(info)
                 else:
-                    s, image = one_process(scene, args, int(config.split(", ")[1].split()[0]), seed)
+                    s, image = local[int(config.split(", ")[1].split()[0])].render(args, seed)
                 seconds[config].append(s)
                 first = image if first is None else first
                 exact[config] &= bool(np.array_equal(image, first))
@@ -163,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for c in clusters.values():
             c.close()
+        for p in local.values():
+            p.close()
 
     base = statistics.median(seconds[next(iter(clusters))]) if clusters else None
     rows = []

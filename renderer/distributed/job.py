@@ -284,12 +284,19 @@ class DistributedJob:
             "prepare": self.prepare_report,
             "cluster": {
                 "scheduler": self.cluster.label,
+                "distributed": _distributed_version(),
                 "blocks": self.blocks,
                 "passes": self.passes_done,
                 "workers": {a: {k: round(v, 4) for k, v in w.items()} for a, w in self.workers.items()},
             },
             "versions": versions(),
         }
+
+
+def _distributed_version() -> str:
+    import distributed
+
+    return str(distributed.__version__)
 
 
 def _executing(dask_worker: Any) -> list[str]:
