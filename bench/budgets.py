@@ -1,6 +1,6 @@
 """Resource budgets and bad inputs (issue 18): peak memory per unit of work, and the bad-input sweep.
 
-    .venv/bin/python bench/budgets.py [--parts memory,sweep,interrupts] [--max-samples 1e8] [--runs 20]
+    .venv/bin/python bench/budgets.py [--parts memory,sweep,interrupts,app-signals] [--max-samples 1e8] [--runs 20]
                                       [--requests sample,check,render] [--out results/bench]
 
 ``memory``: each request runs in a new process (``app.cli.main`` in-process there), which reports its peak
@@ -22,7 +22,11 @@ non-finite images, seconds.
 ``interrupts``: ``--runs`` renders of the small test scene interrupted by SIGINT at a random moment (during the
 imports, the preparation or the passes): exit codes, tracebacks or "Exception ignored" reports, outputs saved.
 
-Prints tables, writes ``budgets_memory.csv``, ``budgets_sweep.csv`` and ``budgets_interrupts.csv``.
+``app-signals`` (not in the default parts): the desktop app, edited, signalled ``--runs`` times (Ctrl-C to its
+process group and SIGTERM to it, in turn) a random moment after the edit: seconds from the signal to the exit,
+exit codes, stderr, whether the edit was autosaved.
+
+Prints tables, writes ``budgets_memory.csv``, ``budgets_sweep.csv``, ``budgets_interrupts.csv`` and ``budgets_app_signals.csv``.
 """
 
 from __future__ import annotations
@@ -131,6 +135,9 @@ def sweep(out: Path) -> list[dict]:
     from app.cli import main
     from tests.app import test_cli_inputs as t
 
+    # The test suite's machine (tests/app/test_cli_inputs.py: _machine_of_4_gib): the budget cases are refusals
+    # there; on a machine with more memory one may be a valid request, and render for minutes.
+    os.environ["BRDF_STUDIO_MEMORY"] = str(4 << 30)
     work = Path(tempfile.mkdtemp(prefix="sweep-"))
     (work / "scene").mkdir()
     scene_dir = t.write_scene_dir(work / "scene")
@@ -259,12 +266,94 @@ def interrupts(out: Path, runs: int) -> list[dict]:
     return rows
 
 
+def app_signals(out: Path, runs: int) -> list[dict]:
+    """The desktop app, edited, then signalled (Ctrl-C to its process group and SIGTERM to it, in turn) a
+    uniform 0-5 s after the edit (while the window finishes opening the project and its views' background
+    work): seconds from the signal to the app's exit, exit codes, stderr, the autosave."""
+    sys.path.insert(0, str(ROOT / "bench"))
+    from _display import ensure_display
+
+    ensure_display()
+    import psutil
+
+    from app.document import default_scene
+    from core.scene import Mesh, save_scene
+    from tests.app.autosave_app import EDIT
+    from tests.app.meshes import write_obj
+
+    work = Path(tempfile.mkdtemp(prefix="app-signals-"))
+    write_obj(work / "cubes.obj", {"a": (0, 0, 0), "b": (2, 0, 0)})
+    scene = default_scene()
+    scene.meshes = [Mesh(path="cubes.obj", name="cubes", material="ggx")]
+    project = work / "scene.json"
+    save_scene(scene, project)
+    rng = random.Random(38)
+    rows = []
+    for k in range(runs):
+        signum = (signal.SIGINT, signal.SIGTERM)[k % 2]
+        config, report = work / f"config{k}", work / f"report{k}.json"
+        config.mkdir()
+        stderr = work / f"stderr{k}.txt"
+        with open(stderr, "w") as fh:  # a file: a pipe would stay open until the helper processes have gone
+            app = subprocess.Popen(
+                [sys.executable, "-m", "tests.app.autosave_app", "hold", str(project), str(report)],
+                cwd=ROOT, env={**os.environ, "BRDF_STUDIO_CONFIG_DIR": str(config)}, stdout=subprocess.DEVNULL,
+                stderr=fh, start_new_session=True,
+            )  # fmt: skip
+        end = time.monotonic() + 300
+        while not report.exists() and app.poll() is None and time.monotonic() < end:
+            time.sleep(0.05)
+        delay = rng.uniform(0.0, 5.0)
+        time.sleep(delay)
+        children = psutil.Process(app.pid).children(recursive=True)
+        t0 = time.monotonic()
+        if signum == signal.SIGINT:
+            os.killpg(app.pid, signum)
+        else:
+            os.kill(app.pid, signum)
+        try:
+            code: object = app.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(app.pid, signal.SIGKILL)
+            app.wait()
+            code = "hung"
+        closed = time.monotonic() - t0
+        _, alive = psutil.wait_procs(children, timeout=30)
+        helpers = time.monotonic() - t0
+        err = stderr.read_text()
+        try:
+            doc = json.loads((config / f"autosave-{app.pid}.json").read_text())["document"]
+            kept = EDIT["added"] in {m["name"] for m in doc["materials"]}
+        except (OSError, ValueError, KeyError):
+            kept = False
+        rows.append({
+            "run": k, "signal": signal.Signals(signum).name, "after_edit_s": round(delay, 2), "exit": code,
+            "close_s": round(closed, 3), "helpers_gone_s": None if alive else round(helpers, 3), "stderr_lines": len(err.strip().splitlines()),
+            "traceback": "Traceback" in err or "Exception ignored" in err, "autosave": kept,
+        })  # fmt: skip
+        print(rows[-1])
+    with open(out / "budgets_app_signals.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    for name in ("SIGINT", "SIGTERM"):
+        mine = [r for r in rows if r["signal"] == name]
+        if mine:
+            times = sorted(r["close_s"] for r in mine)
+            print(f"{name}: {len(mine)} runs, exits {sorted({str(r['exit']) for r in mine})}, close "
+                  f"median {times[len(times) // 2]:.2f} s, max {times[-1]:.2f} s; helpers gone by "
+                  f"{max(r['helpers_gone_s'] or float('inf') for r in mine):.2f} s; tracebacks "
+                  f"{sum(r['traceback'] for r in mine)}; autosave kept {sum(r['autosave'] for r in mine)}; "
+                  f"stderr lines max {max(r['stderr_lines'] for r in mine)}")  # fmt: skip
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--parts", default="memory,sweep,interrupts")
     ap.add_argument("--max-samples", type=float, default=1e8, help="largest 'sample -n' measured")
     ap.add_argument("--requests", default="sample,check,render", help="what 'memory' measures")
-    ap.add_argument("--runs", type=int, default=20, help="interrupted renders")
+    ap.add_argument("--runs", type=int, default=20, help="interrupted renders, signalled apps")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -275,6 +364,8 @@ def main(argv: list[str] | None = None) -> int:
         sweep(args.out)
     if "interrupts" in parts:
         interrupts(args.out, args.runs)
+    if "app-signals" in parts:
+        app_signals(args.out, args.runs)
     return 0
 
 

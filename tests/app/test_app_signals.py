@@ -34,17 +34,18 @@ CLOSE_S = 3.0
 """The issue's target: the app is gone this long after the signal."""
 
 
-def _launch(project: Path, report: Path, config: Path) -> subprocess.Popen:
+def _launch(project: Path, report: Path, config: Path, stderr: Path) -> subprocess.Popen:
+    """The app, its output to files (a pipe would stay open until its helper processes have gone too)."""
     env = {**os.environ, "BRDF_STUDIO_CONFIG_DIR": str(config)}
-    return subprocess.Popen(
-        [sys.executable, "-m", "tests.app.autosave_app", "hold", str(project), str(report)],
-        cwd=ROOT,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # a process group of its own, as a terminal's foreground job has
-    )
+    with open(stderr, "w") as err:
+        return subprocess.Popen(
+            [sys.executable, "-m", "tests.app.autosave_app", "hold", str(project), str(report)],
+            cwd=ROOT,
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            start_new_session=True,  # a process group of its own, as a terminal's foreground job has
+        )
 
 
 def _wait_for_report(report: Path, app: subprocess.Popen) -> dict:
@@ -53,8 +54,7 @@ def _wait_for_report(report: Path, app: subprocess.Popen) -> dict:
         if report.exists():
             return json.loads(report.read_text())
         if app.poll() is not None:
-            out, err = app.communicate()
-            pytest.fail(f"the app ended (exit {app.returncode}) before it was edited:\n{out}\n{err}")
+            pytest.fail(f"the app ended (exit {app.returncode}) before it was edited")
         time.sleep(0.05)
     pytest.fail("timed out waiting for the app to open and be edited")
 
@@ -77,7 +77,7 @@ def test_a_signal_closes_the_app_at_once_with_its_edits_autosaved(tmp_path, sign
     config.mkdir()
     report = tmp_path / "report.json"
 
-    app = _launch(project, report, config)
+    app = _launch(project, report, config, tmp_path / "stderr.txt")
     try:
         edited = _wait_for_report(report, app)
         assert edited["pid"] == app.pid and edited["dirty"]
@@ -89,12 +89,14 @@ def test_a_signal_closes_the_app_at_once_with_its_edits_autosaved(tmp_path, sign
             os.killpg(app.pid, signum)  # Ctrl-C: the app and its helper processes
         else:
             os.kill(app.pid, signum)
-        out, err = app.communicate(timeout=60)
+        app.wait(timeout=60)
         closed_s = time.monotonic() - t0
     finally:
         if app.poll() is None:
             os.killpg(app.pid, signal.SIGKILL)
-            app.communicate()
+            app.wait()
+    _, alive = psutil.wait_procs(children, timeout=30)  # the render and snapshot processes end with it
+    err = (tmp_path / "stderr.txt").read_text()  # complete once they have gone
     print(f"{signal.Signals(signum).name}: closed {closed_s:.2f} s after the signal (exit {app.returncode})")
     assert app.returncode == code, err[-3000:]
     assert closed_s < CLOSE_S
@@ -110,5 +112,4 @@ def test_a_signal_closes_the_app_at_once_with_its_edits_autosaved(tmp_path, sign
         materials[EDIT["material"]]["params"][EDIT["param"]] == EDIT["value"] and EDIT["added"] in materials
     )
     assert project.read_text() == saved  # the project itself is the user's to save
-    _, alive = psutil.wait_procs(children, timeout=30)  # the render and snapshot processes end with it
     assert not alive, f"processes left behind: {alive}"
