@@ -18,6 +18,9 @@ shared machine's load falls on all of them alike); the table shows each configur
 round. ``scaling`` is a configuration's median time over the 1-worker cluster's; ``overhead`` is its median
 time over the median of the one-process render with as many threads as the cluster has, minus one.
 ``exact`` says whether every round's image equals the one-process image of that round bit for bit.
+``cpu_overhead`` compares CPU seconds instead (this process's with the local clusters' schedulers, and every
+worker process's, against the one-process render's): the cost of distributing, whatever else the machine
+runs meanwhile.
 
 The error: with ``--reference REF.exr`` (or ``--ref-spp N``: a reference of N spp and another seed rendered
 on the largest cluster, cached under ``--out``) each configuration's RMSE against it, the mean over rounds. The
@@ -33,9 +36,11 @@ Prints the table and writes ``distributed_render.csv`` under ``--out`` (default 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -48,6 +53,8 @@ from renderer.render import prepare
 
 WARM_SEED = 1234
 """The warm-up renders' seed (the timed ones use ``--seed`` and the following ones)."""
+RETRIES = 3
+"""Times a one-process render is tried when its process crashes."""
 REF_SEED = 999_983
 """The seed of a reference rendered by ``--ref-spp`` (not one of the timed renders')."""
 
@@ -75,19 +82,28 @@ def make_reference(
     return image
 
 
-def one_process(scene: Scene, args: argparse.Namespace, threads: int, seed: int) -> tuple[float, np.ndarray]:
-    t0 = time.perf_counter()
+def cpu_seconds() -> float:
+    """This process's CPU seconds (user and system, every thread)."""
+    t = os.times()
+    return t.user + t.system
+
+
+def one_process(
+    scene: Scene, args: argparse.Namespace, threads: int, seed: int
+) -> tuple[float, np.ndarray, float]:
+    """Wall seconds, image and CPU seconds of a one-process render."""
+    t0, c0 = time.perf_counter(), cpu_seconds()
     job = prepare(scene, width=args.width, height=args.height, seed=seed, threads=threads)
     try:
         image = job.run(spp=args.spp if seed != WARM_SEED else 1).image
     finally:
         job.close()
-    return time.perf_counter() - t0, image
+    return time.perf_counter() - t0, image, cpu_seconds() - c0
 
 
 def _one_process_in_child(
     scene_path: str, args: argparse.Namespace, threads: int, seed: int
-) -> tuple[float, np.ndarray]:
+) -> tuple[float, np.ndarray, float]:
     """:func:`one_process` in a process of the pool of its thread count (the scene read once there)."""
     scene = _SCENES.get(scene_path)
     if scene is None:
@@ -104,14 +120,38 @@ class OneProcess:
     thread count only (as a user's would)."""
 
     def __init__(self, scene_path: str, threads: int):
+        self.scene_path, self.threads = scene_path, threads
+        self.crashes = 0
+        self.pool = self._start()
+
+    @staticmethod
+    def _start() -> Any:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        self.scene_path, self.threads = scene_path, threads
-        self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        return ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
 
-    def render(self, args: argparse.Namespace, seed: int) -> tuple[float, np.ndarray]:
-        return self.pool.submit(_one_process_in_child, self.scene_path, args, self.threads, seed).result()
+    def render(self, args: argparse.Namespace, seed: int) -> tuple[float, np.ndarray, float]:
+        """The render in the pool's process; a process that crashed is replaced, warmed and asked again
+        (at most :data:`RETRIES` times; each crash is counted and printed)."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        for _ in range(RETRIES):
+            try:
+                return self.pool.submit(
+                    _one_process_in_child, self.scene_path, args, self.threads, seed
+                ).result()
+            except BrokenProcessPool:
+                self.crashes += 1
+                print(
+                    f"one process, {self.threads} threads: the process crashed (seed {seed}); again",
+                    flush=True,
+                )
+                self.pool.shutdown()
+                self.pool = self._start()
+                if seed != WARM_SEED:
+                    self.render(args, WARM_SEED)
+        raise RuntimeError(f"one process, {self.threads} threads: crashed {RETRIES} times in a row")
 
     def close(self) -> None:
         self.pool.shutdown()
@@ -119,7 +159,10 @@ class OneProcess:
 
 def on_cluster(
     cluster: RenderCluster, scene: Scene, args: argparse.Namespace, seed: int
-) -> tuple[float, np.ndarray, dict]:
+) -> tuple[float, np.ndarray, dict, float]:
+    """Wall seconds, image, sidecar and CPU seconds (this process's, the local clusters' scheduler included,
+    and every worker process's) of a render on ``cluster``."""
+    workers0, c0 = cluster.client.run(cpu_seconds), cpu_seconds()
     t0 = time.perf_counter()
     job = prepare_distributed(cluster, scene, width=args.width, height=args.height, seed=seed)
     try:
@@ -127,7 +170,10 @@ def on_cluster(
         image = job.run(spp=spp).image
     finally:
         job.close()
-    return time.perf_counter() - t0, image, job.info()
+    wall = time.perf_counter() - t0
+    workers1, c1 = cluster.client.run(cpu_seconds), cpu_seconds()
+    cpu = c1 - c0 + sum(workers1[w] - workers0.get(w, 0.0) for w in workers1)
+    return wall, image, job.info(), cpu
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -181,16 +227,18 @@ def main(argv: list[str] | None = None) -> int:
         exact: dict[str, bool] = {c: True for c in configs}
         errors: dict[str, list[float]] = {c: [] for c in configs}
         infos: dict[str, list[dict]] = {c: [] for c in clusters}
+        cpus: dict[str, list[float]] = {c: [] for c in configs}
         for r in range(args.rounds):
             seed = args.seed + r
             first: np.ndarray | None = None
             for config in configs:
                 if config in clusters:
-                    s, image, info = on_cluster(clusters[config], scene, args, seed)
+                    s, image, info, cpu = on_cluster(clusters[config], scene, args, seed)
                     infos[config].append(info)
                 else:
-                    s, image = local[int(config.split(", ")[1].split()[0])].render(args, seed)
+                    s, image, cpu = local[int(config.split(", ")[1].split()[0])].render(args, seed)
                 seconds[config].append(s)
+                cpus[config].append(cpu)
                 first = image if first is None else first
                 exact[config] &= bool(np.array_equal(image, first))
                 if reference is not None:
@@ -215,12 +263,17 @@ def main(argv: list[str] | None = None) -> int:
             "size": f"{args.width}x{args.height}",
             "best_s": round(best, 3),
             "median_s": round(median, 3),
+            "median_cpu_s": round(statistics.median(cpus[config]), 3),
+            "cpu_overhead": round(statistics.median(cpus[config]) / statistics.median(cpus[equal]) - 1.0, 4)
+            if config in clusters and equal in cpus
+            else "",
             "rounds_s": " ".join(f"{s:.3f}" for s in seconds[config]),
             "scaling_vs_1_worker": round(median / base, 3) if base and config in clusters else "",
             "overhead": round(median / statistics.median(seconds[equal]) - 1.0, 4)
             if config in clusters and equal in seconds
             else "",
             "exact": exact[config],
+            "crashes": local[t].crashes if config.startswith("one") and t in local else "",
             "rmse": round(statistics.fmean(errors[config]), 6) if errors[config] else "",
             "cluster_start_s": round(started.get(config, 0.0), 2) if config in started else "",
         }
@@ -237,15 +290,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{scene.source} at {args.width}x{args.height}, {args.spp} spp, seeds {args.seed}-{args.seed + args.rounds - 1}; "
           f"best and median of {args.rounds} rounds, preparation included")  # fmt: skip
     print(
-        f"{'configuration':<24}{'threads':>8}{'best s':>9}{'median s':>10}{'scaling':>9}{'overhead':>10}{'exact':>7}"
-        f"{'RMSE':>11}"
+        f"{'configuration':<24}{'threads':>8}{'best s':>9}{'median s':>10}{'scaling':>9}{'overhead':>10}"
+        f"{'CPU s':>8}{'CPU overhead':>14}{'exact':>7}{'RMSE':>11}"
     )
     for row in rows:
         scaling = f"{row['scaling_vs_1_worker']:.3f}" if row["scaling_vs_1_worker"] != "" else "-"
         overhead = f"{row['overhead']:+.1%}" if row["overhead"] != "" else "-"
+        cpu_overhead = f"{row['cpu_overhead']:+.1%}" if row["cpu_overhead"] != "" else "-"
         rmse = f"{row['rmse']:.5f}" if row["rmse"] != "" else "-"
         print(f"{row['configuration']:<24}{row['threads']:>8}{row['best_s']:>9.2f}{row['median_s']:>10.2f}"
-              f"{scaling:>9}{overhead:>10}{'yes' if row['exact'] else 'NO':>7}{rmse:>11}")  # fmt: skip
+              f"{scaling:>9}{overhead:>10}{row['median_cpu_s']:>8.2f}{cpu_overhead:>14}"
+              f"{'yes' if row['exact'] else 'NO':>7}{rmse:>11}")  # fmt: skip
     keys = list(dict.fromkeys(k for row in rows for k in row))
     write_csv_rows(out / "distributed_render.csv", [{k: row.get(k, "") for k in keys} for row in rows])
     print(f"wrote {out / 'distributed_render.csv'}")
