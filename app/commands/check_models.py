@@ -287,7 +287,13 @@ def run(args: argparse.Namespace) -> int:
             f"chi-square on sphere and disk, {args.samples:g} samples, alpha = 0.01 Sidak-corrected over {n_tests} "
             "tests; pdf integral, acceptance, leaf bounds\n"
         )
-    rows = [check_model(path, L, V, args.samples, n_tests) for path in files]
+    from tqdm import tqdm
+
+    rows = []
+    with tqdm(files, unit="file", disable=None, leave=False) as bar:  # (shown on a terminal only)
+        for path in bar:
+            bar.set_description(path.name)
+            rows.append(check_model(path, L, V, args.samples, n_tests))
     print_table(rows)
     passed = sum(r.verdict == "pass" for r in rows)
     failed = sum(r.failed for r in rows)
