@@ -4,8 +4,9 @@ lowering to LLVM IR on scalar doubles (what the code generator emits), side by s
 Definitions follow the GLSL 1.20 specification (section 8) word for word where it gives one, so that edge
 cases behave as it says: ``min(x, y) = y < x ? y : x`` (a NaN in ``x`` is returned), ``clamp = min(max(x, lo),
 hi)``, ``mix = x (1 - a) + y a``, ``mod = x - y floor(x / y)``, ``step = x < edge ? 0 : 1``. ``pow`` of a
-negative base is NaN whatever the exponent, as GPUs compute it (``exp2(y log2 x)``; the specification leaves
-it undefined): the translation shows what BRDF Explorer shows, and the host reports the NaN. Integer arguments convert to float (GLSL 1.20 has
+negative base is NaN, as GPUs compute it (``exp2(y log2 x)``; the specification leaves it undefined), except
+for the constant exponents 1, 2 and 4, which GPU compilers turn into multiplications (:data:`CONSTANT_POWERS`):
+the translation shows what BRDF Explorer shows, and the host reports the NaN. Integer arguments convert to float (GLSL 1.20 has
 no integer overloads). sinh, cosh and tanh come from GLSL 1.30.
 """
 
@@ -117,7 +118,22 @@ def _smoothstep(ops: FloatOps, edge0: ir.Value, edge1: ir.Value, x: ir.Value) ->
     return ops.mul(ops.mul(t, t), ops.sub(ops.const(3.0), ops.mul(ops.const(2.0), t)))
 
 
+class ParameterConstant(ir.Constant):
+    """A parameter's value compiled in as a constant (a specialization): a constant to LLVM, but to the
+    shader's semantics still a uniform, so that specialized and general code compute the same values."""
+
+
+CONSTANT_POWERS = (1.0, 2.0, 4.0)
+"""Exponents that a GPU compiler turns into multiplications when they are constants in the shader (Mesa:
+``pow(a, 1) = a``, ``pow(a, 2) = a a``, ``pow(a, 4) = (a a)(a a)``), defined for a negative base too."""
+
+
 def _pow(ops: FloatOps, x: ir.Value, y: ir.Value) -> ir.Value:
+    if isinstance(y, ir.Constant) and not isinstance(y, ParameterConstant) and y.constant in CONSTANT_POWERS:
+        if y.constant == 1.0:
+            return x
+        square = ops.mul(x, x)
+        return square if y.constant == 2.0 else ops.mul(square, square)
     return ops.select(ops.less(x, ops.const(0.0)), ops.const(math.nan), ops.intrinsic("pow", x, y))
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from llvmlite import ir
 
 from core.glsl import program as p
-from core.glsl.builtin_functions import FloatOps
+from core.glsl.builtin_functions import FloatOps, ParameterConstant
 from core.glsl.types import GlslType
 
 DOUBLE = ir.DoubleType()
@@ -71,10 +71,30 @@ def build_module(
     return _ModuleBuilder(program, name, uniforms).module
 
 
+def _literal(expr: p.Expr, known: dict[p.Variable, list[float]]) -> list[float] | None:
+    """The float components of a literal expression (a constant, converted or negated, or a ``const`` variable
+    initialized by one), or None: the values a GPU compiler sees as constants where our code generator would
+    otherwise load a variable (so that ``pow(x, TWO)`` with ``const float TWO = 2.0`` is ``x x`` as on a GPU)."""
+    if isinstance(expr, p.Constant):
+        return [float(v) for v in expr.values]
+    if isinstance(expr, p.Convert) and expr.type.base == "float" and expr.operand.type.base == "int":
+        return _literal(expr.operand, known)
+    if isinstance(expr, p.Unary) and expr.op == "-":
+        inner = _literal(expr.operand, known)
+        return None if inner is None else [-v for v in inner]
+    if isinstance(expr, p.VariableRef):
+        return known.get(expr.variable)
+    return None
+
+
 class _ModuleBuilder:
     def __init__(self, program: p.Program, name: str, uniforms: Sequence[float] | None = None) -> None:
         self.program = program
         self.uniforms = None if uniforms is None else [float(u) for u in uniforms]
+        self.literals: dict[p.Variable, list[float]] = {}
+        """``const`` float variables initialized by a literal expression: loaded as constants."""
+        for global_variable in program.globals:
+            self.note_literal(global_variable.variable, global_variable.initializer)
         self.module = ir.Module(name=name)
         fields: list[ir.Type] = []
         self.frame_fields: dict[p.Variable, int] = {}
@@ -89,6 +109,12 @@ class _ModuleBuilder:
             _FunctionEmitter(self, self.functions[function]).emit_function(function)
         self.entry = self.emit_entry()
         self.emit_batch()
+
+    def note_literal(self, variable: p.Variable, initializer: p.Expr | None) -> None:
+        if variable.is_const and variable.type.base == "float" and initializer is not None:
+            values = _literal(initializer, self.literals)
+            if values is not None and len(values) == variable.type.size:
+                self.literals[variable] = values
 
     def declare(self, function: p.Function) -> ir.Function:
         arg_types: list[ir.Type] = []
@@ -235,6 +261,9 @@ class _FunctionEmitter:
         return pointers
 
     def load(self, variable: p.Variable) -> list[ir.Value]:
+        literal = self.module_builder.literals.get(variable)
+        if literal is not None:
+            return [ir.Constant(DOUBLE, v) for v in literal]
         if variable.kind != "uniform":
             t = _scalar_type(variable.type)
             return [self.builder.load(pointer, typ=t) for pointer in self.storage(variable)]
@@ -242,7 +271,7 @@ class _FunctionEmitter:
         uniforms = self.module_builder.uniforms
         for i in range(variable.type.size):
             if uniforms is not None:
-                values.append(ir.Constant(DOUBLE, uniforms[variable.slot + i]))
+                values.append(ParameterConstant(DOUBLE, uniforms[variable.slot + i]))
                 continue
             slot = self.builder.gep(
                 self.params_pointer, [ir.Constant(I64, variable.slot + i)], inbounds=True, source_etype=DOUBLE
@@ -295,6 +324,7 @@ class _FunctionEmitter:
             for child in statement.statements:
                 self.statement(child)
         elif isinstance(statement, p.Declare):
+            self.module_builder.note_literal(statement.variable, statement.initializer)
             pointers = self.storage(statement.variable)
             if statement.initializer is None:
                 values = [_zero(statement.variable.type)] * len(pointers)
@@ -377,6 +407,10 @@ class _FunctionEmitter:
         if source == target:
             return value
         if target == "float":
+            if isinstance(value, ir.Constant) and not isinstance(value, ParameterConstant):
+                return ir.Constant(
+                    DOUBLE, float(int(value.constant))
+                )  # a literal stays a constant: pow(x, 2)
             return b.sitofp(value, DOUBLE) if source == "int" else b.uitofp(value, DOUBLE)
         if target == "int":
             if source == "bool":

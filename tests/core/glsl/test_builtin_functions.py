@@ -13,9 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from core.glsl import CompiledBrdf
+from core.glsl import CompiledBrdf, compile_brdf, parse_brdf_text
 from core.glsl.builtin_functions import BUILTINS
-from tests.core.glsl._shaders import compile_shader, shader_value
+from tests.core.glsl._shaders import brdf_text, compile_shader, shader_value
 
 # the parameter `which` picks the expression; a third vector argument arrives as the color parameter t
 PARAMS = "float which 0 1000 0\ncolor t 0 0 0"
@@ -223,7 +223,8 @@ def test_integer_arguments_convert_to_float():
 
 
 def test_pow_of_a_negative_base_is_nan_as_on_gpus():
-    """pow(x, y) for x < 0 is NaN whatever y (GPUs compute exp2(y log2 x)); otherwise C's pow."""
+    """pow(x, y) for x < 0 is NaN (GPUs compute exp2(y log2 x)) unless y is a constant 1, 2 or 4;
+    otherwise C's pow."""
     got = shader_value("return vec3(pow(-2.0, 3.0), pow(-2.0, 0.5), pow(0.0, 0.0));")
     assert np.isnan(got[0]) and np.isnan(got[1]) and got[2] == 1.0
     assert shader_value("return vec3(pow(2.0, 3.0), pow(4.0, 0.5), pow(0.0, 2.0));").tolist() == [
@@ -231,3 +232,19 @@ def test_pow_of_a_negative_base_is_nan_as_on_gpus():
         2.0,
         0.0,
     ]
+
+
+def test_pow_by_a_constant_1_2_or_4_is_multiplication_as_gpu_compilers_make_it():
+    """A literal exponent, an int literal, or a const variable holding one (even through a negation) gives
+    x, x x, (x x)(x x) for any base, as Mesa does; an exponent of 3, or a parameter equal to 2, does not,
+    and the code specialized to the parameter's value computes the same (the parameter is not a constant
+    to the shader's semantics)."""
+    helpers = "const float TWO = 2.0;\nconst float MINUS_FOUR = -4.0;"
+    body = "const float FOUR = -MINUS_FOUR;\nreturn vec3(pow(-3.0, 2) + pow(-3.0, 1.0), pow(-2.0, FOUR), pow(-3.0, TWO));"
+    assert shader_value(body, helpers=helpers).tolist() == [6.0, 16.0, 9.0]
+    got = shader_value("return vec3(pow(-2.0, 3.0), pow(-2.0, e), 0.0);", params="float e 0 4 2")
+    assert np.isnan(got[0]) and np.isnan(got[1])
+    shader = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(pow(-2.0, e)); }"
+    brdf = parse_brdf_text(brdf_text(shader, "float e 0 4 2"), "test.brdf")
+    normal = np.array([[0.0, 0.0, 1.0]])
+    assert np.isnan(compile_brdf(brdf, [2.0]).evaluate(normal, normal)).all()

@@ -20,7 +20,8 @@ PI = 3.14159265358979323846
 
 
 def gpow(x: np.ndarray, y: float) -> np.ndarray:
-    """GLSL's pow as GPUs compute it (and core.glsl does): NaN for a negative base."""
+    """GLSL's pow as GPUs compute it (and core.glsl does): NaN for a negative base (but for a constant
+    exponent of 1, 2 or 4, which becomes multiplications)."""
     with np.errstate(invalid="ignore"):
         return np.where(x < 0.0, np.nan, np.abs(x) ** y)
 
@@ -135,7 +136,8 @@ def microfacet_toggles(L: np.ndarray, V: np.ndarray, p: np.ndarray) -> np.ndarra
     if exact_fresnel:
         c = v_h
         g = np.sqrt(ior * ior + c * c - 1)
-        f = 0.5 * gpow(g - c, 2) / gpow(g + c, 2) * (1 + gpow(c * (g + c) - 1, 2) / gpow(c * (g - c) + 1, 2))
+        # pow(x, 2) with a constant 2 is x x, as GPU compilers make it: defined for a negative base
+        f = 0.5 * (g - c) ** 2 / (g + c) ** 2 * (1 + (c * (g + c) - 1) ** 2 / (c * (g - c) + 1) ** 2)
     else:
         f = f0 + (1 - f0) * gpow(1 - v_h, 5)
     if use_smith:
