@@ -5,9 +5,9 @@ Definitions follow the GLSL 1.20 specification (section 8) word for word where i
 cases behave as it says: ``min(x, y) = y < x ? y : x`` (a NaN in ``x`` is returned), ``clamp = min(max(x, lo),
 hi)``, ``mix = x (1 - a) + y a``, ``mod = x - y floor(x / y)``, ``step = x < edge ? 0 : 1``. ``pow`` of a
 negative base is NaN, as GPUs compute it (``exp2(y log2 x)``; the specification leaves it undefined), except
-for the constant exponents 1, 2 and 4, which GPU compilers turn into multiplications (:data:`CONSTANT_POWERS`):
-the translation shows what BRDF Explorer shows, and the host reports the NaN. Integer arguments convert to float (GLSL 1.20 has
-no integer overloads). sinh, cosh and tanh come from GLSL 1.30.
+for the constant exponents 1, 2 and 4, which GPU compilers turn into multiplications (:data:`CONSTANT_POWERS`),
+and a constant base and exponent, which they fold as C does: the translation shows what BRDF Explorer shows,
+and the host reports the NaN. Integer arguments convert to float (GLSL 1.20 has no integer overloads). sinh, cosh and tanh come from GLSL 1.30.
 """
 
 from __future__ import annotations
@@ -128,8 +128,14 @@ CONSTANT_POWERS = (1.0, 2.0, 4.0)
 ``pow(a, 1) = a``, ``pow(a, 2) = a a``, ``pow(a, 4) = (a a)(a a)``), defined for a negative base too."""
 
 
+def _is_literal(value: ir.Value) -> bool:
+    return isinstance(value, ir.Constant) and not isinstance(value, ParameterConstant)
+
+
 def _pow(ops: FloatOps, x: ir.Value, y: ir.Value) -> ir.Value:
-    if isinstance(y, ir.Constant) and not isinstance(y, ParameterConstant) and y.constant in CONSTANT_POWERS:
+    if _is_literal(x) and _is_literal(y):  # folded by the GPU compiler as C computes it: pow(-0.5, 10.0) > 0
+        return ops.intrinsic("pow", x, y)
+    if _is_literal(y) and y.constant in CONSTANT_POWERS:
         if y.constant == 1.0:
             return x
         square = ops.mul(x, x)

@@ -457,7 +457,12 @@ class _FunctionEmitter:
             return [self.builder.not_(v) for v in values]
         if e.type.base == "int":
             return [self.builder.sub(ir.Constant(I32, 0), v) for v in values]
-        return [self.builder.fneg(v) for v in values]
+        return [  # a negative literal stays a constant (what GPU compilers fold: pow(-0.5, 10.0))
+            ir.Constant(DOUBLE, -v.constant)
+            if isinstance(v, ir.Constant) and not isinstance(v, ParameterConstant)
+            else self.builder.fneg(v)
+            for v in values
+        ]
 
     def expr_Arithmetic(self, e: p.Arithmetic) -> list[ir.Value]:
         return self.arithmetic(e.op, e.type, self.expr(e.left), self.expr(e.right))
