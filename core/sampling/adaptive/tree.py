@@ -17,8 +17,16 @@ cell (its edges and the points between).
    a line of the stencil (twice what a parabola through them rises between its points), plus the lobe's
    *ridge*: the mirror direction of views across the cell (:func:`make_ridge`), and the peak of the node's
    ``g`` moved with it, clamped into each leaf near them (a narrow lobe that moves across the cell passes
-   there); then a safety factor. These are checked, not proven: every trial with ``g > c M`` is counted at
-   run time, and the test suite asserts none for isotropic materials (``tests/core/test_adaptive.py``).
+   there); then a safety factor. Then :func:`probe`: random points at random views of the cell, and from the
+   best of them and the stencils' best a compass climb of the ratio ``g / (c q)`` over the leaf and the
+   cell's views (:func:`_climb`): a peak between the points seen is found where its basin holds a start.
+   A climb stalls on a front where ``g`` is cut from a positive value to 0 (the horizon's boundary on a
+   half-vector disk, moving with ``wo``): there the ratio is largest on the front's near side, and a
+   leaf's bound can still fall short (see ``docs/adaptive.md``, section 4).
+   ``f`` is a black box (model files), so no interval or Lipschitz bound is available: the bounds are
+   searched, not proven; every trial with ``g > c M`` is counted at run time, the tests assert none
+   (``tests/core/test_adaptive.py``, ``tests/core/test_adaptive_bounds.py``) and ``bench/bounds.py`` counts
+   them over every model at six ``theta_o`` and three ``phi_o``.
 3. :func:`refine` (the seed's ``n_max``). While the envelope's mass ``V = sum area_L M_L`` (in units of the
    normalizer, so the acceptance is ``1 / V`` at every view) exceeds ``n_max / (1 + ACCEPT_MARGIN)``, the leaves
    with the largest excess ``V_L - I_L / c`` are split and bounded again. The seed asks it of every leaf
@@ -950,7 +958,7 @@ def probe(mid, p, projection, views, angles, cell, scales, weights, n, child, x0
     ``PROBE_MARGIN`` times the ratio seen (against ``rho g / c`` at the probe's view, :func:`inv_norm`,
     ``rho`` from :func:`bound`; ``1 / c`` is read only where the cell's largest could beat the best ratio
     seen). Returns the number of bounds raised and the evaluations made. ``mix (9,)``, ``view (6,)`` and
-    ``pts (20,)`` are scratch."""
+    ``pts (16,)`` are scratch."""
     raised = 0
     evals = 0
     view[5] = 1.0
@@ -979,10 +987,8 @@ def probe(mid, p, projection, views, angles, cell, scales, weights, n, child, x0
         state = stream(seed, i)
         worst = 0.0
         second = 0.0
-        gtop = 0.0  # the largest g / c seen (probes), for a leaf a front crosses
         count = min(PROBES * 4 ** max(0, 5 - level[i]), 8 * PROBES)
-        front = _has_front(stv[i])
-        if front:
+        if _has_front(stv[i]):
             count = 8 * PROBES
         for _ in range(count):
             state, u1 = next_u01(state)
@@ -998,14 +1004,6 @@ def probe(mid, p, projection, views, angles, cell, scales, weights, n, child, x0
                 view[2] = math.cos(theta)
             qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
             g = g_at(mid, p, x0[i] + u1 * h, y0[i] + u2 * h, projection, view)
-            if not g > 0.0:
-                front = True
-            elif g * top > gtop:
-                gtop = max(gtop, g * rho * inv_norm(norm, norm_meta, theta, phi))
-                pts[16] = u1
-                pts[17] = u2
-                pts[18] = u3
-                pts[19] = u4
             if g * top / qq > second:
                 r = g * rho * inv_norm(norm, norm_meta, theta, phi) / qq
                 if r > worst:
@@ -1059,22 +1057,6 @@ def probe(mid, p, projection, views, angles, cell, scales, weights, n, child, x0
                           norm, norm_meta, x, f0, trial)  # fmt: skip
             evals += e + 1
             worst = max(worst, r)
-        if front and gtop > 0.0:
-            # a front crosses the leaf (g is 0 at some points seen, positive at others): where g is cut from a
-            # positive value to 0 (the horizon's boundary on a half-vector disk, which moves with wo) the ratio
-            # is largest just on the front's near side, wherever the front lies at the views between those
-            # seen, and a climb stalls on it; bound the ratio by the largest g / c over the smallest q (a
-            # bilinear density's least value is at a corner), g / c's largest found by a climb of its own
-            for k in range(4):
-                x[k] = pts[16 + k]
-            gtop, e = _climb(mid, p, projection, cell, azimuths, follow, view, x0[i], y0[i], h, 1.0, 1.0, 1.0,
-                             1.0, rho, norm, norm_meta, x, gtop, trial)  # fmt: skip
-            evals += e
-            for v in range(stv.shape[1]):
-                s_v = rho * inv_norm(norm, norm_meta, angles[v, 0], angles[v, 1])
-                for k in range(9):
-                    gtop = max(gtop, stv[i, v, k] * s_v)
-            worst = max(worst, gtop / min(min(c0, c1), min(c2, c3)))
         if worst * safety > m[i] * (1.0 + PROBE_TIE):
             m[i] = worst * PROBE_MARGIN
             raised += 1
@@ -1377,7 +1359,7 @@ def add_bounds(mid, p, projection, views, weights, cell, n_max, max_level, capac
     ridge, rho, evals = bound(mid, p, projection, views, ridge_v, weights, n, child, x0, y0, level, stv, m, safety,
                               scales, bscales, rscales, step, pa, pb)  # fmt: skip
     probed = np.zeros(capacity, dtype=np.bool_)
-    mix, view, pts = np.empty(9), np.empty(6), np.empty(20)
+    mix, view, pts = np.empty(9), np.empty(6), np.empty(16)
     for _ in range(PROBE_ROUNDS):  # the acceptance, then the probes; a raised bound may call for more leaves
         n, envelope, e = refine(mid, p, projection, views, scales, bscales, weights, ridge, ridge_v, n_max, max_level, n,
                                 child, x0, y0, level, st, stv, m, safety)  # fmt: skip
