@@ -84,7 +84,10 @@ def validate(sampler, theta: float, phi: float, n: int, n_tests: int, seed: int)
             ok = False
             row.setdefault("reasons", []).append(f"{row['violations']} leaf-bound violations")
         n_max = getattr(sampler, "n_max", None)
-        if n_max and row["acceptance"] < 1.0 / n_max and theta < 90.0:
+        # a BRDF that is 0 for every wi at this wo has nothing to accept: the sampler draws the cosine density
+        # (checked by the chi-square tests above), and its acceptance is not a guarantee's measure
+        nothing = hasattr(sampler, "normalizer") and float(sampler.normalizer(wo)[0]) == 0.0
+        if n_max and row["acceptance"] < 1.0 / n_max and theta < 90.0 and not nothing:
             ok = False
             row.setdefault("reasons", []).append(f"acceptance {row['acceptance']:.3f} < 1/n_max")
     row["passed"] = ok

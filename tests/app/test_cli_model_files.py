@@ -328,3 +328,20 @@ def test_the_console_script_exits_2_without_a_traceback(tmp_path):
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and f"{path}:8:" in proc.stderr
+
+
+def test_check_passes_where_the_model_is_zero_for_every_direction(capsys, tmp_path):
+    """A shader that is NaN (taken as 0) for every wi when V is the normal, as BRDF Explorer's Oren-Nayar
+    (normalize(V - N (V.N)) of a zero vector): at theta 0 there is nothing to accept, the sampler draws the
+    cosine density, and check passes on its chi-square tests instead of failing on an acceptance of 0."""
+    shader = tmp_path / "blind_at_normal.brdf"
+    shader.write_text(
+        "analytic\n::begin parameters\nfloat k 0 1 0.5\n::end parameters\n::begin shader\n"
+        "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n"
+        "    float c = dot(normalize(V - N * dot(V, N)), vec3(1.0, 0.0, 0.0));\n"
+        "    return vec3(k * (1.0 + 0.0 * c) / 3.14159265);\n}\n::end shader\n"
+    )
+    argv = ("check", "--model", str(shader), "--sampler", "adaptive", "--samples", "20000")
+    code, out, _ = run_cli(capsys, *argv, "--theta", "0,45")
+    assert code == 0, out
+    assert "acceptance=0.000" in out and "2 rows FAILED" not in out and "all passed" in out
