@@ -1085,7 +1085,9 @@ def _trial_split(mid, p, projection, view, i, n, child, x0, y0, level, st, max_l
     h = 0.5 ** level[i]
     coarse = _rule(st[i], x0[i], y0[i], h)
     if level[i] >= max_level or n + 4 > child.shape[0]:
-        return coarse, 0.0, 0
+        # no room or depth to try it: the rule's own difference from the trapezoids is its error (0 here
+        # would read the whole integral as converged: g_duer's ring along the horizon at 89 degrees)
+        return coarse, abs(coarse - _trapezoids(st[i], h * h)), 0
     end = _split(mid, p, projection, view, i, n, child, x0, y0, level, st)
     s = 0.0
     for c in range(n, end):
@@ -1432,22 +1434,34 @@ def bound_tree(shaped: TreeShape, mid: int, p: np.ndarray, projection: int, view
     return TreeArrays(*out[:9], envelope=float(out[9]), evaluations=int(out[10]))
 
 
+QUAD_CAPACITY = 32
+"""The normalizer's quadrature may use this many times a tree's capacity in cells (they are folded into the
+view's tree and dropped, and only the pages they touch are used): a lobe along the whole horizon, thinner than
+a level-12 cell (BRDF Explorer's ``g_duer.brdf``, ``|L + V|^2 / (N.(L + V))^4``, at 89-89.9 degrees: a ring
+``cos(theta_o) / 3`` above it), fills a tree's 16 384 nodes before the quadrature starts."""
+
+QUAD_MAX_LEVEL = 20
+"""The quadrature's deepest cells (the trees' leaves stop at ``max_level``, 12; the cells are not stored)."""
+
+
 @njit(nogil=True, cache=True)
 def view_integral(mid, p, projection, view, warp_tol, quad_tol, base_level, max_level, capacity):
     """``I`` of one view to ``quad_tol`` (relative, by its own estimate): step 1's tree, then step 4.
     Returns ``(I, estimated error, evaluations)``. The exact mode's normalizer is interpolated from these, at
     polar angles of its own (:func:`core.sampling.adaptive.table.build_table`): a node's tree is not needed
     where only the normalizer asks for another node."""
-    child = np.empty(capacity, dtype=np.int32)
-    x0 = np.empty(capacity)
-    y0 = np.empty(capacity)
-    level = np.empty(capacity, dtype=np.int32)
-    st = np.empty((capacity, 9))  # (as in shape: a node's stencils are made with it)
-    n, _, evals = grow(mid, p, projection, view, warp_tol, base_level, max_level, child, x0, y0, level, st)
-    fine = np.zeros(capacity)
-    fine_err = np.zeros(capacity)
+    cells = capacity * QUAD_CAPACITY
+    child = np.empty(cells, dtype=np.int32)
+    x0 = np.empty(cells)
+    y0 = np.empty(cells)
+    level = np.empty(cells, dtype=np.int32)
+    st = np.empty((cells, 9))  # (as in shape: a node's stencils are made with it; pages untouched stay free)
+    n, _, evals = grow(mid, p, projection, view, warp_tol, base_level, max_level, child[:capacity], x0, y0, level,
+                       st)  # fmt: skip
+    fine = np.zeros(cells)
+    fine_err = np.zeros(cells)
     n_keep = n
-    n, e = quadrature(mid, p, projection, view, quad_tol, max_level, n, child, x0, y0, level, st, fine,
+    n, e = quadrature(mid, p, projection, view, quad_tol, QUAD_MAX_LEVEL, n, child, x0, y0, level, st, fine,
                       fine_err)  # fmt: skip
     _fold_quadrature(n_keep, n, child, fine, fine_err)
     total = 0.0
