@@ -24,17 +24,22 @@ from renderer.embree import EmbreeScene, EmbreeUnavailable
 MISS = -1
 BACKEND_ENV = "BRDF_STUDIO_EMBREE"
 BACKENDS = ("direct", "embreex")
+DEFAULT_BACKEND = "embreex"
+"""embreex's ``run``. ``direct`` (Embree's packet queries from compiled code) corrupts the heap now and then
+in renders with two threads (a crash in ``malloc`` within a few renders of the demo, or arrays of the wrong
+length reaching the samplers); its cause is not found, embreex's ``run`` has shown none in 34 such renders,
+and the demo's pass times of the two were within noise. ``BRDF_STUDIO_EMBREE=direct`` chooses it."""
 _THREAD_PREFIX = "embree-rays"
 _FAR = np.float32(1e30)
 
 
 def backend_from_environment() -> str:
-    """The backend ``$BRDF_STUDIO_EMBREE`` chooses (``"direct"`` when unset); a value that is not one of
-    :data:`BACKENDS` is a :class:`~core.errors.ParameterError` naming the variable and the choices."""
-    backend = os.environ.get(BACKEND_ENV) or "direct"
+    """The backend ``$BRDF_STUDIO_EMBREE`` chooses (:data:`DEFAULT_BACKEND` when unset); a value that is not
+    one of :data:`BACKENDS` is a :class:`~core.errors.ParameterError` naming the variable and the choices."""
+    backend = os.environ.get(BACKEND_ENV) or DEFAULT_BACKEND
     if backend not in BACKENDS:
         raise ParameterError(
-            f"{BACKEND_ENV}={backend!r}: expected one of {', '.join(BACKENDS)} (or leave it unset for direct)"
+            f"{BACKEND_ENV}={backend!r}: expected one of {', '.join(BACKENDS)} (or leave it unset for {DEFAULT_BACKEND})"
         )
     return backend
 

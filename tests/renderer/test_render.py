@@ -161,7 +161,7 @@ def test_cli_writes_exr_png_sidecar(scene_file: Path, tmp_path: Path) -> None:
     info = json.loads(out.with_suffix(".json").read_text())
     assert info["spp"] == 3 and info["settings"]["seed"] == 5 and info["settings"]["sampler"] == "cosine"
     assert info["versions"]["numpy"] == np.__version__
-    assert info["ray_queries"] == "direct"  # Embree from compiled code (embreex's run is the fallback)
+    assert info["ray_queries"] == "embreex"  # the default backend (renderer.accel.DEFAULT_BACKEND)
     assert out.with_suffix(".png").read_bytes()[:4] == b"\x89PNG"
     # the same seed gives the same image
     out2 = tmp_path / "again.exr"
