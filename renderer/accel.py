@@ -94,15 +94,10 @@ class Accel:
         )
 
     def close(self) -> None:
-        """Stop the worker threads (waiting for them, unless called from one of them) and free Embree's
-        scene and device, here rather than whenever the garbage collector gets to them (on any thread,
-        possibly while another render queries its own scene). The accel answers no query afterwards."""
+        """Stop the worker threads (waiting for them, unless called from one of them)."""
         pool, self._pool = getattr(self, "_pool", None), None
         if pool is not None:
             pool.shutdown(wait=not threading.current_thread().name.startswith(_THREAD_PREFIX))
-        direct = getattr(self, "_direct", None)
-        if direct is not None and not threading.current_thread().name.startswith(_THREAD_PREFIX):
-            direct.release()
 
     def __del__(self) -> None:
         # The collector may run this on any thread, a worker of this very pool included, and at interpreter

@@ -21,7 +21,6 @@ import ctypes
 import ctypes.util
 import glob
 import os
-import threading
 from dataclasses import dataclass
 
 import numba as nb
@@ -119,28 +118,6 @@ def _load() -> _Library:
     return _LIBRARY
 
 
-_PENDING: list[tuple[int, int]] = []
-"""Scenes and devices the garbage collector let go of, released by the next :class:`EmbreeScene` made or
-released: the collector runs on whatever thread allocates, a render's wavefront thread included, and
-Embree's release of a device while another device answers queries on another thread corrupts the heap
-(renders with two threads crashed in ``malloc`` after the previous render's scene was collected)."""
-_PENDING_LOCK = threading.Lock()
-
-
-def _release_pending() -> None:
-    lib = _LIBRARY
-    if lib is None:
-        return
-    with _PENDING_LOCK:
-        pending = _PENDING[:]
-        _PENDING.clear()
-    for scene, device in pending:
-        if scene:
-            lib.lib.rtcReleaseScene(scene)
-        if device:
-            lib.lib.rtcReleaseDevice(device)
-
-
 class EmbreeScene:
     """A committed Embree scene of one triangle mesh, ``vertices (n, 3)`` and ``faces (m, 3)`` (triangle ids
     are face rows), on a device of its own. Raises :class:`EmbreeUnavailable` when the library is missing or
@@ -148,7 +125,6 @@ class EmbreeScene:
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray):
         lib = _load()
-        _release_pending()
         self._lib = lib
         v = np.ascontiguousarray(vertices, dtype=np.float32)
         f = np.ascontiguousarray(faces, dtype=np.uint32)
@@ -180,9 +156,7 @@ class EmbreeScene:
             raise EmbreeUnavailable(f"Embree failed {what}: {_ERRORS.get(code, f'error {code}')}")
 
     def release(self) -> None:
-        """Free the scene and the device (idempotent; no query may run at the same time, on this scene or
-        another: call it where the renders' threads are idle, as :meth:`renderer.accel.Accel.close` does)."""
-        _release_pending()
+        """Free the scene and the device (idempotent; no query may run at the same time)."""
         lib = self._lib.lib
         if getattr(self, "scene", 0):
             lib.rtcReleaseScene(self.scene)
@@ -192,27 +166,19 @@ class EmbreeScene:
             self.device = 0
 
     def __del__(self) -> None:
-        # the collector may run this on any thread, mid-render, at interpreter exit or during a Ctrl-C: the
-        # handles wait in _PENDING for a thread that may release them; never raise from here
-        with contextlib.suppress(Exception):
-            handles = (getattr(self, "scene", 0), getattr(self, "device", 0))
-            self.scene = self.device = 0
-            if any(handles):
-                with _PENDING_LOCK:
-                    _PENDING.append(handles)
+        # the collector may run this at interpreter exit or during a Ctrl-C: never raise from here
+        if getattr(self, "_lib", None) is not None:
+            with contextlib.suppress(Exception):
+                self.release()
 
     def trace(self, o32: np.ndarray, d32: np.ndarray, prim: np.ndarray, t: np.ndarray, u: np.ndarray,
               v: np.ndarray) -> None:  # fmt: skip
         """Closest hits of ``o32, d32 (n, 3)`` float32 into ``prim`` int32 (-1 on a miss), ``t`` float32 (inf
         on a miss), ``u, v`` float32 barycentrics (0 on a miss); on the calling thread, without the GIL."""
-        if not self.scene:
-            raise EmbreeUnavailable("the Embree scene was released")
         trace_packets(self._lib.intersect16, self.scene, o32, d32, prim, t, u, v)
 
     def occluded(self, o32: np.ndarray, d32: np.ndarray, t_max: np.ndarray, out: np.ndarray) -> None:
         """``out (n,)`` bool: something lies on the ray in ``[0, t_max]``; on the calling thread."""
-        if not self.scene:
-            raise EmbreeUnavailable("the Embree scene was released")
         occluded_packets(self._lib.occluded16, self.scene, o32, d32, t_max, out)
 
 

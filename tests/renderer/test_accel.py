@@ -125,31 +125,3 @@ def test_degenerate_rays_miss_without_harm(backend: str) -> None:
     assert np.array_equal(hits.prim == MISS, [False, True, True, True, False])
     assert np.allclose(hits.t[[0, 4]], [1.0, 2.0]) and np.all(np.isinf(hits.t[1:4]))
     assert np.array_equal(accel.occluded(o, d), [True, False, False, False, True])
-
-
-def test_a_collected_scene_is_released_by_the_next_scene_made_not_by_the_collector() -> None:
-    """The garbage collector may drop a scene on a render's thread while another scene answers queries on
-    another: its handles wait, and the next scene made releases them (on the thread that makes it)."""
-    import gc
-
-    ico = trimesh.creation.icosphere(subdivisions=1)
-    first = embree.EmbreeScene(ico.vertices, ico.faces)
-    handles = (first.scene, first.device)
-    assert all(handles)
-    del first
-    gc.collect()
-    assert handles in embree._PENDING
-    second = embree.EmbreeScene(ico.vertices, ico.faces)
-    assert handles not in embree._PENDING
-    hits = np.empty(1, np.int32), *(np.empty(1, np.float32) for _ in range(3))
-    o, d = np.array([[0.0, 0.0, 5.0]], np.float32), np.array([[0.0, 0.0, -1.0]], np.float32)
-    second.trace(o, d, *hits)
-    assert hits[0][0] >= 0
-
-
-def test_a_closed_accel_refuses_queries_instead_of_crashing() -> None:
-    """close() frees Embree's scene and device at once (not when collected); a query after it is an error."""
-    accel = _quad()
-    accel.close()
-    with pytest.raises(embree.EmbreeUnavailable, match="released"):
-        accel.intersect(np.array([[0.2, 0.2, 1.0]]), np.array([[0.0, 0.0, -1.0]]))
