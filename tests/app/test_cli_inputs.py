@@ -731,7 +731,7 @@ def test_a_black_material_exports_and_renders_with_rgl_warp(capsys, scene_dir, t
 
 
 def corpus_last_inputs(tmp_path: Path, scene_dir: Path) -> list[tuple[str, list[str], dict[str, str]]]:
-    """The inputs that slipped through until issue 38, as ``(command, argv, environment)``: each must be
+    """The inputs issue 38 lists, as ``(command, argv, environment)``: each must be
     exit 2 and one line (the tests above check each one's words; ``bench/budgets.py --parts sweep`` runs them
     with the rest of the corpus)."""
     a_file = tmp_path / "a_file"
