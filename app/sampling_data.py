@@ -97,6 +97,7 @@ SAMPLING_PROJECTIONS = {
     "orthographic": "wi, orthographic disk",
     "equal_area": "wi, equal-area disk",
     "half_vector": "half vector h, equal-area disk",
+    "rim": "wi, rim disk",
 }
 """What a tree's disk is, as the sampler view names it."""
 

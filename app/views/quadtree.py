@@ -25,6 +25,7 @@ DISK_RADIUS = {
     "orthographic": "|X| = sin theta_i",
     "equal_area": "|X| = sqrt(1 - cos theta_i)",
     "half_vector": "|X| = sqrt(1 - cos theta_h)",
+    "rim": "|X| = sqrt(1 - sqrt(cos theta_i))",
 }
 MODE_TIPS = {
     "exact": "exact: rejection against the leaves' bounds; pdf exactly f cos / I (the seed's sampler)",

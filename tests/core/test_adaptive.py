@@ -26,6 +26,7 @@ from core.sampling.adaptive.maps import (
     EQUAL_AREA,
     HALF_VECTOR,
     ORTHOGRAPHIC,
+    RIM,
     direction_to_square,
     square_to_direction,
     square_to_disk,
@@ -78,7 +79,7 @@ def _lum_albedo(brdf, theta: float, phi: float = 0.0) -> float:
 
 
 # ------------------------------------------------------------------------------------------ the maps
-@pytest.mark.parametrize("projection", [ORTHOGRAPHIC, EQUAL_AREA, HALF_VECTOR])
+@pytest.mark.parametrize("projection", [ORTHOGRAPHIC, EQUAL_AREA, HALF_VECTOR, RIM])
 def test_the_maps_invert_each_other_and_keep_their_stated_jacobian(projection, rng):
     a, b = rng.random(2000), rng.random(2000)
     for x, y in zip(a, b, strict=True):

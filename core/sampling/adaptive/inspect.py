@@ -15,7 +15,7 @@ import numpy as np
 
 from core.sampling.adaptive.draw import _frame
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, TWO_PI
-from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI
+from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI, RIM
 from core.sampling.adaptive.sampler import AdaptiveSampler
 from core.sampling.adaptive.table import CDF_ONE, LEAF_GRID, AdaptiveTable
 
@@ -24,7 +24,7 @@ class TreeView(NamedTuple):
     """The tree that serves ``wo`` (see :func:`tree_view`)."""
 
     projection: str
-    """``"orthographic"``, ``"equal_area"`` (disks of ``wi``) or ``"half_vector"`` (disk of ``h``)."""
+    """``"orthographic"``, ``"equal_area"``, ``"rim"`` (disks of ``wi``) or ``"half_vector"`` (disk of ``h``)."""
     follow: bool
     """The tree's frame is turned so that ``wo`` lies in its x-z plane (else: the local frame, folded)."""
     tree: int
@@ -140,6 +140,10 @@ def to_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, wi: np.ndarray) -> np
     up = z > 0
     if int(table.projection[t]) == ORTHOGRAPHIC:
         out[up] = np.stack([x[up], y[up]], axis=1)
+    elif int(table.projection[t]) == RIM:
+        root = np.sqrt(z[up])
+        scale = 1.0 / np.sqrt((1.0 + root) * (1.0 + z[up]))
+        out[up] = np.stack([x[up] * scale, y[up] * scale], axis=1)
     else:
         scale = 1.0 / np.sqrt(1.0 + z[up])
         out[up] = np.stack([x[up] * scale, y[up] * scale], axis=1)
@@ -161,6 +165,10 @@ def from_tree_disk(sampler: AdaptiveSampler, wo: np.ndarray, points: np.ndarray)
     with np.errstate(invalid="ignore"):
         if projection == ORTHOGRAPHIC:
             z = np.sqrt(1.0 - r2)
+        elif projection == RIM:
+            root = 1.0 - r2
+            k = np.sqrt((1.0 + root) * (1.0 + root * root))
+            x, y, z = x * k, y * k, root * root
         else:
             k = np.sqrt(2.0 - r2)
             x, y, z = x * k, y * k, 1.0 - r2

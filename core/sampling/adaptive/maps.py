@@ -17,7 +17,17 @@ orthographic   ``sin(theta)``           ``cos(theta)`` (the seed's disk: area is
 equal-area     ``sqrt(1 - cos(theta))`` ``1/2`` (Lambert's azimuthal projection): a ring of directions near
                                         the horizon keeps its width, where the orthographic disk squeezes
                                         it by ``cos(theta)``; and no trigonometry, one square root each way
+rim            ``sqrt(1 - sqrt(cos))``  ``1 / (4 sqrt(cos(theta)))``: a ring near the horizon widens by ``1/sqrt(cos)`` (the
+                                        equal-area disk keeps it; the orthographic one squeezes it by
+                                        ``cos``)
 ============== ======================== ================================================================
+
+The rim projection serves the exact mode's grazing trees that miss the acceptance on the equal-area disk
+(:data:`~core.sampling.adaptive.table.RIM_LIMIT`). Where ``f cos`` has a ridge within a degree of the
+horizon (Duer's geometry term: ``|L + V|^2 / (N.(L + V))^4`` peaks at ``cos(theta_i)`` about a third of
+``cos(theta_o)``), the equal-area disk holds it in a ring ``cos/2`` wide, 3e-3 at 89 degrees: a quadtree
+needs leaves of level 12 along the whole rim to follow it, and fills its capacity first. On the rim disk the
+ring is ``sqrt(cos)/2`` wide (4e-2), which leaves of level 6 follow.
 
 Composed with the concentric map, the equal-area projection is the classic area-preserving map of the
 square onto the hemisphere. A third choice, ``half_vector``, puts the equal-area disk on the half vector
@@ -45,7 +55,8 @@ INV_PI = 1.0 / math.pi
 ORTHOGRAPHIC = 0
 EQUAL_AREA = 1
 HALF_VECTOR = 2
-PROJECTIONS = ("orthographic", "equal_area", "half_vector")
+RIM = 3
+PROJECTIONS = ("orthographic", "equal_area", "half_vector", "rim")
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -92,6 +103,11 @@ def disk_to_direction(x, y, projection):
     if projection == ORTHOGRAPHIC:
         z = math.sqrt(max(0.0, 1.0 - r2))
         return x, y, z, z
+    if projection == RIM:  # sqrt(cos) = 1 - r2; sin / r = sqrt((2 - r2) (1 + cos)), no cancellation
+        s = max(0.0, 1.0 - r2)
+        z = s * s
+        t = math.sqrt((1.0 + s) * (1.0 + z))
+        return x * t, y * t, z, 0.25 / s if s > 0.0 else math.inf
     t = math.sqrt(max(0.0, 2.0 - r2))
     return x * t, y * t, 1.0 - r2, 0.5  # equal-area (of wi, or of h for HALF_VECTOR)
 
@@ -101,6 +117,10 @@ def direction_to_disk(wx, wy, wz, projection):
     """The disk point of an upper-hemisphere direction and ``dA/d(omega)`` there."""
     if projection == ORTHOGRAPHIC:
         return wx, wy, max(wz, 0.0)
+    if projection == RIM:
+        s = math.sqrt(max(wz, 0.0))
+        t = 1.0 / math.sqrt((1.0 + s) * (1.0 + s * s))
+        return wx * t, wy * t, 0.25 / s if s > 0.0 else math.inf
     t = 1.0 / math.sqrt(1.0 + max(wz, 0.0))
     return wx * t, wy * t, 0.5
 

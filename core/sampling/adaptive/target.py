@@ -22,7 +22,7 @@ from numba import njit
 
 from core.dispatch import eval_model
 from core.jit import kernel
-from core.sampling.adaptive.maps import HALF_VECTOR, ORTHOGRAPHIC, PI, square_to_direction
+from core.sampling.adaptive.maps import HALF_VECTOR, ORTHOGRAPHIC, PI, RIM, square_to_direction
 
 LUM_R = 0.2126
 LUM_G = 0.7152
@@ -59,7 +59,8 @@ def make_views(thetas: np.ndarray, phis: np.ndarray, follow: bool = True) -> np.
 def square_point(a, b, projection):
     """``(x, y, z, w)``: the tree-frame direction of square point ``(a, b)`` (``wi``, or ``h`` for
     HALF_VECTOR) and the factor ``w`` with ``g = w f_lum`` there (``pi`` on the orthographic disk, ``2 pi cos``
-    on the equal-area one; for HALF_VECTOR ``2 pi``, the rest depends on ``wo``: see :func:`g_dir`)."""
+    on the equal-area one, ``4 pi cos^1.5`` on the rim disk; for HALF_VECTOR ``2 pi``, the rest depends on
+    ``wo``: see :func:`g_dir`)."""
     x, y, z, jac = square_to_direction(a, b, projection)
     if z < RIM_Z:  # the square's edge is the horizon: take the limit of g there, not f's 0 below it
         z = RIM_Z
@@ -70,6 +71,8 @@ def square_point(a, b, projection):
         return x, y, z, PI
     if projection == HALF_VECTOR:
         return x, y, z, PI / jac
+    if projection == RIM:  # pi cos / (dA/d(omega)) = 4 pi cos^1.5, also at the clamped rim
+        return x, y, z, 4.0 * PI * z * math.sqrt(z)
     return x, y, z, PI * z / jac
 
 
