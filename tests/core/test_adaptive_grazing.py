@@ -101,4 +101,7 @@ def test_the_rings_exact_trees_reach_the_acceptance_on_the_rim_disk(tmp_path):
     wi = sampler.sample(wo, 500, seed=6).wi
     wi = wi[wi[:, 2] > 1e-9]
     np.testing.assert_allclose(from_tree_disk(sampler, wo, to_tree_disk(sampler, wo, wi)), wi, atol=1e-10)
-    assert float(np.min(sampler.acceptance(np.array([degrees_to_dir(t, 0.0) for t in (80.5, 85, 89, 89.5)])))) >= 0.5
+    assert (
+        float(np.min(sampler.acceptance(np.array([degrees_to_dir(t, 0.0) for t in (80.5, 85, 89, 89.5)]))))
+        >= 0.5
+    )

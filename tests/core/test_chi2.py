@@ -190,7 +190,9 @@ def _pole_sliver():
         pc = rng.uniform(0.0, 2.0 * math.pi, m)
         sc = np.sqrt(1.0 - zc * zc)
         local = np.stack([sc * np.cos(pc), sc * np.sin(pc), zc], axis=1)
-        tilt_x = np.array([[1, 0, 0], [0, math.cos(tilt), math.sin(tilt)], [0, -math.sin(tilt), math.cos(tilt)]])
+        tilt_x = np.array(
+            [[1, 0, 0], [0, math.cos(tilt), math.sin(tilt)], [0, -math.sin(tilt), math.cos(tilt)]]
+        )
         a = turn - 0.5 * math.pi
         turn_z = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
         out[pick] = local @ (turn_z @ tilt_x).T
@@ -208,13 +210,16 @@ def test_a_sliver_that_the_quadrature_misses_is_integrated_where_samples_land():
     phi, cos = np.linspace(0, 2 * math.pi, 101), np.linspace(-1.0, 1.0, 51)
     col = int(math.radians(91.8) / (2 * math.pi) * 100)
     missed = integrate_cells(pdf, phi[col : col + 2], cos[-2:], cell_tol=1e-9)[0]
-    found = integrate_cells(pdf, phi[col : col + 2], cos[-2:], cell_tol=1e-9, variable="theta", min_depth=5)[0]
+    found = integrate_cells(pdf, phi[col : col + 2], cos[-2:], cell_tol=1e-9, variable="theta", min_depth=5)[
+        0
+    ]
     # the cap spans ~40 degrees of azimuth: its middle column holds ~1e-4 of its 2e-3, which the first reading
     # misses, as it does in every column
     assert found > 5e-5 and missed == 0.0
     res = chi2_test(sample, pdf, 200_000, domain="sphere", seed=3)
     assert res.passed, res.summary()
     assert res.integral == pytest.approx(1.0, abs=1e-3)
+
     # a sampler that puts the sliver's mass there twice over is still caught
     def doubled(n: int, seed: int) -> np.ndarray:
         wi = sample(n, seed)
