@@ -325,14 +325,41 @@ def make_brdf(name: str | os.PathLike[str], params: Mapping[str, Any] | Sequence
     return get_model(name).bind(parse_assignments(params))
 
 
-def param_slots(params: Sequence[Param]) -> tuple[int, ...]:
-    """The index of each parameter's first slot in the kernel row (a color takes three): kernels read
-    ``p[ALPHA]``, never ``p[3]``. ``KD, N = param_slots(PARAMS)``."""
-    slots, at = [], 0
+def param_offsets(params: Sequence[Param], *names: str) -> tuple[int, ...]:
+    """The offset in the kernel row of each named parameter, in the order the names are given.
+
+    The kernel row holds the parameters in declaration order, one slot for a ``float`` or ``bool`` and three
+    for a ``color`` (red, green, blue); a parameter's offset is its first slot, so a color's green channel is
+    ``p[KD + 1]``. A model module names its slots once, at import, from the same declaration the rest of the
+    program reads, and its kernels read ``p[ALPHA]``, never ``p[3]``: the offsets follow any edit of the
+    declaration, and numba compiles a module's int constants into its kernels as literals::
+
+        PARAMS = (Param("kd", (0.5, 0.5, 0.5), kind="color"), Param("ks", 0.5), Param("n", 60.0, 1.0, 1e4))
+        KD, KS, N = param_offsets(PARAMS, "kd", "ks", "n")  # 0, 3, 4
+        DERIVED = param_row_size(PARAMS)  # 5: where derive appends its data
+
+    Raises :class:`~core.errors.ParameterError` for a name that ``params`` does not declare (the message lists
+    the ones it does) or declares twice.
+    """
+    offsets: dict[str, int] = {}
+    at = 0
     for p in params:
-        slots.append(at)
+        if p.name in offsets:
+            raise ParameterError(f"parameter '{p.name}' is declared twice")
+        offsets[p.name] = at
         at += p.size
-    return tuple(slots)
+    unknown = [name for name in names if name not in offsets]
+    if unknown:
+        raise ParameterError(
+            f"no parameter {', '.join(repr(name) for name in unknown)}; "
+            f"the parameters are: {', '.join(offsets) or '(none)'}"
+        )
+    return tuple(offsets[name] for name in names)
+
+
+def param_row_size(params: Sequence[Param]) -> int:
+    """The number of kernel-row slots ``params`` take: the offset at which a model's ``derive`` appends."""
+    return sum(p.size for p in params)
 
 
 def parse_assignments(params: Mapping[str, Any] | Sequence[str] | None) -> dict[str, Any]:

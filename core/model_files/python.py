@@ -5,7 +5,7 @@ declares:
 
 ``PARAMS``
     a sequence of :class:`core.model.Param`; the kernel row holds them in this order (a color takes three
-    slots; :func:`core.model.param_slots` names the slots).
+    slots; :func:`core.model.param_offsets` gives each named parameter's offset).
 ``eval(wi, wo, p) -> (r, g, b)``
     numba-compilable (plain or ``@numba.njit``), in the local frame, as the built-in kernels
     (:mod:`core.model`).

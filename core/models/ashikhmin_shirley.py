@@ -32,13 +32,29 @@ import math
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models._microfacet import reflect_about, upper_half_vector
 from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
 DIFFUSE_NORM = 28.0 / (23.0 * math.pi)
+
+
+PARAMS = (
+    Param("nu", 25.0, 0.1, 1e5, label="Phong exponent along x", log=True),
+    Param("nv", 25.0, 0.1, 1e5, label="Phong exponent along y", log=True),
+    Param(
+        "ks",
+        (0.39, 0.39, 0.39),
+        0.0,
+        1.0,
+        label="Specular reflectance at normal incidence",
+        kind="color",
+    ),
+    Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse reflectance", kind="color"),
+)
+NU, NV, KS, KD = param_offsets(PARAMS, "nu", "nv", "ks", "kd")
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -62,8 +78,8 @@ def _pow_cos(hz, e):
 def eval_ashikhmin_shirley(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    nu = p[0]
-    nv = p[1]
+    nu = p[NU]
+    nv = p[NV]
     hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = |wi + wo| / 2 > 0
     lobe = (
@@ -77,13 +93,13 @@ def eval_ashikhmin_shirley(wi, wo, p):
     ti = 1.0 - 0.5 * wi[2]
     to = 1.0 - 0.5 * wo[2]
     diffuse_shape = DIFFUSE_NORM * (1.0 - ti**5) * (1.0 - to**5)
-    out0 = p[2] + (1.0 - p[2]) * schlick
-    out1 = p[3] + (1.0 - p[3]) * schlick
-    out2 = p[4] + (1.0 - p[4]) * schlick
+    out0 = p[KS] + (1.0 - p[KS]) * schlick
+    out1 = p[KS + 1] + (1.0 - p[KS + 1]) * schlick
+    out2 = p[KS + 2] + (1.0 - p[KS + 2]) * schlick
     return (
-        lobe * out0 + p[5] * (1.0 - p[2]) * diffuse_shape,
-        lobe * out1 + p[6] * (1.0 - p[3]) * diffuse_shape,
-        lobe * out2 + p[7] * (1.0 - p[4]) * diffuse_shape,
+        lobe * out0 + p[KD] * (1.0 - p[KS]) * diffuse_shape,
+        lobe * out1 + p[KD + 1] * (1.0 - p[KS + 1]) * diffuse_shape,
+        lobe * out2 + p[KD + 2] * (1.0 - p[KS + 2]) * diffuse_shape,
     )
 
 
@@ -110,20 +126,20 @@ def _lobe_pdf(wo, wi, nu, nv):
 
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_probability(p):
-    return lobe_probability(luminance_at(p, 2), luminance_at(p, 5))  # ks, kd
+    return lobe_probability(luminance_at(p, KS), luminance_at(p, KD))
 
 
 @kernel
 def pdf_ashikhmin_shirley(wo, wi, p):
     ps = _lobe_probability(p)
-    lobe = _lobe_pdf(wo, wi, p[0], p[1]) if ps > 0.0 else 0.0
+    lobe = _lobe_pdf(wo, wi, p[NU], p[NV]) if ps > 0.0 else 0.0
     return mixture_pdf(ps, lobe, wi[2])
 
 
 @kernel
 def sample_ashikhmin_shirley(wo, p, u1, u2, u3):
     if u3 < _lobe_probability(p):
-        hx, hy, hz = _half_vector_sample(p[0], p[1], u1, u2)
+        hx, hy, hz = _half_vector_sample(p[NU], p[NV], u1, u2)
         wi = reflect_about(wo, hx, hy, hz)
     else:
         wi = cosine_hemisphere(u1, u2)
@@ -138,19 +154,7 @@ ASHIKHMIN_SHIRLEY = register(
             "M. Ashikhmin and P. Shirley, An Anisotropic Phong BRDF Model, "
             "Journal of Graphics Tools 5(2):25-32, 2000."
         ),
-        params=(
-            Param("nu", 25.0, 0.1, 1e5, label="Phong exponent along x", log=True),
-            Param("nv", 25.0, 0.1, 1e5, label="Phong exponent along y", log=True),
-            Param(
-                "ks",
-                (0.39, 0.39, 0.39),
-                0.0,
-                1.0,
-                label="Specular reflectance at normal incidence",
-                kind="color",
-            ),
-            Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse reflectance", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_ashikhmin_shirley,
         sample=sample_ashikhmin_shirley,

@@ -55,22 +55,86 @@ from __future__ import annotations
 import math
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models._fresnel import fresnel_conductor
 
 INV_PI = 0.3183098861837907
 COS_FLOOR = 1e-6
 
 
+PARAMS = (
+    Param(
+        "omega",
+        1.0,
+        1e-3,
+        10.0,
+        unit="rad",
+        label="Obscuration (Omega)",
+        log=True,
+        doc="Facet tilt scale of the obscuration: SO = 1/(1 + theta_N/Omega) away from retro.",
+    ),
+    Param(
+        "tau",
+        0.0,
+        0.0,
+        10.0,
+        unit="rad",
+        label="Shadowing (tau)",
+        doc="Angular scale of the shadowing away from retro-reflection; 0 = the sharp limit.",
+    ),
+    Param("n_real", 0.37, 0.05, 10.0, label="Refractive index n", doc="Real part of the index."),
+    Param("n_imag", 2.82, 0.0, 10.0, label="Extinction k", doc="Imaginary part of the index."),
+    Param(
+        "rs",
+        (0.4, 0.4, 0.4),
+        0.0,
+        1.0,
+        label="First-surface reflectance",
+        kind="color",
+        doc="Scale of the facet term (its hemispherical reflectance at normal incidence, SO = 1).",
+    ),
+    Param(
+        "rd",
+        (0.75, 0.75, 0.75),
+        0.0,
+        1.0,
+        label="Diffuse reflectance",
+        kind="color",
+        doc="Albedo of the Lambertian volumetric term rd/pi.",
+    ),
+    Param(
+        "rv",
+        (0.5, 0.5, 0.5),
+        0.0,
+        1.0,
+        label="Volumetric reflectance",
+        kind="color",
+        doc="Scale of the directional volumetric term 2 rv / (pi (cos_i + cos_o)).",
+    ),
+    Param(
+        "m",
+        0.3,
+        0.01,
+        1.0,
+        label="Facet RMS slope",
+        log=True,
+        doc="Width of the Beckmann facet lobe (not in the seed's table).",
+    ),
+)
+OMEGA, TAU, N_REAL, N_IMAG, RS, RD, RV, M = param_offsets(
+    PARAMS, "omega", "tau", "n_real", "n_imag", "rs", "rd", "rv", "m"
+)
+
+
 @kernel
 def eval_beard_maxwell(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    omega = p[0]
-    tau = p[1]
-    n_real = p[2]
-    n_imag = p[3]
-    m = p[13]
+    omega = p[OMEGA]
+    tau = p[TAU]
+    n_real = p[N_REAL]
+    n_imag = p[N_IMAG]
+    m = p[M]
     cos_i = max(min(wi[2], 1.0), COS_FLOOR)
     cos_o = max(min(wo[2], 1.0), COS_FLOOR)
 
@@ -107,9 +171,9 @@ def eval_beard_maxwell(wi, wo, p):
 
     vol = 2.0 * INV_PI / (cos_i + cos_o)
     return (
-        p[4] * first + p[7] * INV_PI + p[10] * vol,
-        p[5] * first + p[8] * INV_PI + p[11] * vol,
-        p[6] * first + p[9] * INV_PI + p[12] * vol,
+        p[RS] * first + p[RD] * INV_PI + p[RV] * vol,
+        p[RS + 1] * first + p[RD + 1] * INV_PI + p[RV + 1] * vol,
+        p[RS + 2] * first + p[RD + 2] * INV_PI + p[RV + 2] * vol,
     )
 
 
@@ -122,65 +186,7 @@ BEARD_MAXWELL = register(
             "and utilization, AFAL-TR-73-303, ERIM, 1973; NEF form after H. B. Westlund and G. W. Meyer, "
             "A BRDF database employing the Beard-Maxwell reflection model, Graphics Interface 2002."
         ),
-        params=(
-            Param(
-                "omega",
-                1.0,
-                1e-3,
-                10.0,
-                unit="rad",
-                label="Obscuration (Omega)",
-                log=True,
-                doc="Facet tilt scale of the obscuration: SO = 1/(1 + theta_N/Omega) away from retro.",
-            ),
-            Param(
-                "tau",
-                0.0,
-                0.0,
-                10.0,
-                unit="rad",
-                label="Shadowing (tau)",
-                doc="Angular scale of the shadowing away from retro-reflection; 0 = the sharp limit.",
-            ),
-            Param("n_real", 0.37, 0.05, 10.0, label="Refractive index n", doc="Real part of the index."),
-            Param("n_imag", 2.82, 0.0, 10.0, label="Extinction k", doc="Imaginary part of the index."),
-            Param(
-                "rs",
-                (0.4, 0.4, 0.4),
-                0.0,
-                1.0,
-                label="First-surface reflectance",
-                kind="color",
-                doc="Scale of the facet term (its hemispherical reflectance at normal incidence, SO = 1).",
-            ),
-            Param(
-                "rd",
-                (0.75, 0.75, 0.75),
-                0.0,
-                1.0,
-                label="Diffuse reflectance",
-                kind="color",
-                doc="Albedo of the Lambertian volumetric term rd/pi.",
-            ),
-            Param(
-                "rv",
-                (0.5, 0.5, 0.5),
-                0.0,
-                1.0,
-                label="Volumetric reflectance",
-                kind="color",
-                doc="Scale of the directional volumetric term 2 rv / (pi (cos_i + cos_o)).",
-            ),
-            Param(
-                "m",
-                0.3,
-                0.01,
-                1.0,
-                label="Facet RMS slope",
-                log=True,
-                doc="Width of the Beckmann facet lobe (not in the seed's table).",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_beard_maxwell,
         doc=__doc__ or "",

@@ -20,7 +20,7 @@ from numba import njit
 
 from core.geometry import half_vector
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models.lobes import (
     half_vector_mixture_pdf,
     half_vector_mixture_sample,
@@ -32,17 +32,25 @@ INV_PI = 0.3183098861837907
 EIGHT_PI = 25.132741228718345
 
 
+PARAMS = (
+    Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+    Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular coefficient", kind="color"),
+    Param("kd", (0.67, 0.67, 0.67), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+N, KS, KD = param_offsets(PARAMS, "n", "ks", "kd")
+
+
 @kernel
 def eval_blinn(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
     # Both directions are above the horizon, so wi + wo has a positive z and h is well defined.
     cos_h = min(half_vector(wi, wo)[2], 1.0)
-    spec = cos_h ** p[0]
+    spec = cos_h ** p[N]
     return (
-        p[4] * INV_PI + p[1] * spec,
-        p[5] * INV_PI + p[2] * spec,
-        p[6] * INV_PI + p[3] * spec,
+        p[KD] * INV_PI + p[KS] * spec,
+        p[KD + 1] * INV_PI + p[KS + 1] * spec,
+        p[KD + 2] * INV_PI + p[KS + 2] * spec,
     )
 
 
@@ -52,18 +60,18 @@ def _lobe_probability(wo, p):
     # cos(theta_i) ~ wo.z, so the integral of (n.h)^n cos(theta_i) is about 8 pi wo.z^2 / (n + 2).
     cz = max(wo[2], 0.0)
     return lobe_probability_clamped(
-        luminance_at(p, 1) * EIGHT_PI * cz * cz / (p[0] + 2.0), luminance_at(p, 4)
+        luminance_at(p, KS) * EIGHT_PI * cz * cz / (p[N] + 2.0), luminance_at(p, KD)
     )
 
 
 @kernel
 def pdf_blinn(wo, wi, p):
-    return half_vector_mixture_pdf(wo, p[0], _lobe_probability(wo, p), wi)
+    return half_vector_mixture_pdf(wo, p[N], _lobe_probability(wo, p), wi)
 
 
 @kernel
 def sample_blinn(wo, p, u1, u2, u3):
-    return half_vector_mixture_sample(wo, p[0], _lobe_probability(wo, p), u1, u2, u3)
+    return half_vector_mixture_sample(wo, p[N], _lobe_probability(wo, p), u1, u2, u3)
 
 
 BLINN = register(
@@ -72,11 +80,7 @@ BLINN = register(
         label="Blinn (1977)",
         citation="J. F. Blinn, Models of light reflection for computer synthesized pictures, "
         "Computer Graphics (SIGGRAPH '77) 11(2):192-198, 1977.",
-        params=(
-            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
-            Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular coefficient", kind="color"),
-            Param("kd", (0.67, 0.67, 0.67), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_blinn,
         sample=sample_blinn,

@@ -30,7 +30,7 @@ import math
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import upper_half_vector
 from core.models.lobes import beckmann_mixture_pdf, beckmann_mixture_sample, lobe_probability, luminance_at
@@ -39,11 +39,21 @@ PI = math.pi
 INV_PI = 1.0 / math.pi
 
 
+PARAMS = (
+    Param("m", 0.35, 0.005, 1.0, label="RMS microfacet slope", log=True),
+    Param("n_real", 0.617, 0.01, 10.0, label="Refractive index (real part)"),
+    Param("n_imag", 2.63, 0.0, 10.0, label="Extinction coefficient (imaginary part)"),
+    Param("ks", (0.7, 0.7, 0.7), 0.0, 1.0, label="Specular coefficient", kind="color"),
+    Param("kd", (0.3, 0.3, 0.3), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+M, N_REAL, N_IMAG, KS, KD = param_offsets(PARAMS, "m", "n_real", "n_imag", "ks", "kd")
+
+
 @kernel
 def eval_cook_torrance(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    m = p[0]
+    m = p[M]
     hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = wo.h > 0 when both lie above the horizon
     tan2 = (hx * hx + hy * hy) / (hz * hz)
@@ -52,28 +62,28 @@ def eval_cook_torrance(wi, wo, p):
     if e < 700.0:
         d = math.exp(-e) / (4.0 * m * m * hz * hz * hz * hz)
         g = min(1.0, 2.0 * hz * wo[2] / c, 2.0 * hz * wi[2] / c)
-        f = fresnel_conductor(c, p[1], p[2])
+        f = fresnel_conductor(c, p[N_REAL], p[N_IMAG])
         spec = f * d * g / (PI * wi[2] * wo[2])
     return (
-        p[6] * INV_PI + p[3] * spec,
-        p[7] * INV_PI + p[4] * spec,
-        p[8] * INV_PI + p[5] * spec,
+        p[KD] * INV_PI + p[KS] * spec,
+        p[KD + 1] * INV_PI + p[KS + 1] * spec,
+        p[KD + 2] * INV_PI + p[KS + 2] * spec,
     )
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_probability(p):
-    return lobe_probability(luminance_at(p, 3), luminance_at(p, 6))  # ks, kd
+    return lobe_probability(luminance_at(p, KS), luminance_at(p, KD))
 
 
 @kernel
 def pdf_cook_torrance(wo, wi, p):
-    return beckmann_mixture_pdf(wo, wi, p[0], p[0], _lobe_probability(p))
+    return beckmann_mixture_pdf(wo, wi, p[M], p[M], _lobe_probability(p))
 
 
 @kernel
 def sample_cook_torrance(wo, p, u1, u2, u3):
-    return beckmann_mixture_sample(wo, p[0], p[0], _lobe_probability(p), u1, u2, u3)
+    return beckmann_mixture_sample(wo, p[M], p[M], _lobe_probability(p), u1, u2, u3)
 
 
 COOK_TORRANCE = register(
@@ -84,13 +94,7 @@ COOK_TORRANCE = register(
             "R. L. Cook and K. E. Torrance, A Reflectance Model for Computer Graphics, "
             "ACM Transactions on Graphics 1(1):7-24, 1982."
         ),
-        params=(
-            Param("m", 0.35, 0.005, 1.0, label="RMS microfacet slope", log=True),
-            Param("n_real", 0.617, 0.01, 10.0, label="Refractive index (real part)"),
-            Param("n_imag", 2.63, 0.0, 10.0, label="Extinction coefficient (imaginary part)"),
-            Param("ks", (0.7, 0.7, 0.7), 0.0, 1.0, label="Specular coefficient", kind="color"),
-            Param("kd", (0.3, 0.3, 0.3), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_cook_torrance,
         sample=sample_cook_torrance,

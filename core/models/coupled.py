@@ -42,7 +42,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 from core.models._kelemen_albedo import N_TABLE, albedo_tables, hemispherical_average, table_map
 from core.models._microfacet import beckmann_d, reflect_about
 from core.models.lobes import LUMA, cosine_hemisphere, cosine_hemisphere_pdf, lobe_probability, luminance3
@@ -50,9 +50,40 @@ from core.models.lobes import LUMA, cosine_hemisphere, cosine_hemisphere_pdf, lo
 INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
 
-# Kernel vector layout: m, R0 (3), R_m (3); then mu0, K, A_avg, B_avg, table A (N+2), table B (N+2).
-_M, _R0, _RM = 0, 1, 4
-_MU0, _K, _A_AVG, _B_AVG, _TABLE_A = 7, 8, 9, 10, 11
+
+PARAMS = (
+    Param(
+        "m",
+        0.35,
+        0.01,
+        1.5,
+        label="Roughness (Beckmann rms slope)",
+        log=True,
+        doc="RMS slope of the Beckmann facet distribution.",
+    ),
+    Param(
+        "r0",
+        (0.05, 0.05, 0.05),
+        0.0,
+        1.0,
+        label="Specular reflectance at normal incidence",
+        kind="color",
+        doc="Schlick's R0: Fresnel reflectance of the facets at normal incidence (the seed's R_o).",
+    ),
+    Param(
+        "rm",
+        (1.0, 1.0, 1.0),
+        0.0,
+        1.0,
+        label="Matte reflectance",
+        kind="color",
+        doc="Fraction of the non-specularly reflected light re-emitted diffusely (the seed's R_m).",
+    ),
+)
+_M, _R0, _RM = param_offsets(PARAMS, "m", "r0", "rm")
+# derive_coupled appends mu0, K, A_avg, B_avg, table A (N+2), table B (N+2) to the parameters
+_MU0 = param_row_size(PARAMS)
+_K, _A_AVG, _B_AVG, _TABLE_A = _MU0 + 1, _MU0 + 2, _MU0 + 3, _MU0 + 4
 _TABLE_B = _TABLE_A + N_TABLE + 2
 
 
@@ -201,35 +232,7 @@ COUPLED = register(
             "C. Kelemen and L. Szirmay-Kalos, A microfacet based coupled specular-matte BRDF model with "
             "importance sampling, Eurographics 2001 Short Presentations."
         ),
-        params=(
-            Param(
-                "m",
-                0.35,
-                0.01,
-                1.5,
-                label="Roughness (Beckmann rms slope)",
-                log=True,
-                doc="RMS slope of the Beckmann facet distribution.",
-            ),
-            Param(
-                "r0",
-                (0.05, 0.05, 0.05),
-                0.0,
-                1.0,
-                label="Specular reflectance at normal incidence",
-                kind="color",
-                doc="Schlick's R0: Fresnel reflectance of the facets at normal incidence (the seed's R_o).",
-            ),
-            Param(
-                "rm",
-                (1.0, 1.0, 1.0),
-                0.0,
-                1.0,
-                label="Matte reflectance",
-                kind="color",
-                doc="Fraction of the non-specularly reflected light re-emitted diffusely (the seed's R_m).",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
         eval=eval_coupled,
         sample=sample_coupled,

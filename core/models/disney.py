@@ -65,7 +65,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 from core.models._microfacet import (
     ggx_anisotropic_d,
     ggx_anisotropic_g1_over_cos,
@@ -80,38 +80,75 @@ PI = math.pi
 INV_PI = 1.0 / math.pi
 TWO_PI = 2.0 * math.pi
 
-# Kernel vector: the user parameters in declaration order ...
-BASE_COLOR = 0  # 3 slots
-METALLIC = 3
-SUBSURFACE = 4
-SPECULAR = 5
-ROUGHNESS = 6
-SPECULAR_TINT = 7
-ANISOTROPIC = 8
-SHEEN = 9
-SHEEN_TINT = 10
-CLEARCOAT = 11
-CLEARCOAT_GLOSS = 12
-# ... then what derive_disney computes from them.
-DIFFUSE_COLOR = 13
+PARAMS = (
+    Param(
+        "baseColor",
+        (0.82, 0.67, 0.16),
+        0.0,
+        1.0,
+        label="Base color",
+        kind="color",
+        doc="Linear RGB (BRDF Explorer's files take it as a monitor colour and raise it to 2.2).",
+    ),
+    Param("metallic", 0.0, label="Metallic", doc="Blends the dielectric model into a metal."),
+    Param("subsurface", 0.0, label="Subsurface", doc="Blends the diffuse term into a flattened one."),
+    Param("specular", 0.5, label="Specular", doc="Dielectric reflectance at normal incidence / 0.08."),
+    Param("roughness", 0.5, label="Roughness", doc="Specular and diffuse roughness."),
+    Param("specularTint", 0.0, label="Specular tint", doc="Tints the dielectric specular by the base."),
+    Param("anisotropic", 0.0, label="Anisotropic", doc="Aspect of the specular lobe (x wider)."),
+    Param("sheen", 0.0, label="Sheen", doc="A grazing-angle lobe for cloth."),
+    Param("sheenTint", 0.5, label="Sheen tint", doc="Tints the sheen by the base colour."),
+    Param("clearcoat", 0.0, label="Clearcoat", doc="Strength of a second, white specular lobe."),
+    Param("clearcoatGloss", 1.0, label="Clearcoat gloss", doc="0: satin (a = 0.1); 1: gloss (0.001)."),
+)
+# Kernel vector: the parameters in declaration order ...
+(
+    BASE_COLOR,
+    METALLIC,
+    SUBSURFACE,
+    SPECULAR,
+    ROUGHNESS,
+    SPECULAR_TINT,
+    ANISOTROPIC,
+    SHEEN,
+    SHEEN_TINT,
+    CLEARCOAT,
+    CLEARCOAT_GLOSS,
+) = param_offsets(
+    PARAMS,
+    "baseColor",
+    "metallic",
+    "subsurface",
+    "specular",
+    "roughness",
+    "specularTint",
+    "anisotropic",
+    "sheen",
+    "sheenTint",
+    "clearcoat",
+    "clearcoatGloss",
+)
+# ... then what derive_disney computes from them, in this order.
+DIFFUSE_COLOR = param_row_size(PARAMS)
 """``(1 - metallic) baseColor`` (3 slots)."""
-SHEEN_COLOR = 16
+SHEEN_COLOR = DIFFUSE_COLOR + 3
 """``(1 - metallic) sheen C_sheen`` (3 slots)."""
-SPECULAR_F0 = 19
+SPECULAR_F0 = SHEEN_COLOR + 3
 """``C_spec0``, the specular reflectance at normal incidence (3 slots)."""
-ALPHA_X = 22
-ALPHA_Y = 23
-COAT_A2 = 24
+ALPHA_X = SPECULAR_F0 + 3
+ALPHA_Y = ALPHA_X + 1
+COAT_A2 = ALPHA_Y + 1
 """``a^2`` of the clearcoat's GTR1 (1 selects the ``a = 1`` case)."""
-COAT_NORM = 25
+COAT_NORM = COAT_A2 + 1
 """``(a^2 - 1) / (pi ln(a^2))``, GTR1's normalization (``1 / pi`` at ``a = 1``)."""
-COAT_WEIGHT = 26
+COAT_WEIGHT = COAT_NORM + 1
 """``0.25 clearcoat``."""
-P_SPECULAR = 27
+P_SPECULAR = COAT_WEIGHT + 1
 """Probability of the specular (visible-normal) lobe."""
-P_SPECULAR_OR_COAT = 28
+P_SPECULAR_OR_COAT = P_SPECULAR + 1
 """That plus the clearcoat lobe's probability; the cosine hemisphere takes the rest."""
-KERNEL_SIZE = 29
+KERNEL_SIZE = P_SPECULAR_OR_COAT + 1
+
 
 COAT_MASKING_ALPHA = 0.25
 """The clearcoat's fixed roughness in its masking term."""
@@ -297,33 +334,7 @@ DISNEY = register(
             'B. Burley, "Physically-Based Shading at Disney", SIGGRAPH 2012 course notes (Practical '
             "Physically-Based Shading in Film and Game Production)."
         ),
-        params=(
-            Param(
-                "baseColor",
-                (0.82, 0.67, 0.16),
-                0.0,
-                1.0,
-                label="Base color",
-                kind="color",
-                doc="Linear RGB (BRDF Explorer's files take it as a monitor colour and raise it to 2.2).",
-            ),
-            Param("metallic", 0.0, label="Metallic", doc="Blends the dielectric model into a metal."),
-            Param("subsurface", 0.0, label="Subsurface", doc="Blends the diffuse term into a flattened one."),
-            Param(
-                "specular", 0.5, label="Specular", doc="Dielectric reflectance at normal incidence / 0.08."
-            ),
-            Param("roughness", 0.5, label="Roughness", doc="Specular and diffuse roughness."),
-            Param(
-                "specularTint", 0.0, label="Specular tint", doc="Tints the dielectric specular by the base."
-            ),
-            Param("anisotropic", 0.0, label="Anisotropic", doc="Aspect of the specular lobe (x wider)."),
-            Param("sheen", 0.0, label="Sheen", doc="A grazing-angle lobe for cloth."),
-            Param("sheenTint", 0.5, label="Sheen tint", doc="Tints the sheen by the base colour."),
-            Param("clearcoat", 0.0, label="Clearcoat", doc="Strength of a second, white specular lobe."),
-            Param(
-                "clearcoatGloss", 1.0, label="Clearcoat gloss", doc="0: satin (a = 0.1); 1: gloss (0.001)."
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_disney,
         sample=sample_disney,

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import ggx_visible_normal, reflect_about, upper_half_vector
 from core.models.lobes import (
@@ -45,8 +45,16 @@ from core.models.lobes import (
 PI = math.pi
 INV_PI = 1.0 / math.pi
 
-# Kernel vector: alpha, eta (3), k (3), kd (3), then (derived) the probability of the specular lobe.
-P_LOBE = 10
+
+PARAMS = (
+    Param("alpha", 0.2, 0.001, 1.0, label="Roughness (GGX alpha)", log=True),
+    Param("eta", (0.200, 0.924, 1.102), 0.01, 10.0, label="Conductor index (real part)", kind="color"),
+    Param("k", (3.912, 2.452, 2.142), 0.0, 10.0, label="Conductor extinction coefficient", kind="color"),
+    Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+ALPHA, ETA, K, KD = param_offsets(PARAMS, "alpha", "eta", "k", "kd")
+P_LOBE = param_row_size(PARAMS)
+"""Appended by ``derive_ggx``: the probability of the specular lobe."""
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -70,14 +78,14 @@ def smith_g1_over_cos(v, alpha):
 def eval_ggx(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    alpha = p[0]
+    alpha = p[ALPHA]
     hx, hy, hz, _ = upper_half_vector(wo, wi)  # wi.z + wo.z > 0: h = (wi + wo) / |wi + wo|
     c = wi[0] * hx + wi[1] * hy + wi[2] * hz  # = wo.h > 0: both masking terms are non-zero
     common = 0.25 * ggx_d(hx, hy, hz, alpha) * smith_g1_over_cos(wi, alpha) * smith_g1_over_cos(wo, alpha)
     return (
-        p[7] * INV_PI + common * fresnel_conductor(c, p[1], p[4]),
-        p[8] * INV_PI + common * fresnel_conductor(c, p[2], p[5]),
-        p[9] * INV_PI + common * fresnel_conductor(c, p[3], p[6]),
+        p[KD] * INV_PI + common * fresnel_conductor(c, p[ETA], p[K]),
+        p[KD + 1] * INV_PI + common * fresnel_conductor(c, p[ETA + 1], p[K + 1]),
+        p[KD + 2] * INV_PI + common * fresnel_conductor(c, p[ETA + 2], p[K + 2]),
     )
 
 
@@ -103,14 +111,14 @@ def pdf_ggx(wo, wi, p):
     if wo[2] < 0.0:
         return cosine_hemisphere_pdf(wi[2])
     ps = p[P_LOBE]
-    lobe = _lobe_pdf(wo, wi, p[0]) if ps > 0.0 else 0.0
+    lobe = _lobe_pdf(wo, wi, p[ALPHA]) if ps > 0.0 else 0.0
     return mixture_pdf(ps, lobe, wi[2])
 
 
 @kernel
 def sample_ggx(wo, p, u1, u2, u3):
     if wo[2] >= 0.0 and u3 < p[P_LOBE]:
-        hx, hy, hz = visible_normal(wo, p[0], u1, u2)
+        hx, hy, hz = visible_normal(wo, p[ALPHA], u1, u2)
         wi = reflect_about(wo, hx, hy, hz)
     else:
         wi = cosine_hemisphere(u1, u2)
@@ -119,8 +127,10 @@ def sample_ggx(wo, p, u1, u2, u3):
 
 def derive_ggx(p_user: np.ndarray) -> np.ndarray:
     """Append the probability of sampling the specular lobe (from the normal-incidence albedos)."""
-    f0 = [fresnel_conductor(1.0, float(p_user[1 + c]), float(p_user[4 + c])) for c in range(3)]
-    ps = lobe_probability(luminance3(f0[0], f0[1], f0[2]), luminance3(p_user[7], p_user[8], p_user[9]))
+    f0 = [fresnel_conductor(1.0, float(p_user[ETA + c]), float(p_user[K + c])) for c in range(3)]
+    ps = lobe_probability(
+        luminance3(f0[0], f0[1], f0[2]), luminance3(p_user[KD], p_user[KD + 1], p_user[KD + 2])
+    )
     return np.append(p_user, ps)
 
 
@@ -133,16 +143,7 @@ GGX = register(
             "Rough Surfaces, Eurographics Symposium on Rendering 2007; E. Heitz, Sampling the GGX "
             "Distribution of Visible Normals, JCGT 7(4), 2018."
         ),
-        params=(
-            Param("alpha", 0.2, 0.001, 1.0, label="Roughness (GGX alpha)", log=True),
-            Param(
-                "eta", (0.200, 0.924, 1.102), 0.01, 10.0, label="Conductor index (real part)", kind="color"
-            ),
-            Param(
-                "k", (3.912, 2.452, 2.142), 0.0, 10.0, label="Conductor extinction coefficient", kind="color"
-            ),
-            Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_ggx,
         sample=sample_ggx,

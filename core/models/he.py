@@ -75,7 +75,7 @@ import math
 import numpy as np
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 from core.models._fresnel import fresnel_conductor
 from core.models._he_series import (
     direction_k,
@@ -89,9 +89,69 @@ from core.models._he_series import (
 INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
 
-# Kernel vector layout: user parameters, then derived constants.
-_SIGMA, _TAU, _LAMBDA, _N, _K, _KD = 0, 1, 2, 3, 6, 9
-_WAVENUMBER, _TAU_2SIGMA, _SIGMA_TAU, _D_PREFACTOR = 12, 13, 14, 15
+
+PARAMS = (
+    Param(
+        "sigma",
+        0.5,
+        0.005,
+        10.0,
+        unit="µm",
+        label="RMS roughness",
+        log=True,
+        doc="Standard deviation of the surface heights (the seed's sigma).",
+    ),
+    Param(
+        "tau",
+        3.0,
+        0.05,
+        100.0,
+        unit="µm",
+        label="Autocorrelation length",
+        log=True,
+        doc="Length of the Gaussian height autocorrelation (the seed's tau); rms slope ~ 2 sigma/tau.",
+    ),
+    Param(
+        "wavelength",
+        800.0,
+        200.0,
+        3000.0,
+        unit="nm",
+        label="Wavelength",
+        doc="Wavelength of the light (the seed's lambda).",
+    ),
+    Param(
+        "n",
+        (2.8, 2.8, 2.8),
+        0.02,
+        10.0,
+        label="Refractive index (real)",
+        kind="color",
+        doc="Real part of the complex refractive index, per RGB channel.",
+    ),
+    Param(
+        "k",
+        (8.4, 8.4, 8.4),
+        0.0,
+        20.0,
+        label="Extinction coefficient",
+        kind="color",
+        doc="Imaginary part of the complex refractive index (0 for a dielectric), per RGB channel.",
+    ),
+    Param(
+        "kd",
+        (0.0, 0.0, 0.0),
+        0.0,
+        1.0,
+        label="Uniform diffuse albedo",
+        kind="color",
+        doc="Albedo of the uniform diffuse term: rho_ud = a(lambda) = kd / pi.",
+    ),
+)
+_SIGMA, _TAU, _LAMBDA, _N, _K, _KD = param_offsets(PARAMS, "sigma", "tau", "wavelength", "n", "k", "kd")
+# derive_he appends k = 2 pi / lambda, tau / (2 sigma), sigma / tau and tau^2 k^2 / 16 to the parameters
+_WAVENUMBER = param_row_size(PARAMS)
+_TAU_2SIGMA, _SIGMA_TAU, _D_PREFACTOR = _WAVENUMBER + 1, _WAVENUMBER + 2, _WAVENUMBER + 3
 
 
 def derive_he(p: np.ndarray) -> np.ndarray:
@@ -190,64 +250,7 @@ HE = register(
             "X. D. He, K. E. Torrance, F. X. Sillion and D. P. Greenberg, A comprehensive physical model for "
             "light reflection, Proc. SIGGRAPH 1991, 175-186."
         ),
-        params=(
-            Param(
-                "sigma",
-                0.5,
-                0.005,
-                10.0,
-                unit="µm",
-                label="RMS roughness",
-                log=True,
-                doc="Standard deviation of the surface heights (the seed's sigma).",
-            ),
-            Param(
-                "tau",
-                3.0,
-                0.05,
-                100.0,
-                unit="µm",
-                label="Autocorrelation length",
-                log=True,
-                doc="Length of the Gaussian height autocorrelation (the seed's tau); rms slope ~ 2 sigma/tau.",
-            ),
-            Param(
-                "wavelength",
-                800.0,
-                200.0,
-                3000.0,
-                unit="nm",
-                label="Wavelength",
-                doc="Wavelength of the light (the seed's lambda).",
-            ),
-            Param(
-                "n",
-                (2.8, 2.8, 2.8),
-                0.02,
-                10.0,
-                label="Refractive index (real)",
-                kind="color",
-                doc="Real part of the complex refractive index, per RGB channel.",
-            ),
-            Param(
-                "k",
-                (8.4, 8.4, 8.4),
-                0.0,
-                20.0,
-                label="Extinction coefficient",
-                kind="color",
-                doc="Imaginary part of the complex refractive index (0 for a dielectric), per RGB channel.",
-            ),
-            Param(
-                "kd",
-                (0.0, 0.0, 0.0),
-                0.0,
-                1.0,
-                label="Uniform diffuse albedo",
-                kind="color",
-                doc="Albedo of the uniform diffuse term: rho_ud = a(lambda) = kd / pi.",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_he,
         derive=derive_he,

@@ -29,7 +29,7 @@ from numba import njit
 
 from core.geometry import normalize
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
@@ -41,25 +41,36 @@ INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
 
 
+PARAMS = (
+    Param("cx", -1.0, -1.1, 1.1, label="Lobe weight Cx"),
+    Param("cy", -1.0, -1.1, 1.1, label="Lobe weight Cy"),
+    Param("cz", 1.0, -1.1, 1.1, label="Lobe weight Cz"),
+    Param("n", 100.0, 0.1, 5000.0, label="Lobe exponent", log=True),
+    Param("kp", (0.96, 0.96, 0.96), 0.0, 1.0, label="Lobe coefficient", kind="color"),
+    Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+CX, CY, CZ, N, KP, KD = param_offsets(PARAMS, "cx", "cy", "cz", "n", "kp", "kd")
+
+
 @kernel
 def eval_lafortune(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    base = p[0] * wi[0] * wo[0] + p[1] * wi[1] * wo[1] + p[2] * wi[2] * wo[2]
-    lobe = base ** p[3] if base > 0.0 else 0.0
+    base = p[CX] * wi[0] * wo[0] + p[CY] * wi[1] * wo[1] + p[CZ] * wi[2] * wo[2]
+    lobe = base ** p[N] if base > 0.0 else 0.0
     return (
-        p[7] * INV_PI + p[4] * lobe,
-        p[8] * INV_PI + p[5] * lobe,
-        p[9] * INV_PI + p[6] * lobe,
+        p[KD] * INV_PI + p[KP] * lobe,
+        p[KD + 1] * INV_PI + p[KP + 1] * lobe,
+        p[KD + 2] * INV_PI + p[KP + 2] * lobe,
     )
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_axis(wo, p):
     """The lobe's axis (unit) and the length ``|C wo|`` of the unnormalized one."""
-    ax = p[0] * wo[0]
-    ay = p[1] * wo[1]
-    az = p[2] * wo[2]
+    ax = p[CX] * wo[0]
+    ay = p[CY] * wo[1]
+    az = p[CZ] * wo[2]
     length = math.sqrt(ax * ax + ay * ay + az * az)
     return normalize((ax, ay, az)), length
 
@@ -69,23 +80,23 @@ def _lobe_probability(axis, length, p):
     # Estimated lobe albedo: kp |C wo|^n times the integral of (axis.wi)^n cos(theta_i) over the lobe's cap,
     # 2 pi axis.z / (n + 2) when the cap stays above the horizon.
     # The cosine factor is floored at 0.05 so a lobe leaning over the horizon keeps some share.
-    n = p[3]
+    n = p[N]
     w_lobe = 0.0
     if length > 0.0:
-        w_lobe = luminance_at(p, 4) * length**n * TWO_PI / (n + 2.0) * max(axis[2], 0.05)
-    return lobe_probability_clamped(w_lobe, luminance_at(p, 7))
+        w_lobe = luminance_at(p, KP) * length**n * TWO_PI / (n + 2.0) * max(axis[2], 0.05)
+    return lobe_probability_clamped(w_lobe, luminance_at(p, KD))
 
 
 @kernel
 def pdf_lafortune(wo, wi, p):
     axis, length = _lobe_axis(wo, p)
-    return cosine_lobe_mixture_pdf(axis, p[3], _lobe_probability(axis, length, p), wi)
+    return cosine_lobe_mixture_pdf(axis, p[N], _lobe_probability(axis, length, p), wi)
 
 
 @kernel
 def sample_lafortune(wo, p, u1, u2, u3):
     axis, length = _lobe_axis(wo, p)
-    return cosine_lobe_mixture_sample(axis, p[3], _lobe_probability(axis, length, p), u1, u2, u3)
+    return cosine_lobe_mixture_sample(axis, p[N], _lobe_probability(axis, length, p), u1, u2, u3)
 
 
 LAFORTUNE = register(
@@ -94,14 +105,7 @@ LAFORTUNE = register(
         label="Lafortune (1997)",
         citation="E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, Non-linear approximation "
         "of reflectance functions, SIGGRAPH '97, pp. 117-126, 1997.",
-        params=(
-            Param("cx", -1.0, -1.1, 1.1, label="Lobe weight Cx"),
-            Param("cy", -1.0, -1.1, 1.1, label="Lobe weight Cy"),
-            Param("cz", 1.0, -1.1, 1.1, label="Lobe weight Cz"),
-            Param("n", 100.0, 0.1, 5000.0, label="Lobe exponent", log=True),
-            Param("kp", (0.96, 0.96, 0.96), 0.0, 1.0, label="Lobe coefficient", kind="color"),
-            Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_lafortune,
         sample=sample_lafortune,

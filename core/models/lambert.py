@@ -7,17 +7,20 @@
 from __future__ import annotations
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
 
 INV_PI = 0.3183098861837907
+
+PARAMS = (Param("kd", (0.8, 0.8, 0.8), 0.0, 1.0, label="Diffuse albedo", kind="color"),)
+(KD,) = param_offsets(PARAMS, "kd")
 
 
 @kernel
 def eval_lambert(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    return p[0] * INV_PI, p[1] * INV_PI, p[2] * INV_PI
+    return p[KD] * INV_PI, p[KD + 1] * INV_PI, p[KD + 2] * INV_PI
 
 
 @kernel
@@ -36,7 +39,7 @@ LAMBERT = register(
         name="lambert",
         label="Lambert (1760)",
         citation="J. H. Lambert, Photometria, 1760.",
-        params=(Param("kd", (0.8, 0.8, 0.8), 0.0, 1.0, label="Diffuse albedo", kind="color"),),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
         eval=eval_lambert,
         sample=sample_lambert,

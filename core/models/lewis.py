@@ -20,7 +20,7 @@ from numba import njit
 
 from core.geometry import dot, mirror
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
@@ -32,36 +32,44 @@ INV_PI = 0.3183098861837907
 INV_TWO_PI = 0.15915494309189535
 
 
+PARAMS = (
+    Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+    Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular albedo", kind="color"),
+    Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+N, KS, KD = param_offsets(PARAMS, "n", "ks", "kd")
+
+
 @kernel
 def eval_lewis(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    n = p[0]
+    n = p[N]
     cos_alpha = dot(mirror(wo), wi)
     spec = 0.0
     if cos_alpha > 0.0:
         spec = (n + 2.0) * INV_TWO_PI * min(cos_alpha, 1.0) ** n
     return (
-        p[4] * INV_PI + p[1] * spec,
-        p[5] * INV_PI + p[2] * spec,
-        p[6] * INV_PI + p[3] * spec,
+        p[KD] * INV_PI + p[KS] * spec,
+        p[KD + 1] * INV_PI + p[KS + 1] * spec,
+        p[KD + 2] * INV_PI + p[KS + 2] * spec,
     )
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_probability(wo, p):
     # Specular albedo of a lobe that stays above the horizon: ks * cos(theta_o) exactly.
-    return lobe_probability_clamped(luminance_at(p, 1) * max(wo[2], 0.0), luminance_at(p, 4))
+    return lobe_probability_clamped(luminance_at(p, KS) * max(wo[2], 0.0), luminance_at(p, KD))
 
 
 @kernel
 def pdf_lewis(wo, wi, p):
-    return cosine_lobe_mixture_pdf(mirror(wo), p[0], _lobe_probability(wo, p), wi)
+    return cosine_lobe_mixture_pdf(mirror(wo), p[N], _lobe_probability(wo, p), wi)
 
 
 @kernel
 def sample_lewis(wo, p, u1, u2, u3):
-    return cosine_lobe_mixture_sample(mirror(wo), p[0], _lobe_probability(wo, p), u1, u2, u3)
+    return cosine_lobe_mixture_sample(mirror(wo), p[N], _lobe_probability(wo, p), u1, u2, u3)
 
 
 LEWIS = register(
@@ -70,11 +78,7 @@ LEWIS = register(
         label="Lewis (1994)",
         citation="R. R. Lewis, Making shaders more physically plausible, Computer Graphics Forum "
         "13(2):109-120, 1994.",
-        params=(
-            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
-            Param("ks", (1.0, 1.0, 1.0), 0.0, 1.0, label="Specular albedo", kind="color"),
-            Param("kd", (0.0, 0.0, 0.0), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_lewis,
         sample=sample_lewis,

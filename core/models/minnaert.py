@@ -29,23 +29,45 @@ its own; the generic cosine-weighted sampler applies.
 from __future__ import annotations
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 
 INV_PI = 0.3183098861837907
 COS_FLOOR = 1e-6
 """Cosines below this (but above 0) are raised to it before the power: see the module docstring."""
 
 
+PARAMS = (
+    Param(
+        "k",
+        0.8,
+        0.0,
+        2.0,
+        label="Limb-darkening exponent",
+        doc="1 = Lambert; below 1 the limb brightens, above 1 it darkens.",
+    ),
+    Param(
+        "kd",
+        (1.0, 1.0, 1.0),
+        0.0,
+        1.0,
+        label="Diffuse reflectance",
+        kind="color",
+        doc="Scale of the law; equals the albedo when k = 1.",
+    ),
+)
+K, KD = param_offsets(PARAMS, "k", "kd")
+
+
 @kernel
 def eval_minnaert(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    k = p[0]
+    k = p[K]
     cos_i = max(min(wi[2], 1.0), COS_FLOOR)
     cos_o = max(min(wo[2], 1.0), COS_FLOOR)
     # Both cosines are >= COS_FLOOR > 0, so the power is finite for any exponent (no pow(0, negative)).
     shape = (cos_i * cos_o) ** (k - 1.0) * INV_PI
-    return p[1] * shape, p[2] * shape, p[3] * shape
+    return p[KD] * shape, p[KD + 1] * shape, p[KD + 2] * shape
 
 
 MINNAERT = register(
@@ -56,25 +78,7 @@ MINNAERT = register(
             "M. Minnaert, The reciprocity principle in lunar photometry, "
             "Astrophysical Journal 93:403-410, 1941."
         ),
-        params=(
-            Param(
-                "k",
-                0.8,
-                0.0,
-                2.0,
-                label="Limb-darkening exponent",
-                doc="1 = Lambert; below 1 the limb brightens, above 1 it darkens.",
-            ),
-            Param(
-                "kd",
-                (1.0, 1.0, 1.0),
-                0.0,
-                1.0,
-                label="Diffuse reflectance",
-                kind="color",
-                doc="Scale of the law; equals the albedo when k = 1.",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_minnaert,
         doc=__doc__ or "",

@@ -46,12 +46,35 @@ from __future__ import annotations
 import math
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 
 INV_PI = 0.3183098861837907
 TWO_OVER_PI = 0.6366197723675814
 SIGMA_MAX = 0.66
 """Largest slope deviation (radians) for which the published formula is non-negative everywhere."""
+
+
+PARAMS = (
+    Param(
+        "sigma",
+        0.0,
+        0.0,
+        SIGMA_MAX,
+        unit="rad",
+        label="Facet slope deviation",
+        doc="Standard deviation of the V-cavity facet slopes; 0 is Lambert (the seed's s).",
+    ),
+    Param(
+        "rho",
+        (1.0, 1.0, 1.0),
+        0.0,
+        1.0,
+        label="Facet albedo",
+        kind="color",
+        doc="Albedo of the Lambertian facets (the seed's r).",
+    ),
+)
+SIGMA, RHO = param_offsets(PARAMS, "sigma", "rho")
 
 
 @kernel
@@ -68,7 +91,7 @@ def _cos_azimuth_difference(wi, wo):
 def eval_oren_nayar(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    sigma = p[0]
+    sigma = p[SIGMA]
     s2 = sigma * sigma
     theta_i = math.acos(min(wi[2], 1.0))
     theta_o = math.acos(min(wo[2], 1.0))
@@ -88,7 +111,7 @@ def eval_oren_nayar(wi, wo, p):
     direct = c1 + cos_phi * c2 * math.tan(beta) + (1.0 - abs(cos_phi)) * c3 * math.tan(0.5 * (alpha + beta))
     inter = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_phi * b * b)
 
-    r, gg, bb = p[1], p[2], p[3]
+    r, gg, bb = p[RHO], p[RHO + 1], p[RHO + 2]
     return (
         r * INV_PI * (direct + r * inter),
         gg * INV_PI * (direct + gg * inter),
@@ -104,26 +127,7 @@ OREN_NAYAR = register(
             "M. Oren and S. K. Nayar, Generalization of Lambert's reflectance model, "
             "Proc. SIGGRAPH 1994, 239-246."
         ),
-        params=(
-            Param(
-                "sigma",
-                0.0,
-                0.0,
-                SIGMA_MAX,
-                unit="rad",
-                label="Facet slope deviation",
-                doc="Standard deviation of the V-cavity facet slopes; 0 is Lambert (the seed's s).",
-            ),
-            Param(
-                "rho",
-                (1.0, 1.0, 1.0),
-                0.0,
-                1.0,
-                label="Facet albedo",
-                kind="color",
-                doc="Albedo of the Lambertian facets (the seed's r).",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
         eval=eval_oren_nayar,
         doc=__doc__ or "",

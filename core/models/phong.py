@@ -23,7 +23,7 @@ from numba import njit
 
 from core.geometry import dot, mirror
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
@@ -38,36 +38,44 @@ COS_THETA_I_FLOOR = 1e-6
 bounded by ``ks * 1e6`` instead of overflowing to Inf as ``cos(theta_i) -> 0``."""
 
 
+PARAMS = (
+    Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
+    Param("ks", (0.4, 0.4, 0.4), 0.0, 1.0, label="Specular coefficient", kind="color"),
+    Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse albedo", kind="color"),
+)
+N, KS, KD = param_offsets(PARAMS, "n", "ks", "kd")
+
+
 @kernel
 def eval_phong(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    n = p[0]
+    n = p[N]
     cos_alpha = dot(mirror(wo), wi)
     spec = 0.0
     if cos_alpha > 0.0:
         spec = min(cos_alpha, 1.0) ** n / max(wi[2], COS_THETA_I_FLOOR)
     return (
-        p[4] * INV_PI + p[1] * spec,
-        p[5] * INV_PI + p[2] * spec,
-        p[6] * INV_PI + p[3] * spec,
+        p[KD] * INV_PI + p[KS] * spec,
+        p[KD + 1] * INV_PI + p[KS + 1] * spec,
+        p[KD + 2] * INV_PI + p[KS + 2] * spec,
     )
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _lobe_probability(p):
     # Estimated albedos: the lobe's f cos integrates to ks * 2 pi / (n + 1) over its cap, the diffuse to kd.
-    return lobe_probability_clamped(luminance_at(p, 1) * TWO_PI / (p[0] + 1.0), luminance_at(p, 4))
+    return lobe_probability_clamped(luminance_at(p, KS) * TWO_PI / (p[N] + 1.0), luminance_at(p, KD))
 
 
 @kernel
 def pdf_phong(wo, wi, p):
-    return cosine_lobe_mixture_pdf(mirror(wo), p[0], _lobe_probability(p), wi)
+    return cosine_lobe_mixture_pdf(mirror(wo), p[N], _lobe_probability(p), wi)
 
 
 @kernel
 def sample_phong(wo, p, u1, u2, u3):
-    return cosine_lobe_mixture_sample(mirror(wo), p[0], _lobe_probability(p), u1, u2, u3)
+    return cosine_lobe_mixture_sample(mirror(wo), p[N], _lobe_probability(p), u1, u2, u3)
 
 
 PHONG = register(
@@ -76,11 +84,7 @@ PHONG = register(
         label="Phong (1975)",
         citation="B. T. Phong, Illumination for computer generated pictures, Communications of the ACM "
         "18(6):311-317, 1975.",
-        params=(
-            Param("n", 100.0, 1.0, 1e4, label="Specular exponent", log=True),
-            Param("ks", (0.4, 0.4, 0.4), 0.0, 1.0, label="Specular coefficient", kind="color"),
-            Param("kd", (0.6, 0.6, 0.6), 0.0, 1.0, label="Diffuse albedo", kind="color"),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC,
         eval=eval_phong,
         sample=sample_phong,

@@ -62,7 +62,7 @@ import math
 import numpy as np
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 
 INV_PI = 0.3183098861837907
 INV_TWO_PI = 0.15915494309189535
@@ -72,8 +72,67 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
 GL_X = np.ascontiguousarray(_GL_X)
 GL_W = np.ascontiguousarray(_GL_W)
 
-_D, _H, _N, _KS, _KD, _GROOVES = 0, 1, 2, 3, 6, 9
-_W, _BETA_M = 10, 11
+
+PARAMS = (
+    Param(
+        "d",
+        2.0,
+        2.0,
+        100.0,
+        unit="radii",
+        label="Cylinder spacing",
+        log=True,
+        doc="Distance between the axes of neighbouring cylinders, in cylinder radii (2: touching).",
+    ),
+    Param(
+        "h",
+        0.01,
+        1e-4,
+        1.0,
+        unit="radii",
+        label="Cylinder height",
+        log=True,
+        doc="Height the cylinders rise above the base plane, in radii (1: half cylinders).",
+    ),
+    Param(
+        "n",
+        100.0,
+        1.0,
+        1e4,
+        label="Phong exponent",
+        log=True,
+        doc="Phong exponent of the local reflection on the cylinders and the base plane.",
+    ),
+    Param(
+        "ks",
+        (0.8, 0.8, 0.8),
+        0.0,
+        1.0,
+        label="Specular reflectance",
+        kind="color",
+        doc="Specular (normalized Phong) reflectance of the surface elements.",
+    ),
+    Param(
+        "kd",
+        (0.2, 0.2, 0.2),
+        0.0,
+        1.0,
+        label="Diffuse reflectance",
+        kind="color",
+        doc="Lambertian reflectance of the surface elements.",
+    ),
+    Param(
+        "grooves",
+        0.0,
+        label="Grooves (subtracted cylinders)",
+        kind="bool",
+        doc="Cut the cylinders into the plane (grooves of depth h) instead of raising them.",
+    ),
+)
+_D, _H, _N, _KS, _KD, _GROOVES = param_offsets(PARAMS, "d", "h", "n", "ks", "kd", "grooves")
+# derive_poulin_fournier appends the cap half-width w and half-angle beta_m to the parameters
+_W = param_row_size(PARAMS)
+_BETA_M = _W + 1
 
 
 def derive_poulin_fournier(p: np.ndarray) -> np.ndarray:
@@ -222,62 +281,7 @@ POULIN_FOURNIER = register(
             "P. Poulin and A. Fournier, A model for anisotropic reflection, Proc. SIGGRAPH 1990, "
             "Computer Graphics 24(4), 273-282."
         ),
-        params=(
-            Param(
-                "d",
-                2.0,
-                2.0,
-                100.0,
-                unit="radii",
-                label="Cylinder spacing",
-                log=True,
-                doc="Distance between the axes of neighbouring cylinders, in cylinder radii (2: touching).",
-            ),
-            Param(
-                "h",
-                0.01,
-                1e-4,
-                1.0,
-                unit="radii",
-                label="Cylinder height",
-                log=True,
-                doc="Height the cylinders rise above the base plane, in radii (1: half cylinders).",
-            ),
-            Param(
-                "n",
-                100.0,
-                1.0,
-                1e4,
-                label="Phong exponent",
-                log=True,
-                doc="Phong exponent of the local reflection on the cylinders and the base plane.",
-            ),
-            Param(
-                "ks",
-                (0.8, 0.8, 0.8),
-                0.0,
-                1.0,
-                label="Specular reflectance",
-                kind="color",
-                doc="Specular (normalized Phong) reflectance of the surface elements.",
-            ),
-            Param(
-                "kd",
-                (0.2, 0.2, 0.2),
-                0.0,
-                1.0,
-                label="Diffuse reflectance",
-                kind="color",
-                doc="Lambertian reflectance of the surface elements.",
-            ),
-            Param(
-                "grooves",
-                0.0,
-                label="Grooves (subtracted cylinders)",
-                kind="bool",
-                doc="Cut the cylinders into the plane (grooves of depth h) instead of raising them.",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
         eval=eval_poulin_fournier,
         derive=derive_poulin_fournier,

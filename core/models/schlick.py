@@ -58,7 +58,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, param_row_size, register
 from core.models._fresnel import fresnel_schlick
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
 
@@ -67,8 +67,31 @@ HALF_PI = 1.5707963267948966
 TWO_OVER_PI = 0.6366197723675814
 COS_FLOOR = 1e-6
 
-# Kernel vector: sc(0-2) sr(3) sp(4) ly(5) dc(6-8) dr(9) dp(10), then derived mixture weights (11-13).
-_W_COS, _W_TOP, _W_BASE = 11, 12, 13
+
+def _params(double: bool) -> tuple[Param, ...]:
+    """The parameters of a setting: both have this layout, and differ in the default of ``ly`` only."""
+    return (
+        Param("sc", (0.7, 0.7, 0.7), 0.0, 1.0, label="Top layer colour C", kind="color"),
+        Param("sr", 0.31, 0.0, 1.0, label="Top layer roughness r", doc="0 = mirror, 1 = Lambertian."),
+        Param("sp", 1.0, 0.01, 1.0, label="Top layer isotropy p", doc="1 = isotropic."),
+        Param(
+            "ly",
+            1.0 if double else 0.0,
+            kind="bool",
+            label="Double layer",
+            doc="True: a base layer (dc, dr, dp) under the top layer.",
+        ),
+        Param("dc", (1.0, 1.0, 1.0), 0.0, 1.0, label="Base layer colour C'", kind="color"),
+        Param("dr", 0.0, 0.0, 1.0, label="Base layer roughness r'", doc="0 = mirror, 1 = Lambertian."),
+        Param("dp", 1.0, 0.01, 1.0, label="Base layer isotropy p'", doc="1 = isotropic."),
+    )
+
+
+PARAMS = _params(double=True)
+SC, SR, SP, LY, DC, DR, DP = param_offsets(PARAMS, "sc", "sr", "sp", "ly", "dc", "dr", "dp")
+# derive_schlick appends the sampling mixture's weights (cosine, top lobe, base lobe) to the parameters
+_W_COS = param_row_size(PARAMS)
+_W_TOP, _W_BASE = _W_COS + 1, _W_COS + 2
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -124,19 +147,19 @@ def eval_schlick(wi, wo, p):
     v = min(wo[2], 1.0)
     vp = min(wi[2], 1.0)
 
-    d_top = schlick_directional(t, v, vp, w, has_azimuth, p[3], p[4])
-    double = p[5] > 0.5
-    d_base = schlick_directional(t, v, vp, w, has_azimuth, p[9], p[10]) if double else 0.0
+    d_top = schlick_directional(t, v, vp, w, has_azimuth, p[SR], p[SP])
+    double = p[LY] > 0.5
+    d_base = schlick_directional(t, v, vp, w, has_azimuth, p[DR], p[DP]) if double else 0.0
 
-    s0 = fresnel_schlick(u, p[0])
-    s1 = fresnel_schlick(u, p[1])
-    s2 = fresnel_schlick(u, p[2])
+    s0 = fresnel_schlick(u, p[SC])
+    s1 = fresnel_schlick(u, p[SC + 1])
+    s2 = fresnel_schlick(u, p[SC + 2])
     if not double:
         return s0 * d_top, s1 * d_top, s2 * d_top
     return (
-        s0 * d_top + (1.0 - s0) * fresnel_schlick(u, p[6]) * d_base,
-        s1 * d_top + (1.0 - s1) * fresnel_schlick(u, p[7]) * d_base,
-        s2 * d_top + (1.0 - s2) * fresnel_schlick(u, p[8]) * d_base,
+        s0 * d_top + (1.0 - s0) * fresnel_schlick(u, p[DC]) * d_base,
+        s1 * d_top + (1.0 - s1) * fresnel_schlick(u, p[DC + 1]) * d_base,
+        s2 * d_top + (1.0 - s2) * fresnel_schlick(u, p[DC + 2]) * d_base,
     )
 
 
@@ -198,9 +221,9 @@ def _lobe_pdf(wo, wi, r, p):
 def pdf_schlick(wo, wi, p):
     out = p[_W_COS] * cosine_hemisphere_pdf(wi[2])
     if p[_W_TOP] > 0.0:
-        out += p[_W_TOP] * _lobe_pdf(wo, wi, p[3], p[4])
+        out += p[_W_TOP] * _lobe_pdf(wo, wi, p[SR], p[SP])
     if p[_W_BASE] > 0.0:
-        out += p[_W_BASE] * _lobe_pdf(wo, wi, p[9], p[10])
+        out += p[_W_BASE] * _lobe_pdf(wo, wi, p[DR], p[DP])
     return out
 
 
@@ -209,9 +232,9 @@ def sample_schlick(wo, p, u1, u2, u3):
     # A lobe is drawn only if its weight is positive (a layer with b = 0 has no lobe, and r = 0 would make
     # the inversion 0/0); rounding in the cumulative weights falls back to the cosine strategy.
     if u1 >= p[_W_COS] and u1 < p[_W_COS] + p[_W_TOP] and p[_W_TOP] > 0.0:
-        x, y, z = _lobe_sample(wo, p[3], p[4], u2, u3)
+        x, y, z = _lobe_sample(wo, p[SR], p[SP], u2, u3)
     elif u1 >= p[_W_COS] + p[_W_TOP] and p[_W_BASE] > 0.0:
-        x, y, z = _lobe_sample(wo, p[9], p[10], u2, u3)
+        x, y, z = _lobe_sample(wo, p[DR], p[DP], u2, u3)
     else:
         x, y, z = cosine_hemisphere(u2, u3)
     wi = (x, y, z)
@@ -220,31 +243,13 @@ def sample_schlick(wo, p, u1, u2, u3):
 
 def derive_schlick(user: np.ndarray) -> np.ndarray:
     """Append the sampling mixture weights: cosine (Lambertian parts, re-emission), top lobe, base lobe."""
-    a_top = 0.0 if user[3] < 0.5 else 1.0 - 4.0 * user[3] * (1.0 - user[3])
-    b_top = 4.0 * user[3] * (1.0 - user[3])
-    double = user[5] > 0.5
-    a_base = (0.0 if user[9] < 0.5 else 1.0 - 4.0 * user[9] * (1.0 - user[9])) if double else 0.0
-    b_base = 4.0 * user[9] * (1.0 - user[9]) if double else 0.0
+    a_top = 0.0 if user[SR] < 0.5 else 1.0 - 4.0 * user[SR] * (1.0 - user[SR])
+    b_top = 4.0 * user[SR] * (1.0 - user[SR])
+    double = user[LY] > 0.5
+    a_base = (0.0 if user[DR] < 0.5 else 1.0 - 4.0 * user[DR] * (1.0 - user[DR])) if double else 0.0
+    b_base = 4.0 * user[DR] * (1.0 - user[DR]) if double else 0.0
     weights = np.array([0.1 + a_top + a_base, b_top, b_base])
     return np.concatenate([user, weights / weights.sum()])
-
-
-def _params(double: bool) -> tuple[Param, ...]:
-    return (
-        Param("sc", (0.7, 0.7, 0.7), 0.0, 1.0, label="Top layer colour C", kind="color"),
-        Param("sr", 0.31, 0.0, 1.0, label="Top layer roughness r", doc="0 = mirror, 1 = Lambertian."),
-        Param("sp", 1.0, 0.01, 1.0, label="Top layer isotropy p", doc="1 = isotropic."),
-        Param(
-            "ly",
-            1.0 if double else 0.0,
-            kind="bool",
-            label="Double layer",
-            doc="True: a base layer (dc, dr, dp) under the top layer.",
-        ),
-        Param("dc", (1.0, 1.0, 1.0), 0.0, 1.0, label="Base layer colour C'", kind="color"),
-        Param("dr", 0.0, 0.0, 1.0, label="Base layer roughness r'", doc="0 = mirror, 1 = Lambertian."),
-        Param("dp", 1.0, 0.01, 1.0, label="Base layer isotropy p'", doc="1 = isotropic."),
-    )
 
 
 _CITATION = (

@@ -44,7 +44,7 @@ import math
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, register
+from core.model import Model, Param, Traits, param_offsets, register
 
 INV_PI = 0.3183098861837907
 TWO_OVER_PI = 0.6366197723675814
@@ -52,6 +52,33 @@ COS_FLOOR = 1e-6
 K_F = 1.12
 K_G = 1.01
 K_J = 0.1
+
+
+PARAMS = (
+    Param("s", 0.76, 0.0, 0.999, label="Smoothness", doc="0 = rough diffuse, toward 1 = mirror."),
+    Param("m", 0.91, 0.0, 1.0, label="Metalness", doc="Tints the highlight with the colour."),
+    Param("t", 0.0, 0.0, 1.0, label="Transparency", doc="Light not reflected (transmitted)."),
+    Param("color", (1.0, 1.0, 1.0), 0.0, 1.0, label="Surface colour", kind="color"),
+    Param(
+        "kd",
+        (0.5, 0.5, 0.5),
+        0.0,
+        1.0,
+        label="Diffuse weight",
+        kind="color",
+        doc="Seed's weight of the diffuse term (1 = Strauss as published).",
+    ),
+    Param(
+        "ks",
+        (0.64, 0.64, 0.64),
+        0.0,
+        1.0,
+        label="Specular weight",
+        kind="color",
+        doc="Seed's weight of the specular term (1 = Strauss as published).",
+    ),
+)
+S, M, T, COLOR, KD, KS = param_offsets(PARAMS, "s", "m", "t", "color", "kd", "ks")
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -79,9 +106,9 @@ def _normalized_angle(w):
 def eval_strauss(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    s = p[0]
-    m = p[1]
-    t = p[2]
+    s = p[S]
+    m = p[M]
+    t = p[T]
     cos_i = min(wi[2], 1.0)
 
     d = 1.0 - m * s
@@ -101,9 +128,9 @@ def eval_strauss(wi, wo, p):
     diff = d * r_d * INV_PI
     w_metal = m * (1.0 - f_i)
 
-    out_r = p[6] * diff * p[3] + p[9] * spec * (1.0 + w_metal * (p[3] - 1.0))
-    out_g = p[7] * diff * p[4] + p[10] * spec * (1.0 + w_metal * (p[4] - 1.0))
-    out_b = p[8] * diff * p[5] + p[11] * spec * (1.0 + w_metal * (p[5] - 1.0))
+    out_r = p[KD] * diff * p[COLOR] + p[KS] * spec * (1.0 + w_metal * (p[COLOR] - 1.0))
+    out_g = p[KD + 1] * diff * p[COLOR + 1] + p[KS + 1] * spec * (1.0 + w_metal * (p[COLOR + 1] - 1.0))
+    out_b = p[KD + 2] * diff * p[COLOR + 2] + p[KS + 2] * spec * (1.0 + w_metal * (p[COLOR + 2] - 1.0))
     return out_r, out_g, out_b
 
 
@@ -115,30 +142,7 @@ STRAUSS = register(
             "P. S. Strauss, A realistic lighting model for computer animators, "
             "IEEE Computer Graphics and Applications 10(6):56-64, 1990."
         ),
-        params=(
-            Param("s", 0.76, 0.0, 0.999, label="Smoothness", doc="0 = rough diffuse, toward 1 = mirror."),
-            Param("m", 0.91, 0.0, 1.0, label="Metalness", doc="Tints the highlight with the colour."),
-            Param("t", 0.0, 0.0, 1.0, label="Transparency", doc="Light not reflected (transmitted)."),
-            Param("color", (1.0, 1.0, 1.0), 0.0, 1.0, label="Surface colour", kind="color"),
-            Param(
-                "kd",
-                (0.5, 0.5, 0.5),
-                0.0,
-                1.0,
-                label="Diffuse weight",
-                kind="color",
-                doc="Seed's weight of the diffuse term (1 = Strauss as published).",
-            ),
-            Param(
-                "ks",
-                (0.64, 0.64, 0.64),
-                0.0,
-                1.0,
-                label="Specular weight",
-                kind="color",
-                doc="Seed's weight of the specular term (1 = Strauss as published).",
-            ),
-        ),
+        params=PARAMS,
         traits=Traits.ISOTROPIC,
         eval=eval_strauss,
         doc=__doc__ or "",

@@ -11,7 +11,7 @@ import math
 
 from numba import njit
 
-from core.model import Param, Traits, param_slots
+from core.model import Param, Traits, param_offsets, param_row_size
 
 LABEL = "Blinn-Phong (example model file)"
 CITATION = "J. F. Blinn, Models of Light Reflection for Computer Synthesized Pictures, SIGGRAPH 1977."
@@ -22,8 +22,8 @@ PARAMS = (
     Param("ks", 0.5, 0.0, 1.0, label="Specular weight"),
     Param("n", 60.0, 1.0, 10000.0, log=True, label="Exponent"),
 )
-KD, KS, N = param_slots(PARAMS)
-LOBE = N + 1
+KD, KS, N = param_offsets(PARAMS, "kd", "ks", "n")
+LOBE = param_row_size(PARAMS)
 """The probability of sampling the specular lobe, appended by ``derive``."""
 
 

@@ -22,7 +22,7 @@ from core.chi2 import chi2_test, sampler_functions
 from core.dispatch import FILE_MODEL
 from core.errors import BrdfStudioError
 from core.kernels import eval_batch
-from core.model import Traits, get_model, make_brdf, param_slots
+from core.model import Traits, get_model, make_brdf, param_offsets, param_row_size
 from core.model_files import ModelFileError, load_model_file
 from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
@@ -170,9 +170,23 @@ def test_zero_below_the_horizon_whatever_the_file_returns(tmp_path):
     np.testing.assert_array_equal(brdf.eval(wo, wi), np.zeros((3, 3)))
 
 
-def test_param_slots_name_the_row():
+def test_named_offsets_in_a_model_file():
     brdf = make_brdf(str(EXAMPLE))
-    assert param_slots(brdf.model.params) == (0, 3, 4)
+    assert param_offsets(brdf.model.params, "kd", "ks", "n") == (0, 3, 4)
+    assert param_row_size(brdf.model.params) == 5
+
+
+def test_a_wrong_offset_name_in_a_model_file_names_its_line(tmp_path):
+    body = """
+        from core.model import Param, param_offsets
+        PARAMS = (Param("a", 0.5, 0.0, 1.0),)
+        (B,) = param_offsets(PARAMS, "b")
+
+        def eval(wi, wo, p):
+            return p[B], p[B], p[B]
+    """
+    with pytest.raises(ModelFileError, match=r"wrong\.py:4: .*no parameter 'b'; the parameters are: a"):
+        load_model_file(_write(tmp_path, "wrong.py", body))
 
 
 @pytest.mark.parametrize(
