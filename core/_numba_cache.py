@@ -24,7 +24,7 @@ import hashlib
 import os
 import re
 import sys
-from functools import cache, lru_cache
+from functools import cache
 from pathlib import Path
 
 PACKAGES = ("core", "renderer")
@@ -211,14 +211,3 @@ def configure() -> Path | None:
     _install_locator()
     _configured = folder
     return folder
-
-
-@lru_cache(maxsize=1)
-def source_hash() -> str:
-    """Hash of every source file of the packages (the old adaptive sampler's keys; to be removed with it)."""
-    h = hashlib.sha256()
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            h.update(str(path.relative_to(ROOT)).encode())
-            h.update(path.read_bytes())
-    return h.hexdigest()[:20]

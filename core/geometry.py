@@ -36,13 +36,6 @@ def degrees_to_dir(theta_deg: float, phi_deg: float = 0.0) -> np.ndarray:
     return np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), z])
 
 
-def disk_to_hemisphere(xy: np.ndarray) -> np.ndarray:
-    """Inverse projection of disk points ``(..., 2)`` to upper-hemisphere unit vectors ``(..., 3)``."""
-    xy = np.asarray(xy, dtype=np.float64)
-    z = np.sqrt(np.maximum(0.0, 1.0 - np.sum(xy * xy, axis=-1)))
-    return np.concatenate([xy, z[..., None]], axis=-1)
-
-
 def reflect(w: np.ndarray) -> np.ndarray:
     """Mirror direction of ``w (..., 3)`` about the normal z."""
     w = np.asarray(w, dtype=np.float64)

@@ -92,16 +92,6 @@ class PassStats:
     """Path contributions that were NaN or infinite (dropped; 0 in a correct renderer)."""
 
 
-def mis_weight(pdf_a: np.ndarray, pdf_b: np.ndarray, heuristic: str) -> np.ndarray:
-    """Weight of strategy a against b: balance ``a / (a + b)`` or power ``a^2 / (a^2 + b^2)``."""
-    if heuristic == "power":
-        a2, b2 = pdf_a * pdf_a, pdf_b * pdf_b
-        s = a2 + b2
-        return np.where(s > 0, a2 / np.where(s > 0, s, 1.0), 0.0)
-    s = pdf_a + pdf_b
-    return np.where(s > 0, pdf_a / np.where(s > 0, s, 1.0), 0.0)
-
-
 class Camera:
     """Pinhole camera rays for pixel indices (row-major, row 0 at the top)."""
 

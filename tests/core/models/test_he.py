@@ -293,14 +293,14 @@ def _directions(rng, n: int, cos_hi: float = 1.0, cos_lo: float = 0.0) -> np.nda
         ({"sigma": 4.0, "tau": 20.0, "wavelength": 300.0}, TABLE_TOL),
     ],
 )  # fmt: skip
-def test_the_kernel_matches_its_previous_formulation(values, rtol, rng):
+def test_the_kernel_matches_the_reference_formulation(values, rtol, rng):
     """The series read from its tables (the sum itself outside them), the effective roughness's logarithm from
     its table, one ``erfc`` a direction and one Fresnel term for channels of the same index give the values
-    of the previous formulation (``_he_previous``: each term's logarithm, Newton's method) within the tables'
+    of the reference formulation (``_he_reference``: each term's logarithm, Newton's method) within the tables'
     tolerance (``TABLE_TOL``, 2e-9; the largest error measured on 3 million pairs of six settings is 8.5e-10)
     or to rounding where nothing is tabulated: random pairs, grazing pairs (``cos`` down to 1e-12 on either
     side), normal incidence and mirror pairs."""
-    from tests.core.models._he_previous import eval_he_previous
+    from tests.core.models._he_reference import eval_he_reference
 
     brdf = MODEL.bind(values)
     wi = np.concatenate([_directions(rng, 300), _directions(rng, 100, 1e-3), _directions(rng, 100)])
@@ -314,29 +314,29 @@ def test_the_kernel_matches_its_previous_formulation(values, rtol, rng):
     wi = np.concatenate([wi, mirror, [[0.0, 0.0, 1.0]]])
     wo = np.concatenate([wo, wo, [[0.0, 0.0, 1.0]]])
     got = brdf.eval(wi, wo)
-    want = np.array([eval_he_previous(a, b, brdf.params) for a, b in zip(wi, wo, strict=True)])
+    want = np.array([eval_he_reference(a, b, brdf.params) for a, b in zip(wi, wo, strict=True)])
     assert np.all(np.isfinite(got))
     np.testing.assert_allclose(got, want, rtol=rtol, atol=1e-300)
 
 
-def test_the_series_matches_its_previous_formulation_to_1e_12():
-    """The series by term ratios (every ``k``-th term by the ratio of ``k`` steps) against the previous
+def test_the_series_matches_the_reference_formulation_to_1e_12():
+    """The series by term ratios (every ``k``-th term by the ratio of ``k`` steps) against the reference
     summation by each term's logarithm, over ``g`` from 1e-9 to 1e4 and ``a`` from 0 to 1e6 (the ratio is used
     up to ``a = 1e4``; beyond, both sum the logarithms)."""
-    from tests.core.models._he_previous import diffuse_series as previous
+    from tests.core.models._he_reference import diffuse_series as reference
 
     for g in np.exp(np.linspace(math.log(1e-9), math.log(1e4), 37)):
         for a in np.concatenate([[0.0], np.exp(np.linspace(math.log(1e-3), math.log(1e6), 19))]):
-            np.testing.assert_allclose(diffuse_series(g, a), previous(g, a), rtol=1e-12, err_msg=f"{g} {a}")
+            np.testing.assert_allclose(diffuse_series(g, a), reference(g, a), rtol=1e-12, err_msg=f"{g} {a}")
 
 
 def test_halleys_effective_roughness_matches_newtons():
-    from tests.core.models._he_previous import effective_roughness_ratio as previous
+    from tests.core.models._he_reference import effective_roughness_ratio as reference
 
     logs = np.concatenate([[-np.inf], np.linspace(-70.0, 35.0, 211)])
     for a in logs:
         for b in logs[::7]:
-            np.testing.assert_allclose(effective_roughness_ratio(a, b), previous(a, b), rtol=2e-15)
+            np.testing.assert_allclose(effective_roughness_ratio(a, b), reference(a, b), rtol=2e-15)
 
 
 def test_the_series_tables_are_within_their_tolerance(rng):

@@ -1,7 +1,6 @@
-"""The He-Torrance-Sillion-Greenberg kernels as they were before their evaluation was made cheaper (the
-series summed by each term's logarithm, Newton's method for the effective roughness, two ``erfc`` a
-direction, one Fresnel term a channel), in plain Python: the reference the faster kernels are compared with
-(``test_he.py``)."""
+"""He-Torrance-Sillion-Greenberg's ``eval`` written directly, in plain Python: the series summed by each
+term's logarithm, Newton's method for the effective roughness, two ``erfc`` a direction, one Fresnel term a
+channel. ``test_he.py`` compares the model's kernels (tables, term ratios, Halley's method) with it."""
 
 from __future__ import annotations
 
@@ -179,7 +178,7 @@ def diffuse_series(g, a):
     return math.exp(lt0) * total * step
 
 
-def eval_he_previous(wi, wo, p):
+def eval_he_reference(wi, wo, p):
     ci = wi[2]
     co = wo[2]
     if ci <= 0.0 or co <= 0.0:
