@@ -8,6 +8,7 @@ family of strategies.
 ``factored``        ``factored`` (Lawrence, Rusinkiewicz & Ramamoorthi 2004)
 ``rgl_warp``        ``rgl_warp`` (Dupuy & Jakob 2018: luminance warp over the VNDF parameterization)
 ``ris``             resampled importance sampling of BRDF x light on top of any strategy
+``distributions``   the toolkit the strategies share: piecewise-constant 1-D/2-D distributions, warps
 ==================  ==========================================================================================
 
 Strategy modules register themselves when imported; :func:`make_sampler` imports them all on first use.
