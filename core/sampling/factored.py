@@ -42,13 +42,11 @@ from core.sampling.base import (
     check_points,
     register_sampler,
 )
+from core.sampling.distributions import find_interval, guided_interval, interval_guides
 from core.sampling.tabulated import (
     EVERY_ROW,
     bin_directions,
     bin_of,
-    cdf_guides,
-    guided_search,
-    search_cdf,
     table_azimuth,
     table_azimuth_estimate,
 )
@@ -153,7 +151,7 @@ def _pdf_at(wo, wi, b, c_ref, s_ref, reparam, term_cdf, u_pdf, v_pdf, n_tp, n_pp
 # A drawn parameter direction this far inside its cell (as a fraction of the cell, in cos theta_p and in phi_p)
 # is in that cell for :func:`_pdf_at` too: its arc cosine and arc tangent err by ~1e-15, the margin is > 1e-12.
 _INSIDE = 1e-9
-_U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.tabulated.cdf_guides`)
+_U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.distributions.interval_guides`)
 
 
 @kernel
@@ -192,9 +190,9 @@ def _factored_sample_rows(
                 state, v1 = next_u01(state)
                 state, v2 = next_u01(state)
         b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
-        t = search_cdf(term_cdf[b], 0, n_terms + 1, v0)
+        t = find_interval(term_cdf[b], 0, n_terms + 1, v0)
         # theta_p: choose a cell by u's CDF (cells uniform in theta), then uniform in cos inside the cell
-        it = guided_search(u_cdf[t], 0, n_tp + 1, u_guide[t], v1)
+        it = guided_interval(u_cdf[t], 0, n_tp + 1, u_guide[t], v1)
         c0 = u_cdf[t, it]
         c1 = u_cdf[t, it + 1]
         frac = (v1 - c0) / (c1 - c0) if c1 > c0 else 0.5
@@ -202,7 +200,7 @@ def _factored_sample_rows(
         ca = cos_edges[it]
         cb = cos_edges[it + 1]
         cos_p = ca + frac * (cb - ca)
-        ip = guided_search(v_cdf[t], 0, n_pp + 1, v_guide[t], v2)
+        ip = guided_interval(v_cdf[t], 0, n_pp + 1, v_guide[t], v2)
         g0 = v_cdf[t, ip]
         g1 = v_cdf[t, ip + 1]
         fr2 = (v2 - g0) / (g1 - g0) if g1 > g0 else 0.5
@@ -250,10 +248,10 @@ _NO_POINTS = np.zeros((0, 2))
 
 
 def _guides(cdfs: np.ndarray) -> np.ndarray:
-    """Guide rows (:func:`~core.sampling.tabulated.cdf_guides`) of each row of ``cdfs (terms, k + 1)``."""
+    """Guide rows (:func:`~core.sampling.distributions.interval_guides`) of each row of ``cdfs (terms, k + 1)``."""
     rows, width = cdfs.shape
     offsets = np.arange(rows + 1, dtype=np.int64) * width
-    guides = cdf_guides(np.ascontiguousarray(cdfs).ravel(), offsets, _U_GUIDE)
+    guides = interval_guides(np.ascontiguousarray(cdfs).ravel(), offsets, _U_GUIDE)
     return np.ascontiguousarray(guides - offsets[:-1, None].astype(np.int32))
 
 

@@ -31,6 +31,7 @@ from core.jit import kernel
 from core.kernels import DirectionSamples, eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
+from core.sampling.distributions import find_interval, guided_interval, interval_guides, walk_interval
 
 HALF_PI = 0.5 * math.pi
 TWO_PI = 2.0 * math.pi
@@ -107,51 +108,11 @@ def table_azimuth_estimate(d, c_ref, s_ref):
     return phi + TWO_PI if phi < 0.0 else phi
 
 
-@njit(inline="always", nogil=True, cache=True)
-def search_cdf(cdf, lo, hi, u):
-    """Largest ``k`` in ``[lo, hi - 1)`` with ``cdf[k] <= u`` (``cdf[lo] = 0``, ``cdf[hi - 1] = 1``)."""
-    a = lo
-    b = hi - 1
-    while b - a > 1:
-        m = (a + b) // 2
-        if cdf[m] <= u:
-            a = m
-        else:
-            b = m
-    return a
-
-
-@njit(nogil=True, cache=True)
-def cdf_guides(cdf, offsets, size):
-    """Guide rows for :func:`guided_search`: for CDF ``c`` (``cdf[offsets[c]:offsets[c+1]]``, from 0 to 1),
-    entry ``g`` of row ``c`` is :func:`search_cdf`'s answer at ``u = g / size``; ``(n_cdfs, size + 1)`` int32."""
-    out = np.empty((offsets.shape[0] - 1, size + 1), dtype=np.int32)
-    for c in range(offsets.shape[0] - 1):
-        lo = offsets[c]
-        hi = offsets[c + 1]
-        k = lo
-        for g in range(size + 1):
-            u = g / size
-            while k < hi - 2 and cdf[k + 1] <= u:
-                k += 1
-            out[c, g] = k
-    return out
-
-
-@njit(inline="always", nogil=True, cache=True)
-def guided_search(cdf, lo, hi, guide, u):
-    """:func:`search_cdf`'s answer (the same index) searched only between the answers at the guide's two
-    nearest ``u``: a step or two inside one or two cache lines instead of a search over the whole CDF."""
-    size = guide.shape[0] - 1
-    g = min(int(u * size), size - 1)
-    return search_cdf(cdf, guide[g], min(guide[g + 1] + 2, hi), u)
-
-
 def cell_knots(keeps: list[np.ndarray], n_grid: int, n_cells: int) -> np.ndarray:
     """``(len(keeps), n_cells)`` uint16: for each curve, whose knots are the edges ``keeps[c]`` (increasing,
     from 0 to ``n_grid``) of a uniform grid of ``n_grid`` cells, and each of ``n_cells`` equal cells of the
     same range, the curve's own index of its last knot at or below the cell's lower edge: the segment
-    holding the cell's start, where :func:`walk_cdf` starts (``_cdf_density``). A simplified curve's knots are
+    holding the cell's start, where :func:`~core.sampling.distributions.walk_interval` starts (``_cdf_density``). A simplified curve's knots are
     some of the grid's edges, so with the grid's own cells (``n_cells = n_grid``) the guess is the answer."""
     out = np.empty((len(keeps), n_cells), dtype=np.uint16)
     edges = np.arange(n_cells, dtype=np.int64) * n_grid  # cell g starts at grid edge g n_grid / n_cells
@@ -162,22 +123,10 @@ def cell_knots(keeps: list[np.ndarray], n_grid: int, n_cells: int) -> np.ndarray
 
 
 @njit(inline="always", nogil=True, cache=True)
-def walk_cdf(cdf, lo, hi, u, k):
-    """:func:`search_cdf`'s answer found by stepping from a guess ``k``: a few steps when the guess is close
-    (the cell a uniform grid computes), the same index for any increasing ``cdf``."""
-    k = min(max(k, lo), hi - 2)
-    while k > lo and cdf[k] > u:
-        k -= 1
-    while k < hi - 2 and cdf[k + 1] <= u:
-        k += 1
-    return k
-
-
-@njit(inline="always", nogil=True, cache=True)
 def _invert(xs, cdf, lo, hi, guide, u):
     """Where the piecewise-linear CDF through the knots ``(xs, cdf)[lo:hi]`` reaches ``u``, and the density
     (the slope) of the segment there."""
-    k = guided_search(cdf, lo, hi, guide, u)
+    k = guided_interval(cdf, lo, hi, guide, u)
     dF = cdf[k + 1] - cdf[k]
     dx = xs[k + 1] - xs[k]
     x = xs[k] + (u - cdf[k]) / dF * dx if dF > 0.0 else xs[k]
@@ -210,14 +159,14 @@ def _azimuth_knot(grid, cx, clo, chi, phi):
     """The knot of the conditional ``cx[clo:chi]`` at or below ``phi`` (a uniform grid's by its cell; a
     simplified conditional's few knots by a search: a start from a guide of azimuth cells was slower)."""
     if grid:
-        return walk_cdf(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
-    return search_cdf(cx, clo, chi, phi)
+        return walk_interval(cx, clo, chi, phi, clo + int(phi / TWO_PI * (chi - clo - 1)))
+    return find_interval(cx, clo, chi, phi)
 
 
 @njit(inline="always", nogil=True, cache=True)
 def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, mrow):
     """The density of a draw (:func:`_cdf_marginal`, :func:`_cdf_conditional`) at ``wi = d`` for ``wo = w``
-    (above the horizon). The marginal's segment is walked to from a guess (:func:`walk_cdf`: the same index
+    (above the horizon). The marginal's segment is walked to from a guess (:func:`~core.sampling.distributions.walk_interval`: the same index
     as a search): the grid's row itself when the tables are the uniform grid (no simplification), else the
     row's entry of ``mrow`` (:func:`cell_knots`), the knot at or below the row's lower edge: a simplified
     marginal's knots are some of the grid's edges, so the guess is the answer but at a row's edge."""
@@ -230,7 +179,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
     lo = moff[b]
     hi = moff[b + 1]
     row = fastmath.polar_cell(cos_t, n_rows)
-    k = walk_cdf(mx, lo, hi, x, lo + row if grid else lo + np.int64(mrow[b, row]))
+    k = walk_interval(mx, lo, hi, x, lo + row if grid else lo + np.int64(mrow[b, row]))
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]
     c = b * n_rows + row
@@ -418,8 +367,8 @@ class CDFSampler(Sampler):
         self._coff = np.asarray(coff, dtype=np.int64)
         # where a density's marginal search starts (the uniform grid needs none: a row is its own segment)
         self._mrow = cell_knots(mkeep, nt, nt) if self.tol > 0.0 else np.zeros((0, 1), dtype=np.uint16)
-        self._mguide = cdf_guides(self._mf, self._moff, _MARGINAL_GUIDE)
-        self._cguide = cdf_guides(self._cf, self._coff, _CONDITIONAL_GUIDE)
+        self._mguide = interval_guides(self._mf, self._moff, _MARGINAL_GUIDE)
+        self._cguide = interval_guides(self._cf, self._coff, _CONDITIONAL_GUIDE)
 
     def _tables(self) -> tuple[Any, ...]:
         return (

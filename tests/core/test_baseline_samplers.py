@@ -194,22 +194,24 @@ def test_ris_is_unbiased(light_kind):
     guess=st.integers(-3, 50),
 )
 def test_the_narrowed_searches_find_the_binary_searchs_cell(steps, queries, size, guess):
-    """The tabulated CDFs' draws search inside a guide table's interval (``guided_search``) and their densities
-    step from a guessed cell (``walk_cdf``): both must return exactly ``search_cdf``'s index, for any
-    nondecreasing CDF from 0 to 1 (flat steps included), placed after other CDFs in the flat array."""
-    from core.sampling.tabulated import cdf_guides, guided_search, search_cdf, walk_cdf
+    """The tabulated CDFs' draws search inside a guide table's interval (``guided_interval``) and their
+    densities step from a guessed cell (``walk_interval``): both must return exactly ``find_interval``'s index
+    (numpy's ``searchsorted``), for any nondecreasing CDF from 0 to 1 (flat steps included), placed after other
+    CDFs in the flat array."""
+    from core.sampling.distributions import find_interval, guided_interval, interval_guides, walk_interval
 
     cdf = np.concatenate([[0.0], np.cumsum(steps)])
     cdf = cdf / cdf[-1] if cdf[-1] > 0 else np.linspace(0.0, 1.0, len(cdf))
     cdf[-1] = 1.0
     flat = np.concatenate([[0.0, 0.5, 1.0], cdf])  # a first CDF of two cells, then this one
     offsets = np.array([0, 3, len(flat)], dtype=np.int64)
-    guides = cdf_guides(flat, offsets, size)
+    guides = interval_guides(flat, offsets, size)
     lo, hi = 3, len(flat)
     for u in queries:
-        want = search_cdf(flat, lo, hi, u)
-        assert guided_search(flat, lo, hi, guides[1], u) == want
-        assert walk_cdf(flat, lo, hi, u, lo + guess) == want
+        want = find_interval(flat, lo, hi, u)
+        assert want == min(max(lo + int(np.searchsorted(flat[lo:hi], u, side="right")) - 1, lo), hi - 2)
+        assert guided_interval(flat, lo, hi, guides[1], u) == want
+        assert walk_interval(flat, lo, hi, u, lo + guess) == want
 
 
 @pytest.mark.parametrize("name", BASELINES)
