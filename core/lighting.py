@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from core.sampling.distributions import build_cdf, find_intervals
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -61,9 +63,7 @@ class LatLongEnvironment:
         h, w = self.image.shape
         theta_edges = np.linspace(0.0, math.pi, h + 1)
         self.pixel_solid = (np.cos(theta_edges[:-1]) - np.cos(theta_edges[1:])) * (TWO_PI / w)
-        mass = self.image * self.pixel_solid[:, None]
-        self.cdf = np.concatenate([[0.0], np.cumsum(mass.ravel())])
-        self.cdf /= self.cdf[-1]
+        self.cdf = build_cdf(self.image * self.pixel_solid[:, None])
         self.theta_edges = theta_edges
 
     @staticmethod
@@ -98,7 +98,8 @@ class LatLongEnvironment:
         """Pixels by radiance times solid angle, uniform in solid angle inside the pixel; exact pdf."""
         h, w = self.image.shape
         u = rng.random((n, 3))
-        k = np.minimum(np.searchsorted(self.cdf, u[:, 0], side="right") - 1, h * w - 1)
+        k = np.empty(n, dtype=np.int64)
+        find_intervals(self.cdf, u[:, 0], k)
         r, c = np.divmod(k, w)
         c0, c1 = np.cos(self.theta_edges[r]), np.cos(self.theta_edges[r + 1])
         cos_t = c0 + u[:, 1] * (c1 - c0)
