@@ -17,6 +17,7 @@ from numba import njit
 
 from core.fastmath import acos_estimate, atan2_estimate, sincos_small
 from core.model import LUMINANCE
+from core.sampling.distributions import fill_guide, remainder, uniform_sphere, walk_upper_bound
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 
@@ -141,43 +142,13 @@ def guide_table(row_cdf: np.ndarray, col_cdf_flat: np.ndarray, h: int, w: int) -
     """Where the searches of the sky's CDFs start (int32, ``h + h * w`` entries): entry ``j < h`` is the
     row whose CDF first exceeds ``j / h``; entry ``h + r * w + j`` the position in ``col_cdf_flat`` of row
     ``r``'s first column whose CDF exceeds ``j / w``. A uniform ``u`` then starts at entry ``int(u * h)``
-    (or ``int(u * w)``) and :func:`guided_upper_bound` walks on average about one element from there."""
+    (or ``int(u * w)``) and :func:`~core.sampling.distributions.walk_upper_bound` walks on average about one
+    element from there (:func:`~core.sampling.distributions.fill_guide` builds each part)."""
     guide = np.empty(h + h * w, dtype=np.int32)
-    guide[:h] = np.searchsorted(row_cdf, np.arange(h) / h, side="right")
-    steps = np.arange(w) / w
+    fill_guide(row_cdf, 0, h, 0.0, h, guide[:h])
     for r in range(h):
-        segment = col_cdf_flat[r * w : (r + 1) * w]
-        guide[h + r * w : h + (r + 1) * w] = r * w + np.searchsorted(segment, r + steps, side="right")
+        fill_guide(col_cdf_flat, r * w, w, float(r), w, guide[h + r * w : h + (r + 1) * w])
     return guide
-
-
-@njit(inline="always", nogil=True, cache=True)
-def upper_bound(a, lo, n, v):
-    """``lo`` plus the number of elements ``<= v`` in the sorted ``a[lo:lo + n]`` (``np.searchsorted(...,
-    side="right")`` on that segment), by a binary search without data-dependent branches (the next probe is a
-    conditional move, never a mispredicted jump: the sky's CDFs are searched at random points)."""
-    base = lo
-    while n > 1:
-        half = n >> 1
-        base = base + half if a[base + half] <= v else base
-        n -= half
-    if n == 1 and a[base] <= v:
-        base += 1
-    return base
-
-
-@njit(inline="always", nogil=True, cache=True)
-def guided_upper_bound(a, lo, n, v, start):
-    """:func:`upper_bound` (``lo`` plus the number of elements ``<= v`` in the sorted ``a[lo:lo + n]``) by a
-    walk from ``start``, a guess in ``[lo, lo + n]``: down while the element before is above ``v``, then up
-    while the element is at most ``v``. Exact whatever the guess; as fast as the guess is close (a guide
-    table's, :func:`guide_table`: about one step instead of a binary search's ``log2 n`` dependent loads)."""
-    i = min(max(start, lo), lo + n)
-    while i > lo and a[i - 1] > v:
-        i -= 1
-    while i < lo + n and a[i] <= v:
-        i += 1
-    return i
 
 
 def pixel_edges(h: int, w: int, rotation: float) -> np.ndarray:
@@ -253,13 +224,6 @@ def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation, edges):
 
 
 @njit(inline="always", nogil=True, cache=True)
-def _remainder(u, lo, hi):
-    """Where ``u`` lies in ``[lo, hi)``, in ``[0, 1]`` (0.5 for an empty interval: a clamped search's)."""
-    r = (u - lo) / (hi - lo) if hi > lo else 0.5
-    return min(1.0, max(0.0, r))
-
-
-@njit(inline="always", nogil=True, cache=True)
 def env_sample_one(kind, u0, u1, radiance, row_cdf, col_cdf_flat, guide, pmf, image, rotation, edges):
     """A direction from the sky's light sampling: ``(dx, dy, dz, r, g, b, pdf)`` (pdf per solid angle); the
     CDF searches start from the ``guide`` table's entries (:func:`guide_table`). The point inside the chosen
@@ -273,21 +237,18 @@ def env_sample_one(kind, u0, u1, radiance, row_cdf, col_cdf_flat, guide, pmf, im
     ns; the directions differ from theirs in the last bits)."""
     dx, dy, dz, r, g, b, pdf = 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
     if kind == ENV_CONSTANT:
-        z = 1.0 - 2.0 * u0
-        s = math.sqrt(max(0.0, 1.0 - z * z))
-        phi = TWO_PI * u1
-        dx, dy, dz = s * math.cos(phi), s * math.sin(phi), z
+        dx, dy, dz = uniform_sphere(u0, u1)
         r, g, b, pdf = radiance[0], radiance[1], radiance[2], INV_FOUR_PI
     elif kind == ENV_MAP:
         h, w = pmf.shape
-        row = min(guided_upper_bound(row_cdf, 0, h, u0, guide[min(int(u0 * h), h - 1)]), h - 1)
+        row = min(walk_upper_bound(row_cdf, 0, h, u0, guide[min(int(u0 * h), h - 1)]), h - 1)
         # row r's column CDF is stored shifted by r: search that row's segment only
         start = guide[h + row * w + min(int(u1 * w), w - 1)]
-        col = min(guided_upper_bound(col_cdf_flat, row * w, w, row + u1, start) - row * w, w - 1)
+        col = min(walk_upper_bound(col_cdf_flat, row * w, w, row + u1, start) - row * w, w - 1)
         lo = row_cdf[row - 1] if row > 0 else 0.0
-        u2 = _remainder(u0, lo, row_cdf[row])
+        u2 = remainder(u0, lo, row_cdf[row])
         lo = col_cdf_flat[row * w + col - 1] if col > 0 else float(row)
-        u3 = _remainder(row + u1, lo, col_cdf_flat[row * w + col])
+        u3 = remainder(row + u1, lo, col_cdf_flat[row * w + col])
         if h >= SMALL_ANGLE_ROWS and w >= SMALL_ANGLE_COLUMNS:
             se, ce = sincos_small(u2 / h * math.pi)
             sp, cp = sincos_small(u3 / w * TWO_PI)

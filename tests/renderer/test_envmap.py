@@ -6,14 +6,8 @@ import numpy as np
 import pytest
 from numba import njit
 
-from renderer.envmap import (
-    SMALL_ANGLE_COLUMNS,
-    SMALL_ANGLE_ROWS,
-    EnvironmentMap,
-    guide_table,
-    guided_upper_bound,
-    upper_bound,
-)
+from core.sampling.distributions import upper_bound, walk_upper_bound
+from renderer.envmap import SMALL_ANGLE_COLUMNS, SMALL_ANGLE_ROWS, EnvironmentMap, guide_table
 
 
 @njit(cache=False)
@@ -28,7 +22,7 @@ def _upper_bounds(a, lo, n, v):  # type: ignore[no-untyped-def]
 def _guided(a, lo, n, v, start):  # type: ignore[no-untyped-def]
     out = np.empty(v.shape[0], np.int64)
     for i in range(v.shape[0]):
-        out[i] = guided_upper_bound(a, lo, n, v[i], start[i])
+        out[i] = walk_upper_bound(a, lo, n, v[i], start[i])
     return out
 
 
@@ -107,6 +101,13 @@ def test_sky_samples_pick_the_pixels_of_a_binary_search(rng: np.random.Generator
     assert (row[-2], row[-1]) == (0, env.h - 1)
     guide = guide_table(env._row_cdf, env._col_cdf_flat, env.h, env.w)
     assert np.array_equal(guide, env._guide) and guide.dtype == np.int32
+    # each entry is numpy's searchsorted at its abscissa (the rows' CDFs stored shifted by the row index)
+    h, w = env.h, env.w
+    assert np.array_equal(guide[:h], np.searchsorted(env._row_cdf, np.arange(h) / h, side="right"))
+    for r in (0, h // 2, h - 1):
+        segment = env._col_cdf_flat[r * w : (r + 1) * w]
+        expected = r * w + np.searchsorted(segment, r + np.arange(w) / w, side="right")
+        assert np.array_equal(guide[h + r * w : h + (r + 1) * w], expected)
 
 
 def _in_pixel(env: EnvironmentMap, u: np.ndarray, row: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, ...]:
