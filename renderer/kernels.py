@@ -36,6 +36,7 @@ from core import fastmath, merl
 from core.dispatch import MERL, MERL_NEAREST, eval_model, pdf_model, sample_model
 from core.jit import kernel
 from core.models.lobes import cosine_hemisphere_pdf
+from core.sampling.distributions import upper_bound
 from renderer.envmap import env_eval_one, env_sample_one
 from renderer.qmc import key, pair, sobol2, uniform
 
@@ -398,7 +399,7 @@ def surface_stage(
             u_type = ux
             if u_type < c_area and n_emit > 0:
                 ux = _rescale(u_type, 0.0, c_area)
-                k = min(np.searchsorted(emit_cdf, ux, side="right"), n_emit - 1)
+                k = min(upper_bound(emit_cdf, 0, emit_cdf.shape[0], ux), n_emit - 1)
                 ux = _rescale(ux, emit_cdf[k - 1] if k > 0 else 0.0, emit_cdf[k] if k < n_emit - 1 else 1.0)
                 tri = emit_ids[k]
                 su = math.sqrt(ux)
@@ -417,7 +418,8 @@ def surface_stage(
                         t_max = dist * (1.0 - 1e-4)
             elif u_type < c_point and n_point > 0:
                 k = min(
-                    np.searchsorted(point_cdf, _rescale(u_type, c_area, c_point), side="right"), n_point - 1
+                    upper_bound(point_cdf, 0, point_cdf.shape[0], _rescale(u_type, c_area, c_point)),
+                    n_point - 1,
                 )
                 qx, qy, qz = point_pos[k, 0] - px, point_pos[k, 1] - py, point_pos[k, 2] - pz
                 dist = max(math.sqrt(qx * qx + qy * qy + qz * qz), 1e-12)
