@@ -23,8 +23,8 @@ per-distribution objects.
 
 The compiled helpers are inlined (``inline="always"``) and allocate nothing: the renderer's per-sample
 loops call them (see :mod:`core.jit`). Users: :mod:`core.sampling.tabulated`, :mod:`core.sampling.factored`,
-:mod:`core.lighting`, :mod:`renderer.envmap` and the light selection of :mod:`renderer.kernels`,
-:mod:`core.models.lobes`.
+:mod:`core.lighting`, :mod:`renderer.envmap` and the light selection of :mod:`renderer.kernels`
+(docs/ARCHITECTURE.md names those that do not use it, and why).
 """
 
 from __future__ import annotations
