@@ -38,6 +38,16 @@ START_TIMEOUT = 120.0
 """Seconds a local cluster started in a process of its own has to report its scheduler's address."""
 SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
 """The address schemes Dask's communications know."""
+LOCAL_CONFIG = {
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.admin.tick.interval": "200ms",
+    "distributed.worker.profile.enabled": False,
+}
+"""Dask settings of a local cluster (its scheduler, in this process, and its workers): what feeds a dashboard
+that a render's cluster does not show, sampled less often. Dask's defaults (system monitor every 0.5 s, the
+event loop's tick every 20 ms, the statistical profiler every 10 ms) cost the client's process and each
+idle worker 0.06 CPU-seconds per second; with these, 0.02 and 0.01 (``bench/distributed_render.py``, and
+``docs/results/distributed.md``)."""
 
 
 class ClusterError(BrdfStudioError):
@@ -215,19 +225,26 @@ def connect(
 def start_local(n: int) -> Any:
     """A ``LocalCluster`` of ``n`` single-threaded worker processes that ignore Ctrl-C, numba on one thread
     each (a :class:`ClusterError` when it cannot start)."""
+    import copy
+
+    import dask
     from dask.distributed import LocalCluster
 
     saved = os.environ.get("NUMBA_NUM_THREADS")
     os.environ["NUMBA_NUM_THREADS"] = "1"  # the worker processes start with this environment
     try:
-        return LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-            preload=[LOCAL_PRELOAD],  # a Ctrl-C in the terminal is the command's: the workers ignore it
-        )
+        with dask.config.set(LOCAL_CONFIG):  # the scheduler's, in this process
+            # the workers': a copy of its own, which their nannies keep for every worker they (re)start (the
+            # global configuration's nested dictionaries return to their values when the block ends)
+            return LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                preload=[LOCAL_PRELOAD],  # a Ctrl-C in the terminal is the command's: the workers ignore it
+                config=copy.deepcopy(dask.config.config),
+            )
     except (OSError, TimeoutError, RuntimeError, AssertionError) as exc:
         raise ClusterError(f"cannot start a local Dask cluster of {n} workers: {exc}") from None
     finally:

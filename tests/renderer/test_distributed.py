@@ -113,6 +113,33 @@ def test_a_time_budget_stops_on_a_whole_prefix_of_passes(cluster, demo, one_proc
     assert np.array_equal(last.image, one_process(last.spp))
 
 
+def test_a_local_clusters_workers_sample_their_state_seldom(cluster):
+    """The local cluster's workers (restarted ones too: a nanny keeps the configuration it started them with)
+    run with :data:`~renderer.distributed.cluster.LOCAL_CONFIG`: no statistical profiler, a system monitor
+    every 5 s; and a worker's idle second costs it little CPU."""
+    import dask
+
+    from renderer.distributed.cluster import LOCAL_CONFIG
+
+    def settings():
+        return {k: dask.config.get(k) for k in LOCAL_CONFIG}
+
+    for got in cluster.client.run(settings).values():
+        assert got == LOCAL_CONFIG
+
+    def cpu():
+        t = os.times()
+        return t.user + t.system
+
+    cluster.client.wait_for_workers(2, timeout=60)  # a worker killed by an earlier test is back
+    before = cluster.client.run(cpu)
+    time.sleep(3.0)
+    after = cluster.client.run(cpu)
+    assert set(after) == set(before)
+    # an idle worker's CPU seconds over 3 s: ~0.17 with Dask's defaults, ~0.04 with these
+    assert max(after[w] - before[w] for w in after) < 0.1
+
+
 def test_a_file_that_did_not_reach_a_worker_is_named(cluster, tmp_path):
     """A worker asked to prepare a scene without the bytes of its floor mesh (which no worker has seen):
     the error names the worker, the scene, the field and the file, in one line."""
