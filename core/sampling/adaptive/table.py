@@ -434,6 +434,7 @@ disk: there the built-in models' lobes at 80-89 degrees take as many leaves or f
 Ward's anisotropic table (acceptance 0.46-0.51 before their polar interval is halved, 0.4-1.4 % of their
 mass on the rim) gain nothing on the rim disk for 1.5 times the table's time."""
 RIM_SHARE = 0.25
+"""The least share of a short tree's envelope mass on the rim for which it is tried on the rim disk."""
 
 
 class _NodeSetup(NamedTuple):
