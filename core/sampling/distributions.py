@@ -35,10 +35,11 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
+from core.models.lobes import cosine_hemisphere as cosine_hemisphere  # the models' warp: one definition
+from core.models.lobes import cosine_hemisphere_pdf as cosine_hemisphere_pdf
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
-INV_PI = 1.0 / math.pi
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 ONE_MINUS_EPSILON = 1.0 - 2.0**-53
 """The largest float64 below 1."""
@@ -219,22 +220,6 @@ def find_intervals(cdf, u, out):
 
 
 # ---- warps
-
-
-@njit(inline="always", nogil=True, cache=True)
-def cosine_hemisphere(u1, u2):
-    """Cosine-weighted direction on the upper hemisphere (Malley: uniform disk point, lifted)."""
-    r = math.sqrt(u1)
-    phi = TWO_PI * u2
-    x = r * math.cos(phi)
-    y = r * math.sin(phi)
-    return x, y, math.sqrt(max(0.0, 1.0 - u1))
-
-
-@njit(inline="always", nogil=True, cache=True)
-def cosine_hemisphere_pdf(cos_theta):
-    """The density per solid angle of :func:`cosine_hemisphere`."""
-    return cos_theta * INV_PI if cos_theta > 0.0 else 0.0
 
 
 @njit(inline="always", nogil=True, cache=True)
