@@ -89,8 +89,13 @@ def _run(handler: object, args: argparse.Namespace) -> int:
     from app.commands._args import check_environment
     from core.errors import BrdfStudioError
 
+    notice = None
     try:
         check_environment()
+        if args.command != "open" and not getattr(args, "quiet", False):
+            from app.commands._compile_notice import CompileNotice
+
+            notice = CompileNotice(args.command).install()
         return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
         text = "; ".join(line for line in str(exc).splitlines() if line.strip())  # one line, always
@@ -125,6 +130,9 @@ def _run(handler: object, args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+    finally:
+        if notice is not None:
+            notice.close()
 
 
 if __name__ == "__main__":

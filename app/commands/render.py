@@ -43,6 +43,9 @@ from app.commands._bands import check_band_request, check_finite, render_in_band
 from core.errors import OutputError, ParameterError
 
 MAX_RIS = 1024
+PREPARE_BAR = "{desc}{n_fmt}/{total_fmt} [{elapsed}]"
+"""The preparation's progress: its steps and the time so far (a rate or an estimate would count a first run's
+compiling as the steps' work; :mod:`app.commands._compile_notice` says when compiling happens)."""
 """Candidates per sky sample; the memory budget of a pass bounds it further for large images."""
 MAX_LOCAL_WORKERS = 256
 """Worker processes of a local cluster (``--workers``)."""
@@ -296,13 +299,19 @@ def _render(args, scene, stem, strategies, options, reference, spp, time_s, rows
     images, curves, summary = [], {}, []
     interrupted = False
     for strategy in strategies:
-        bar = tqdm(total=1, desc=f"{strategy}: compiling", unit="step", disable=args.quiet, file=sys.stderr)
+        bar = tqdm(
+            total=1,
+            desc=f"{strategy}: prepare",
+            bar_format=PREPARE_BAR,
+            disable=args.quiet,
+            file=sys.stderr,
+        )
 
         def on_step(what: str, k: int, n: int, bar=bar, strategy=strategy) -> None:
             _signals.check()
             bar.total = max(1, n)
             bar.n = k
-            bar.set_description(f"{strategy}: prepare {what}")
+            bar.set_description(f"{strategy}: prepare {what}", refresh=False)
             bar.refresh()
 
         settings = dict(
