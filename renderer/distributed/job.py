@@ -1,8 +1,8 @@
 """A render whose passes run on a Dask cluster and whose image is, bit for bit, the one one process makes.
 
 :func:`prepare_distributed` reads the scene's files and builds the sampler tables on the client
-(:mod:`renderer.distributed.bundle`, :mod:`renderer.distributed.tables`), scatters their bytes to the cluster
-and returns a :class:`DistributedJob`, whose :meth:`~DistributedJob.passes` behaves as
+(:mod:`renderer.distributed.bundle`, :mod:`renderer.distributed.tables`; a client preparing the same scene
+and strategy again reuses both), scatters their bytes to the cluster and returns a :class:`DistributedJob`, whose :meth:`~DistributedJob.passes` behaves as
 :meth:`renderer.render.RenderJob.passes`: a :class:`~renderer.render.Frame` as the image grows, to a sample
 budget or a time budget, stopped by a ``cancel`` event.
 
@@ -31,10 +31,12 @@ time of the passes.
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import threading
 import time
 import uuid
+from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -356,6 +358,36 @@ def _prepare_workers(
     return seconds
 
 
+_CLIENT_TABLES: OrderedDict[str, tuple[dict[str, bytes], dict[str, dict[str, Any]]]] = OrderedDict()
+"""The table files and reports of the last renders this client prepared, by scene and strategy."""
+KEEP_CLIENT_TABLES = 2
+
+
+def _client_tables(
+    bundle_key: str,
+    scene: Scene,
+    sampler: str,
+    options: dict[str, Any],
+    overrides: dict[str, str],
+    on_step: StepCallback | None,
+) -> tuple[dict[str, bytes], dict[str, dict[str, Any]]]:
+    """:func:`~renderer.distributed.tables.build_tables`, or what it gave for the same scene (its JSON and
+    every file's bytes: the bundle's key), strategy and options in this process: a table is a function of
+    those, so the files are the same, and a client rendering one scene again (the app's references, a study)
+    does not read its measured materials and tables once more."""
+    key = json.dumps([bundle_key, sampler, options, sorted(overrides.items())], sort_keys=True, default=str)
+    if key in _CLIENT_TABLES:
+        _CLIENT_TABLES.move_to_end(key)
+        if on_step:
+            on_step("tables ready", 1, 1)
+        return _CLIENT_TABLES[key]
+    made = build_tables(scene, sampler, options, overrides, on_step)
+    _CLIENT_TABLES[key] = made
+    while len(_CLIENT_TABLES) > KEEP_CLIENT_TABLES:
+        _CLIENT_TABLES.popitem(last=False)
+    return made
+
+
 def prepare_distributed(
     cluster: RenderCluster,
     scene: Scene,
@@ -409,8 +441,13 @@ def prepare_distributed(
     check_environment(scene)
     t0 = time.perf_counter()
     bundle, files = bundle_scene(scene, texts)
-    table_files, materials = build_tables(
-        scene, settings["sampler"], _worker_options(settings["sampler_options"]), overrides, on_step
+    table_files, materials = _client_tables(
+        bundle.key,
+        scene,
+        settings["sampler"],
+        _worker_options(settings["sampler_options"]),
+        overrides,
+        on_step,
     )
     spec = RenderSpec.make(
         bundle,

@@ -183,6 +183,59 @@ def test_damaged_bytes_are_named(tmp_path):
     assert Path(copy.meshes[0].path).is_relative_to(tmp_path / "worker")
 
 
+def test_a_file_changed_between_two_bundles_gets_its_new_digest(tmp_path):
+    """The client keeps the digests of files it read (by path and stat): a file rewritten with bytes of the
+    same size is hashed again, an unchanged one is not read as changed."""
+    import hashlib
+
+    floor = quad(tmp_path / "floor.obj")
+    scene = make_scene(tmp_path, {
+        "materials": [{"name": "white", "model": "lambert"}],
+        "meshes": [{"path": "floor.obj", "material": "white"}],
+    })  # fmt: skip
+    first, _ = bundle_scene(scene)
+    again, _ = bundle_scene(scene)
+    assert again.key == first.key and again.digests == first.digests
+    text = floor.read_bytes()
+    changed = text.replace(b"0", b"1", 1)
+    assert changed != text and len(changed) == len(text)
+    stat = floor.stat()
+    floor.write_bytes(changed)
+    os.utime(floor, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000))  # even on a coarse clock
+    after, contents = bundle_scene(scene)
+    digest = hashlib.sha256(changed).hexdigest()
+    assert after.files[0].digest == digest and contents[digest] == changed
+    assert after.key != first.key
+
+
+def test_a_client_preparing_the_same_scene_again_reuses_its_tables(tmp_path, monkeypatch):
+    """The client's tables are made once per scene (its JSON and files), strategy and options."""
+    from renderer.distributed import job
+
+    quad(tmp_path / "floor.obj")
+    scene = make_scene(tmp_path, {
+        "materials": [{"name": "white", "model": "lambert"}],
+        "meshes": [{"path": "floor.obj", "material": "white"}],
+    })  # fmt: skip
+    made = []
+
+    def build(*args):
+        made.append(args[1:3])
+        return {"t": str(len(made)).encode()}, {}
+
+    monkeypatch.setattr(job, "build_tables", build)
+    monkeypatch.setattr(job, "_CLIENT_TABLES", type(job._CLIENT_TABLES)())
+    key = bundle_scene(scene)[0].key
+    first = job._client_tables(key, scene, "adaptive_warp", {"n_max": 4}, {}, None)
+    assert job._client_tables(key, scene, "adaptive_warp", {"n_max": 4}, {}, None) == first
+    assert len(made) == 1
+    job._client_tables(key, scene, "adaptive_warp", {"n_max": 8}, {}, None)  # other options
+    job._client_tables(key, scene, "adaptive", {"n_max": 4}, {}, None)  # another strategy
+    (tmp_path / "floor.obj").write_text((tmp_path / "floor.obj").read_text() + "# edited\n")
+    job._client_tables(bundle_scene(scene)[0].key, scene, "adaptive_warp", {"n_max": 4}, {}, None)
+    assert len(made) == 4
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
