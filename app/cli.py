@@ -92,7 +92,7 @@ def _run(handler: object, args: argparse.Namespace) -> int:
     notice = None
     try:
         check_environment()
-        if args.command != "open" and not getattr(args, "quiet", False):
+        if args.command not in ("open", "setup") and not getattr(args, "quiet", False):
             from app.commands._compile_notice import CompileNotice
 
             notice = CompileNotice(args.command).install()

@@ -185,3 +185,17 @@ def test_the_parser_does_not_import_what_only_one_command_needs():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[]"
+
+
+def test_setup_compiles_or_loads_every_group_and_says_so(capsys):
+    """``brdf-studio setup`` runs every warm-up group of the models, samplers and renderer, one line each."""
+    from core.warmup import WARM_UPS as CORE
+    from renderer.warmup import WARM_UPS as RENDERER
+
+    code, out, err = run_cli(capsys, "setup")
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].startswith("numba cache: ")
+    for group in (*CORE, *RENDERER):
+        assert any(line.endswith(f" s  {group.label}") for line in lines), group.label
+    assert lines[-1].endswith(" s  total")
