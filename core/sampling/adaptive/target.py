@@ -49,12 +49,6 @@ def make_view(theta: float, phi: float, follow: bool = True) -> np.ndarray:
     return np.array([st * math.cos(phi), st * math.sin(phi), math.cos(theta), 1.0, 0.0, 1.0])
 
 
-def make_views(thetas: np.ndarray, phis: np.ndarray, follow: bool = True) -> np.ndarray:
-    """Views ``(len(thetas) * len(phis), 6)`` of every pair, theta-major."""
-    rows = [make_view(t, p, follow) for t in np.asarray(thetas, dtype=np.float64) for p in np.asarray(phis)]
-    return np.array(rows, dtype=np.float64).reshape(-1, 6)
-
-
 @njit(inline="always", nogil=True, cache=True)
 def square_point(a, b, projection):
     """``(x, y, z, w)``: the tree-frame direction of square point ``(a, b)`` (``wi``, or ``h`` for

@@ -1475,7 +1475,3 @@ def view_integral(mid, p, projection, view, warp_tol, quad_tol, base_level, max_
 
 def acceptance(tree: TreeArrays) -> float:
     return 1.0 / tree.envelope if tree.envelope > 0.0 else 0.0
-
-
-def relative_std(chi2: float) -> float:
-    return math.sqrt(max(chi2, 0.0))
