@@ -1,0 +1,208 @@
+"""Seconds from ``pip install .`` to the first demo image, with empty caches: what a new user waits for.
+
+    .venv/bin/python bench/first_run.py [--venv DIR | --keep-venv DIR] [--runs 2] [--out results/bench]
+
+By default the benchmark makes a virtual environment in a temporary folder and installs the project into it
+(``pip install .``, timed; the wheel and the dependencies come from pip's own cache when it has them). With
+``--venv DIR`` it uses an environment that has the project installed already (this checkout's ``.venv``,
+say) and skips the install. Then, ``--runs`` times, in a new process each with its own empty numba cache
+(``$BRDF_STUDIO_NUMBA_CACHE``) and table cache (``$BRDF_STUDIO_CACHE``), it runs the installed command
+
+    brdf-studio render --demo --spp 4 --width 160 --height 120 -o OUT.exr
+
+and times it whole, then the same command again with the caches it filled (the second run of a user). The
+command's own report gives the split: its compile notice (``compiled N kernels in S s``), the render's
+preparation and tracing seconds from the sidecar JSON. ``--kernels`` then runs it once more with empty caches
+in that environment's Python, listening to numba's compile events, and lists the kernels it compiled with
+their seconds (``first_run_kernels.csv``).
+
+Target (issue 38): the first run within 30 s. Prints a table and writes ``first_run.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+COMMAND = ["render", "--demo", "--spp", "4", "--width", "160", "--height", "120"]
+TARGET_S = 30.0
+COMPILED = re.compile(r"compiled (\d+) kernels? in (\d+) s")
+
+
+def make_venv(folder: Path) -> float:
+    """A new environment in ``folder`` with the project installed; returns the install's seconds."""
+    subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
+    t0 = time.perf_counter()
+    subprocess.run(
+        [str(folder / "bin" / "python"), "-m", "pip", "install", "--quiet", str(ROOT)], check=True, cwd=folder
+    )
+    return time.perf_counter() - t0
+
+
+def run_once(venv: Path, caches: Path, out: Path) -> dict[str, Any]:
+    """The command in a new process with the caches under ``caches``: wall seconds and its own report."""
+    env = {
+        **os.environ,
+        "BRDF_STUDIO_NUMBA_CACHE": str(caches / "numba"),
+        "BRDF_STUDIO_CACHE": str(caches / "tables"),
+    }
+    for name in ("numba", "tables"):
+        (caches / name).mkdir(parents=True, exist_ok=True)
+    exe = venv / "bin" / "brdf-studio"
+    t0 = time.perf_counter()
+    done = subprocess.run(
+        [str(exe), *COMMAND, "-o", str(out)], env=env, cwd=caches, capture_output=True, text=True
+    )
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise SystemExit(f"the render failed (exit {done.returncode}):\n{done.stderr[-2000:]}")
+    m = COMPILED.search(done.stderr)
+    info = json.loads(out.with_suffix(".json").read_text())
+    return {
+        "wall_s": round(wall, 2),
+        "compiled_kernels": int(m.group(1)) if m else 0,
+        "compile_s": float(m.group(2)) if m else 0.0,
+        "prepare_s": info["prepare"]["seconds"],
+        "render_s": info["render_seconds"],
+    }
+
+
+def kernels_child(report: Path) -> int:
+    """In the measured environment's Python: the command in this process, every outermost numba compile
+    (a callee compiled inside its caller counts in the caller) written to ``report`` as JSON rows."""
+    import threading
+
+    from numba.core import event
+
+    rows: list[tuple[str, float]] = []
+    open_: dict[int, list[tuple[str, float]]] = {}
+
+    class Listener(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            d = ev.data.get("dispatcher")
+            name = d.py_func.__module__ + "." + d.py_func.__qualname__ if d is not None else "?"
+            open_.setdefault(threading.get_ident(), []).append((name, time.perf_counter()))
+
+        def on_end(self, ev: Any) -> None:
+            stack = open_[threading.get_ident()]
+            name, t0 = stack.pop()
+            if not stack:
+                rows.append((name, time.perf_counter() - t0))
+
+    event.register("numba:compile", Listener())
+    from app.cli import main as cli
+
+    code = cli([*COMMAND, "-o", str(report.with_suffix(".exr")), "--quiet"])
+    report.write_text(json.dumps(rows))
+    return code
+
+
+def kernels(venv: Path, caches: Path, out: Path, top: int = 12) -> list[tuple[str, float]]:
+    """The command with empty caches in ``venv``'s Python, through :func:`kernels_child`: the kernels it
+    compiled and their seconds, slowest first (the ``top`` first printed)."""
+    report = caches / "kernels.json"
+    env = {
+        **os.environ,
+        "BRDF_STUDIO_NUMBA_CACHE": str(caches / "numba"),
+        "BRDF_STUDIO_CACHE": str(caches / "tables"),
+    }
+    code = f"import sys; sys.path.insert(0, {str(ROOT / 'bench')!r}); import first_run; "
+    code += f"sys.exit(first_run.kernels_child(__import__('pathlib').Path({str(report)!r})))"
+    subprocess.run([str(venv / "bin" / "python"), "-c", code], env=env, cwd=caches, check=True)
+    rows = sorted(((n, s) for n, s in json.loads(report.read_text())), key=lambda r: -r[1])
+    total = sum(s for _, s in rows)
+    print(f"{len(rows)} kernels compiled in {total:.0f} s; the slowest:")
+    for name, seconds in rows[:top]:
+        print(f"{seconds:8.1f} s  {name}")
+    with (out / "first_run_kernels.csv").open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["kernel", "compile_s"])
+        w.writerows((n, round(s, 2)) for n, s in rows)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    where = ap.add_mutually_exclusive_group()
+    where.add_argument("--venv", type=Path, help="an environment with the project installed (no install)")
+    where.add_argument("--keep-venv", type=Path, help="make the new environment here and keep it")
+    ap.add_argument("--runs", type=int, default=2, help="first runs, each with new empty caches")
+    ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    ap.add_argument(
+        "--kernels", action="store_true", help="also list the kernels a first run compiles and their seconds"
+    )
+    a = ap.parse_args(argv)
+    if a.runs < 1:
+        ap.error("--runs must be at least 1")
+    if a.venv is not None and not (a.venv / "bin" / "brdf-studio").is_file():
+        ap.error(f"{a.venv} has no bin/brdf-studio: install the project into it, or leave --venv out")
+    if a.keep_venv is not None and a.keep_venv.exists():
+        ap.error(f"{a.keep_venv} exists already: name a new folder")
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory(prefix="bench-first-run-") as tmp_name:
+        tmp = Path(tmp_name)
+        install_s = None
+        venv = a.venv.resolve() if a.venv is not None else None
+        if venv is None:
+            venv = (a.keep_venv or tmp / "venv").resolve()
+            print(f"pip install . into a new environment ({venv}) ...", flush=True)
+            install_s = round(make_venv(venv), 1)
+            print(f"installed in {install_s:.1f} s", flush=True)
+        for k in range(a.runs):
+            caches = tmp / f"caches-{k}"
+            for case in ("first", "second"):
+                row = {
+                    "run": k + 1,
+                    "case": case,
+                    "install_s": install_s,
+                    **run_once(venv, caches, tmp / "out.exr"),
+                }
+                rows.append(row)
+                print(
+                    f"run {k + 1} {case:<6}: {row['wall_s']:7.1f} s whole, {row['compile_s']:5.0f} s compiling "
+                    f"({row['compiled_kernels']} kernels), preparation {row['prepare_s']:.1f} s, "
+                    f"tracing {row['render_s']:.2f} s",
+                    flush=True,
+                )
+        if a.kernels:
+            a.out.mkdir(parents=True, exist_ok=True)
+            caches = tmp / "caches-kernels"
+            for name in ("numba", "tables"):
+                (caches / name).mkdir(parents=True, exist_ok=True)
+            kernels(venv, caches, a.out)
+        if a.venv is None and a.keep_venv is None:
+            shutil.rmtree(venv, ignore_errors=True)
+    firsts = [r["wall_s"] for r in rows if r["case"] == "first"]
+    seconds = [r["wall_s"] for r in rows if r["case"] == "second"]
+    print()
+    print(f"brdf-studio {' '.join(COMMAND)}, empty caches, {a.runs} run(s)")
+    print(f"{'case':<22}{'best s':>9}{'worst s':>9}")
+    print(f"{'first run':<22}{min(firsts):>9.1f}{max(firsts):>9.1f}")
+    print(f"{'second run':<22}{min(seconds):>9.1f}{max(seconds):>9.1f}")
+    if install_s is not None:
+        print(f"{'pip install .':<22}{install_s:>9.1f}")
+    met = "met" if max(firsts) <= TARGET_S else "not met"
+    print(f"target: first run within {TARGET_S:.0f} s: {met}")
+    a.out.mkdir(parents=True, exist_ok=True)
+    path = a.out / "first_run.csv"
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
