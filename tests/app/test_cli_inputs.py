@@ -181,6 +181,10 @@ def corpus_open(tmp_path: Path) -> list[list[str]]:
     return [["open", "--quit-after", "x"], ["open", "a.json", "b.json"], ["open", "--bogus"]]
 
 
+def corpus_setup(tmp_path: Path) -> list[list[str]]:
+    return [["setup", "--bogus"], ["setup", "now"], ["setup", str(tmp_path)]]
+
+
 def corpus_check_models(tmp_path: Path) -> list[list[str]]:
     folder = tmp_path / "models"
     folder.mkdir(exist_ok=True)
@@ -199,7 +203,20 @@ def corpus_check_models(tmp_path: Path) -> list[list[str]]:
 
 @pytest.mark.parametrize(
     "command",
-    ["eval", "albedo", "sample", "check", "bench", "demo", "models", "open", "fit", "export", "check-models"],
+    [
+        "eval",
+        "albedo",
+        "sample",
+        "check",
+        "bench",
+        "demo",
+        "models",
+        "open",
+        "fit",
+        "export",
+        "check-models",
+        "setup",
+    ],
 )
 def test_bad_arguments_of_each_command(capsys, tmp_path, command):
     sweep(capsys, command, CORPORA[command](tmp_path))
@@ -289,6 +306,7 @@ CORPORA = {
     "fit": corpus_fit,
     "export": corpus_export,
     "check-models": corpus_check_models,
+    "setup": corpus_setup,
 }
 """Each command's corpus of bad arguments (``render``'s, which needs a scene, is :func:`corpus_render`)."""
 
