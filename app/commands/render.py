@@ -43,10 +43,10 @@ from app.commands._bands import check_band_request, check_finite, render_in_band
 from core.errors import OutputError, ParameterError
 
 MAX_RIS = 1024
+"""Candidates per sky sample; the memory budget of a pass bounds it further for large images."""
 PREPARE_BAR = "{desc}{n_fmt}/{total_fmt} [{elapsed}]"
 """The preparation's progress: its steps and the time so far (a rate or an estimate would count a first run's
 compiling as the steps' work; :mod:`app.commands._compile_notice` says when compiling happens)."""
-"""Candidates per sky sample; the memory budget of a pass bounds it further for large images."""
 MAX_LOCAL_WORKERS = 256
 """Worker processes of a local cluster (``--workers``)."""
 
@@ -301,7 +301,7 @@ def _render(args, scene, stem, strategies, options, reference, spp, time_s, rows
     for strategy in strategies:
         bar = tqdm(
             total=1,
-            desc=f"{strategy}: prepare",
+            desc=f"{strategy}: prepare: ",  # set_description adds the ": " itself
             bar_format=PREPARE_BAR,
             disable=args.quiet,
             file=sys.stderr,
