@@ -95,7 +95,8 @@ def _run(handler: object, args: argparse.Namespace) -> int:
         if args.command not in ("open", "setup") and not getattr(args, "quiet", False):
             from app.commands._compile_notice import CompileNotice
 
-            notice = CompileNotice(args.command).install()
+            notice = CompileNotice(args.command)
+            notice.install()
         return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
         text = "; ".join(line for line in str(exc).splitlines() if line.strip())  # one line, always

@@ -75,6 +75,7 @@ class NumbaClock:
         self.compiles = 0
         self._open: dict[tuple[str, int], tuple[int, float]] = {}  # (kind, thread) -> (depth, start)
         self._lock = threading.Lock()
+        self._listener: Any = None
 
     def install(self) -> NumbaClock:
         from numba.core import event
@@ -88,10 +89,19 @@ class NumbaClock:
             def on_end(self, ev: Any) -> None:
                 clock._end(ev.kind)
 
-        listener = Listener()
+        self._listener = Listener()
         for kind in ("numba:compiler_lock", "numba:compile"):
-            event.register(kind, listener)
+            event.register(kind, self._listener)
         return self
+
+    def uninstall(self) -> None:
+        """Stop listening (the totals stay)."""
+        listener, self._listener = self._listener, None
+        if listener is not None:
+            from numba.core import event
+
+            for kind in ("numba:compiler_lock", "numba:compile"):
+                event.unregister(kind, listener)
 
     def _start(self, kind: str) -> None:
         key = (kind, threading.get_ident())

@@ -22,7 +22,6 @@ Target (issue 38): the first run within 30 s. Prints a table and writes ``first_
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import re
@@ -33,6 +32,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from core.io import write_csv_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMAND = ["render", "--demo", "--spp", "4", "--width", "160", "--height", "120"]
@@ -125,10 +126,7 @@ def kernels(venv: Path, caches: Path, out: Path, top: int = 12) -> list[tuple[st
     print(f"{len(rows)} kernels compiled in {total:.0f} s; the slowest:")
     for name, seconds in rows[:top]:
         print(f"{seconds:8.1f} s  {name}")
-    with (out / "first_run_kernels.csv").open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["kernel", "compile_s"])
-        w.writerows((n, round(s, 2)) for n, s in rows)
+    write_csv_rows(out / "first_run_kernels.csv", [{"kernel": n, "compile_s": round(s, 2)} for n, s in rows])
     return rows
 
 
@@ -196,10 +194,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"target: first run within {TARGET_S:.0f} s: {met}")
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "first_run.csv"
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv_rows(path, rows)
     print(f"wrote {path}")
     return 0
 

@@ -25,7 +25,8 @@ def _fresh_kernel():
 
 def test_a_command_that_compiles_says_so_once_and_how_long_it_took():
     stream = io.StringIO()
-    notice = CompileNotice("eval", stream).install()
+    notice = CompileNotice("eval", stream)
+    notice.install()
     try:
         kernel = _fresh_kernel()
         assert kernel(1.0) == 4.0
@@ -43,7 +44,8 @@ def test_a_command_whose_kernels_are_compiled_already_prints_nothing():
     kernel = _fresh_kernel()
     kernel(1.0)
     stream = io.StringIO()
-    notice = CompileNotice("render", stream).install()
+    notice = CompileNotice("render", stream)
+    notice.install()
     kernel(5.0)
     notice.close()
     assert stream.getvalue() == "" and notice.compiles == 0
