@@ -85,7 +85,7 @@ def _digest(data: bytes) -> str:
 
 _FILE_DIGESTS: dict[tuple[str, int, int, int, int], str] = {}
 """Digests of files this process read, by path and stat (device, inode, size, modification time in ns): a
-client that renders the same scene again hashes only the files that changed (~0.1 s for the demo's 30 MB)."""
+client that renders the same scene again hashes only the files that changed."""
 _FILE_DIGESTS_MAX = 256
 
 

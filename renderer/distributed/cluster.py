@@ -203,7 +203,7 @@ def connect(
 
     The client of a local cluster fetches the blocks' radiance from the workers directly: through the
     scheduler, which shares the client's process and event loop, every byte would be read and written once
-    more there (0.1–0.25 CPU-s for 77 MB, measured). The client of a scheduler elsewhere keeps Dask's choice (the
+    more there (docs/results/distributed.md). The client of a scheduler elsewhere keeps Dask's choice (the
     ``distributed.client.direct-to-workers`` setting; by default through the scheduler, which reaches workers
     a client may not)."""
     from dask.distributed import Client
