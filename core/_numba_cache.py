@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import shutil
 import sys
 from functools import cache
 from pathlib import Path
@@ -144,11 +145,12 @@ def _file_hash(path: Path) -> bytes:
 
 @cache
 def closure_hash(path: str) -> bytes:
-    """Hash of the import closure of the source file ``path`` and of the numba and Python versions (read
+    """Hash of the import closure of the source file ``path`` and of the numba, NumPy and Python versions (read
     once per process: the sources of a running process do not change; each file is read and hashed once).
     A module's data file of the same name with the suffix ``.npz`` (``_he_series.npz``) counts as part of the
     module: its values are frozen into the compiled kernels that read them at import."""
     import numba
+    import numpy
 
     h = hashlib.sha256()
     for f in import_closure(Path(path).resolve()):
@@ -158,6 +160,7 @@ def closure_hash(path: str) -> bytes:
         if data.is_file():  # a module's data file (its tables, frozen into its kernels) is part of it
             h.update(_file_hash(data))
     h.update(numba.__version__.encode())
+    h.update(numpy.__version__.encode())
     h.update(sys.version.encode())
     return h.digest()
 
@@ -170,13 +173,25 @@ def _inside(py_file: str) -> bool:
     return rel.parts[0] in PACKAGES
 
 
+def relative_folder(py_file: str) -> Path:
+    """The cache folder of the functions of ``py_file`` inside numba's cache folder: its folder's path
+    under the packages' root (``core/sampling/adaptive``), the same for every copy of the sources."""
+    return Path(py_file).resolve().parent.relative_to(ROOT)
+
+
 def _install_locator() -> None:
     """Put a locator in front of numba's own: the user-provided folder, stamped by the import closure."""
     from numba.core import caching
 
     class ClosureLocator(caching.UserProvidedCacheLocator):
         """numba's locator for ``numba.config.CACHE_DIR``, whose source stamp is the import closure's hash
-        instead of the function's own file's."""
+        instead of the function's own file's, and whose folder is named by the source's place in the
+        packages (``core/models``) rather than by a hash of its absolute path: a compile stored by one copy
+        of the sources serves every copy with the same bytes (another clone, an installed wheel)."""
+
+        def __init__(self, py_func, py_file):  # type: ignore[no-untyped-def]
+            super().__init__(py_func, py_file)
+            self._cache_path = str(Path(caching.config.CACHE_DIR) / relative_folder(py_file))
 
         def get_source_stamp(self):  # type: ignore[no-untyped-def]
             return closure_hash(str(self._py_file))
@@ -209,5 +224,40 @@ def configure() -> Path | None:
         return None
     numba.config.CACHE_DIR = str(folder)
     _install_locator()
+    seed(folder)
     _configured = folder
     return folder
+
+
+PREBUILT = Path(__file__).resolve().parent / "_kernels"
+"""Kernels compiled when the wheel was built (``setup.py``; absent from a source checkout): a numba cache
+folder laid out as :func:`relative_folder` lays out the user's, and its ``BUILD_ID``."""
+
+
+def seed(folder: Path, prebuilt: Path = PREBUILT) -> int:
+    """Copy the kernels compiled with the wheel (``prebuilt``) into the cache ``folder``, once per build
+    (a ``.seeded-BUILD_ID`` file marks it done); returns the files copied. They are this installation's
+    own sources' compiles, so they replace what the folder holds for the same functions. Each file is
+    written under a temporary name and renamed, so a process loading meanwhile reads a whole file; numba
+    checks every entry's stamp and machine when it loads it, and compiles what does not match (a wheel
+    built on another CPU). A folder that cannot be written is left as it is."""
+    try:
+        build = (prebuilt / "BUILD_ID").read_text(encoding="utf-8").strip()
+    except OSError:
+        return 0
+    marker = folder / f".seeded-{build}"
+    if not build or marker.exists() or prebuilt.resolve() == folder.resolve():
+        return 0
+    copied = 0
+    try:
+        for src in prebuilt.rglob("*.nb[ic]"):
+            dst = folder / src.relative_to(prebuilt)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            tmp = dst.with_name(f"{dst.name}.seed-{os.getpid()}")
+            shutil.copyfile(src, tmp)
+            os.replace(tmp, dst)
+            copied += 1
+        marker.touch()
+    except OSError:
+        return copied
+    return copied

@@ -180,6 +180,39 @@ def run(warm_ups: Sequence[WarmUp], out: TextIO = sys.stdout) -> float:
     return total
 
 
+def run_in_processes(modules: Sequence[str], out: TextIO = sys.stdout) -> int:
+    """Run ``python -m MODULE`` for each of ``modules`` (warm-up modules such as this one) at the same time,
+    each in its own process, and relay their lines to ``out`` prefixed by the module's package as they come;
+    returns 0, or the first non-zero exit code. numba compiles one function at a time in a process (it holds
+    a lock), so independent groups compile in parallel only in separate processes; a kernel both groups call
+    is compiled by whichever gets there first and loaded from the cache by the other when it is stored in
+    time (numba writes each cache file whole, under a temporary name)."""
+    import subprocess
+    import threading
+
+    lock = threading.Lock()
+
+    def relay(name: str, stream: TextIO) -> None:
+        for line in stream:
+            with lock:
+                print(f"[{name}] {line.rstrip()}", file=out, flush=True)
+
+    procs, threads = [], []
+    for module in modules:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", module], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        )
+        assert proc.stdout is not None
+        t = threading.Thread(target=relay, args=(module.partition(".")[0], proc.stdout), daemon=True)
+        t.start()
+        procs.append(proc)
+        threads.append(t)
+    codes = [proc.wait() for proc in procs]
+    for t in threads:
+        t.join()
+    return next((c for c in codes if c != 0), 0)
+
+
 def main() -> int:
     """``python -m core.warmup``: compile (or load) every group of :data:`WARM_UPS`."""
     run(WARM_UPS)

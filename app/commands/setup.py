@@ -4,8 +4,8 @@ numba compiles a kernel the first time a process calls it and keeps it in its di
 (``$BRDF_STUDIO_NUMBA_CACHE``, default ``~/.cache/brdf-studio/numba``): after ``pip install`` the first
 render, the first sampler check or the app's first draw would otherwise compile for minutes. This command
 runs the warm-ups of :mod:`core.warmup` (the models, the samplers, the adaptive sampler's construction) and
-:mod:`renderer.warmup` (the path tracer's kernels, through a tiny render of the demo scene), one line per
-group with its seconds. What is in the cache already only loads (seconds); ``make setup`` runs the same.
+:mod:`renderer.warmup` (the path tracer's kernels, through a tiny render of the demo scene) in two processes
+at once, one line per group with its seconds, prefixed by the package. What is in the cache already only loads (seconds); ``make setup`` runs the same.
 """
 
 from __future__ import annotations
@@ -27,9 +27,11 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from core.warmup import WARM_UPS as CORE
-    from core.warmup import run as warm
-    from renderer.warmup import WARM_UPS as RENDERER
+    from core.warmup import run_in_processes
 
-    warm([*CORE, *RENDERER], out=sys.stdout)
-    return 0
+    return run_in_processes(WARM_UP_MODULES, out=sys.stdout)
+
+
+WARM_UP_MODULES = ("core.warmup", "renderer.warmup")
+"""The warm-ups ``setup`` runs, each in its own process at the same time (numba compiles one kernel at a
+time per process)."""

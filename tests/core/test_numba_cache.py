@@ -4,6 +4,7 @@ that can change them."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numba
@@ -114,3 +115,82 @@ def test_a_module_s_npz_data_file_is_part_of_its_stamp(monkeypatch):
     assert hashed[hashed.index(he_series) + 1] == he_series.with_suffix(".npz")
     assert he_series.with_suffix(".npz").is_file()
     assert [p for p in hashed if p.suffix == ".npz"] == [he_series.with_suffix(".npz")]
+
+
+_PROBE = "import numba\n\n\n@numba.njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
+_CALL = (
+    "import core._probe as p; p.twice(1.5); s = p.twice.stats; "
+    "print(sum(s.cache_hits.values()), sum(s.cache_misses.values()))"
+)
+
+
+def _copy_core(dst: Path) -> None:
+    import shutil
+
+    shutil.copytree(nc.ROOT / "core", dst / "core", ignore=shutil.ignore_patterns("__pycache__", "_kernels"))
+    (dst / "core" / "_probe.py").write_text(_PROBE)
+
+
+def _hits_and_misses(tree: Path, cache: Path) -> tuple[int, int]:
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(tree), "BRDF_STUDIO_NUMBA_CACHE": str(cache)}
+    done = subprocess.run(
+        [sys.executable, "-c", _CALL], cwd=tree, env=env, capture_output=True, text=True, check=True
+    )
+    hits, misses = done.stdout.split()
+    return int(hits), int(misses)
+
+
+def test_a_compile_stored_by_one_copy_of_the_sources_serves_another_and_a_wheel_seeds_it(tmp_path):
+    """The cache's folders are named by the sources' place in the packages, not their absolute path: a copy
+    of the same bytes elsewhere (another clone, an installed wheel) loads what the first copy compiled. A
+    wheel's kernels (``core/_kernels`` with its ``BUILD_ID``, as setup.py builds them) seed an empty user
+    cache once, and the installed copy then loads instead of compiling."""
+    import shutil
+
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    _copy_core(a)
+    cache = tmp_path / "cache"
+    assert _hits_and_misses(a, cache) == (0, 1)
+    assert (cache / "core" / "_probe.py").parent.is_dir()  # core/, not core_<hash of a's path>
+    shutil.copytree(a, b)
+    assert _hits_and_misses(b, cache) == (1, 0)
+    # a wheel: compiled into the package's own core/_kernels, then installed elsewhere with an empty cache
+    assert _hits_and_misses(a, a / "core" / "_kernels") == (0, 1)
+    (a / "core" / "_kernels" / "BUILD_ID").write_text("b1\n")
+    shutil.copytree(a, c, ignore=shutil.ignore_patterns("__pycache__"))
+    user = tmp_path / "user"
+    assert _hits_and_misses(c, user) == (1, 0)
+    assert (user / ".seeded-b1").is_file()
+    # an edit of the installed copy is a new source: compiled again, not served stale
+    (c / "core" / "_probe.py").write_text(_PROBE.replace("2.0 * x", "3.0 * x"))
+    assert _hits_and_misses(c, user) == (0, 1)
+
+
+def test_seeding_copies_once_per_build_and_leaves_an_unwritable_folder_alone(tmp_path):
+    prebuilt, user = tmp_path / "prebuilt", tmp_path / "user"
+    (prebuilt / "core" / "models").mkdir(parents=True)
+    (prebuilt / "core" / "models" / "f.py311.nbi").write_bytes(b"index")
+    (prebuilt / "core" / "models" / "f.py311.1.nbc").write_bytes(b"data")
+    assert nc.seed(user, prebuilt) == 0  # no BUILD_ID: not a wheel's kernels
+    (prebuilt / "BUILD_ID").write_text("x1\n")
+    user.mkdir()
+    (user / "core" / "models").mkdir(parents=True)
+    (user / "core" / "models" / "f.py311.nbi").write_bytes(b"older")
+    assert nc.seed(user, prebuilt) == 2
+    assert (user / "core" / "models" / "f.py311.nbi").read_bytes() == b"index"
+    assert sorted(p.name for p in (user / "core" / "models").iterdir()) == ["f.py311.1.nbc", "f.py311.nbi"]
+    assert nc.seed(user, prebuilt) == 0  # once per build
+    (prebuilt / "BUILD_ID").write_text("x2\n")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        if not os.access(locked, os.W_OK):  # root writes anywhere
+            assert nc.seed(locked, prebuilt) == 0
+            assert list(locked.iterdir()) == []
+    finally:
+        locked.chmod(0o700)
