@@ -42,7 +42,8 @@ class BuildWithKernels(build_py):
         with tempfile.TemporaryDirectory(prefix="brdf-studio-build-") as tables:
             env = {
                 **os.environ,
-                "PYTHONPATH": str(lib),
+                # first the build folder; then what pip's isolated build environment put there (its packages)
+                "PYTHONPATH": os.pathsep.join(p for p in (str(lib), os.environ.get("PYTHONPATH")) if p),
                 "BRDF_STUDIO_NUMBA_CACHE": str(target),
                 "BRDF_STUDIO_CACHE": tables,
             }
