@@ -22,9 +22,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q -e '.[test]'
 	@touch $(STAMP)
 
-# Compile every cached kernel now rather than in the first render, test or edit of the app.
+# Compile every cached kernel now rather than in the first render, test or edit of the app (the warm-ups of
+# core and renderer, in two processes at once).
 $(WARMED): $(STAMP) $(KERNEL_SOURCES)
-	$(BIN)/python -m core.warmup && $(BIN)/python -m renderer.warmup
+	$(BIN)/brdf-studio setup
 	@touch $(WARMED)
 
 # With a display: the desktop app on the demo scene. Headless: the demo summary and a render of the demo scene.

@@ -33,11 +33,11 @@ class BuildWithKernels(build_py):
 
     def run(self) -> None:
         super().run()
-        if getattr(self, "editable_mode", False) or os.environ.get("BRDF_STUDIO_PREBUILD") == "0":
-            return
         lib = Path(self.build_lib).resolve()
         target = lib / KERNELS
-        shutil.rmtree(target, ignore_errors=True)  # never a previous build's
+        shutil.rmtree(target, ignore_errors=True)  # never a previous build's (the build folder is reused)
+        if getattr(self, "editable_mode", False) or os.environ.get("BRDF_STUDIO_PREBUILD") == "0":
+            return
         target.mkdir(parents=True)
         with tempfile.TemporaryDirectory(prefix="brdf-studio-build-") as tables:
             env = {

@@ -1,11 +1,15 @@
 """Seconds from ``pip install .`` to the first demo image, with empty caches: what a new user waits for.
 
-    .venv/bin/python bench/first_run.py [--venv DIR | --keep-venv DIR] [--runs 2] [--out results/bench]
+    .venv/bin/python bench/first_run.py [--venv DIR | --keep-venv DIR] [--wheels with-kernels,without-kernels]
+                                        [--runs 2] [--kernels] [--out results/bench]
 
 By default the benchmark makes a virtual environment in a temporary folder and installs the project into it
-(``pip install .``, timed; the wheel and the dependencies come from pip's own cache when it has them). With
-``--venv DIR`` it uses an environment that has the project installed already (this checkout's ``.venv``,
-say) and skips the install. Then, ``--runs`` times, in a new process each with its own empty numba cache
+(``pip install .``, timed, the wheel's build included; the dependencies come from pip's own cache when it has
+them). ``--wheels`` names the wheels to install, each into its own new environment, in turn: ``with-kernels``
+is what ``pip install .`` builds (``setup.py`` compiles the kernels into the wheel), ``without-kernels`` the
+same build with ``BRDF_STUDIO_PREBUILD=0`` (every kernel compiles at first use). With ``--venv DIR`` it uses
+an environment that has the project installed already (this checkout's ``.venv``, say) and skips the
+install. Then, ``--runs`` times, in a new process each with its own empty numba cache
 (``$BRDF_STUDIO_NUMBA_CACHE``) and table cache (``$BRDF_STUDIO_CACHE``), it runs the installed command
 
     brdf-studio render --demo --spp 4 --width 160 --height 120 -o OUT.exr
@@ -41,14 +45,30 @@ TARGET_S = 30.0
 COMPILED = re.compile(r"compiled (\d+) kernels? in (\d+) s")
 
 
-def make_venv(folder: Path) -> float:
-    """A new environment in ``folder`` with the project installed; returns the install's seconds."""
+WHEELS = {"with-kernels": "1", "without-kernels": "0"}
+"""The wheels ``--wheels`` can install: ``setup.py``'s default build, which compiles the kernels into the
+wheel, and the same build without them (``BRDF_STUDIO_PREBUILD=0``): every kernel compiles at first use."""
+
+
+def make_venv(folder: Path, wheel: str) -> float:
+    """A new environment in ``folder`` with the project installed from a ``wheel`` (a key of
+    :data:`WHEELS`) built from this checkout; returns the install's seconds (build included)."""
     subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
+    env = {**os.environ, "BRDF_STUDIO_PREBUILD": WHEELS[wheel]}
     t0 = time.perf_counter()
     subprocess.run(
-        [str(folder / "bin" / "python"), "-m", "pip", "install", "--quiet", str(ROOT)], check=True, cwd=folder
+        [str(folder / "bin" / "python"), "-m", "pip", "install", "--quiet", str(ROOT)],
+        check=True,
+        cwd=folder,
+        env=env,
     )
     return time.perf_counter() - t0
+
+
+def kernels_mb(venv: Path) -> float:
+    """Megabytes of compiled kernels the installed package carries (``core/_kernels``)."""
+    found = list(venv.glob("lib/python*/site-packages/core/_kernels"))
+    return round(sum(f.stat().st_size for d in found for f in d.rglob("*") if f.is_file()) / 1e6, 1)
 
 
 def run_once(venv: Path, caches: Path, out: Path) -> dict[str, Any]:
@@ -130,6 +150,12 @@ def kernels(venv: Path, caches: Path, out: Path, top: int = 12) -> list[tuple[st
     return rows
 
 
+def _span(values: list[float]) -> str:
+    """``best–worst`` seconds, or one number when they agree."""
+    lo, hi = min(values), max(values)
+    return f"{lo:.1f}" if lo == hi else f"{lo:.1f}–{hi:.1f}"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     where = ap.add_mutually_exclusive_group()
@@ -137,6 +163,13 @@ def main(argv: list[str] | None = None) -> int:
     where.add_argument("--keep-venv", type=Path, help="make the new environment here and keep it")
     ap.add_argument("--runs", type=int, default=2, help="first runs, each with new empty caches")
     ap.add_argument("--out", type=Path, default=ROOT / "results" / "bench")
+    ap.add_argument(
+        "--wheels",
+        default="with-kernels",
+        help="with a new environment: the wheels to install, in turn, comma-separated: "
+        + ", ".join(WHEELS)
+        + " (default: with-kernels)",
+    )
     ap.add_argument(
         "--kernels", action="store_true", help="also list the kernels a first run compiles and their seconds"
     )
@@ -147,51 +180,68 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"{a.venv} has no bin/brdf-studio: install the project into it, or leave --venv out")
     if a.keep_venv is not None and a.keep_venv.exists():
         ap.error(f"{a.keep_venv} exists already: name a new folder")
+    wheels = [w.strip() for w in a.wheels.split(",") if w.strip()]
+    unknown = [w for w in wheels if w not in WHEELS]
+    if unknown or not wheels:
+        ap.error(f"--wheels takes {', '.join(WHEELS)}, comma-separated (got {a.wheels!r})")
+    if a.venv is not None:
+        wheels = ["installed"]
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="bench-first-run-") as tmp_name:
         tmp = Path(tmp_name)
-        install_s = None
-        venv = a.venv.resolve() if a.venv is not None else None
-        if venv is None:
-            venv = (a.keep_venv or tmp / "venv").resolve()
-            print(f"pip install . into a new environment ({venv}) ...", flush=True)
-            install_s = round(make_venv(venv), 1)
-            print(f"installed in {install_s:.1f} s", flush=True)
-        for k in range(a.runs):
-            caches = tmp / f"caches-{k}"
-            for case in ("first", "second"):
-                row = {
-                    "run": k + 1,
-                    "case": case,
-                    "install_s": install_s,
-                    **run_once(venv, caches, tmp / "out.exr"),
-                }
-                rows.append(row)
-                print(
-                    f"run {k + 1} {case:<6}: {row['wall_s']:7.1f} s whole, {row['compile_s']:5.0f} s compiling "
-                    f"({row['compiled_kernels']} kernels), preparation {row['prepare_s']:.1f} s, "
-                    f"tracing {row['render_s']:.2f} s",
-                    flush=True,
-                )
-        if a.kernels:
-            a.out.mkdir(parents=True, exist_ok=True)
-            caches = tmp / "caches-kernels"
-            for name in ("numba", "tables"):
-                (caches / name).mkdir(parents=True, exist_ok=True)
-            kernels(venv, caches, a.out)
-        if a.venv is None and a.keep_venv is None:
-            shutil.rmtree(venv, ignore_errors=True)
-    firsts = [r["wall_s"] for r in rows if r["case"] == "first"]
-    seconds = [r["wall_s"] for r in rows if r["case"] == "second"]
+        for wheel in wheels:
+            install_s = None
+            if a.venv is not None:
+                venv = a.venv.resolve()
+            else:
+                venv = ((a.keep_venv / wheel) if a.keep_venv is not None else tmp / f"venv-{wheel}").resolve()
+                print(f"pip install . ({wheel}) into a new environment ({venv}) ...", flush=True)
+                install_s = round(make_venv(venv, wheel), 1)
+                print(f"installed in {install_s:.1f} s", flush=True)
+            size = kernels_mb(venv)
+            for k in range(a.runs):
+                caches = tmp / f"caches-{wheel}-{k}"
+                for case in ("first", "second"):
+                    row = {
+                        "wheel": wheel,
+                        "run": k + 1,
+                        "case": case,
+                        "install_s": install_s,
+                        "kernels_mb": size,
+                        **run_once(venv, caches, tmp / "out.exr"),
+                    }
+                    rows.append(row)
+                    print(
+                        f"{wheel} run {k + 1} {case:<6}: {row['wall_s']:7.1f} s whole, "
+                        f"{row['compile_s']:5.0f} s compiling ({row['compiled_kernels']} kernels), "
+                        f"preparation {row['prepare_s']:.1f} s, tracing {row['render_s']:.2f} s",
+                        flush=True,
+                    )
+            if a.kernels:
+                a.out.mkdir(parents=True, exist_ok=True)
+                caches = tmp / f"caches-kernels-{wheel}"
+                for name in ("numba", "tables"):
+                    (caches / name).mkdir(parents=True, exist_ok=True)
+                kernels(venv, caches, a.out)
+            if a.venv is None and a.keep_venv is None:
+                shutil.rmtree(venv, ignore_errors=True)
     print()
-    print(f"brdf-studio {' '.join(COMMAND)}, empty caches, {a.runs} run(s)")
-    print(f"{'case':<22}{'best s':>9}{'worst s':>9}")
-    print(f"{'first run':<22}{min(firsts):>9.1f}{max(firsts):>9.1f}")
-    print(f"{'second run':<22}{min(seconds):>9.1f}{max(seconds):>9.1f}")
-    if install_s is not None:
-        print(f"{'pip install .':<22}{install_s:>9.1f}")
-    met = "met" if max(firsts) <= TARGET_S else "not met"
-    print(f"target: first run within {TARGET_S:.0f} s: {met}")
+    print(f"brdf-studio {' '.join(COMMAND)}, empty caches, {a.runs} run(s) each")
+    print(f"{'wheel':<17}{'pip install s':>14}{'kernels MB':>11}{'first run s':>13}{'second run s':>14}")
+    met = True
+    for wheel in wheels:
+        mine = [r for r in rows if r["wheel"] == wheel]
+        firsts = [r["wall_s"] for r in mine if r["case"] == "first"]
+        seconds = [r["wall_s"] for r in mine if r["case"] == "second"]
+        install = mine[0]["install_s"]
+        print(
+            f"{wheel:<17}{'-' if install is None else f'{install:.1f}':>14}{mine[0]['kernels_mb']:>11.1f}"
+            f"{_span(firsts):>13}{_span(seconds):>14}"
+        )
+        if wheel in ("with-kernels", "installed"):
+            met = met and max(firsts) <= TARGET_S
+    if any(w in ("with-kernels", "installed") for w in wheels):
+        print(f"target: first run within {TARGET_S:.0f} s: {'met' if met else 'not met'}")
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "first_run.csv"
     write_csv_rows(path, rows)
