@@ -50,7 +50,11 @@ class BuildWithKernels(build_py):
             code = "import sys; from core.warmup import run_in_processes as r; "
             code += "sys.exit(r(['core.warmup', 'renderer.warmup']))"
             print("compiling the kernels into the wheel (minutes; the first run then loads them)", flush=True)
-            subprocess.run([sys.executable, "-c", code], cwd=lib, env=env, check=True)
+            if subprocess.run([sys.executable, "-c", code], cwd=lib, env=env).returncode != 0:
+                raise SystemExit(
+                    "compiling the kernels into the wheel failed (the output above says where); "
+                    "BRDF_STUDIO_PREBUILD=0 builds the wheel without them, and they compile at first use"
+                )
         (target / "BUILD_ID").write_text(uuid.uuid4().hex + "\n", encoding="utf-8")
 
 

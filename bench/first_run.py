@@ -129,7 +129,7 @@ def kernels_child(report: Path) -> int:
     return code
 
 
-def kernels(venv: Path, caches: Path, out: Path, top: int = 12) -> list[tuple[str, float]]:
+def kernels(venv: Path, caches: Path, top: int = 12) -> list[tuple[str, float]]:
     """The command with empty caches in ``venv``'s Python, through :func:`kernels_child`: the kernels it
     compiled and their seconds, slowest first (the ``top`` first printed)."""
     report = caches / "kernels.json"
@@ -146,7 +146,6 @@ def kernels(venv: Path, caches: Path, out: Path, top: int = 12) -> list[tuple[st
     print(f"{len(rows)} kernels compiled in {total:.0f} s; the slowest:")
     for name, seconds in rows[:top]:
         print(f"{seconds:8.1f} s  {name}")
-    write_csv_rows(out / "first_run_kernels.csv", [{"kernel": n, "compile_s": round(s, 2)} for n, s in rows])
     return rows
 
 
@@ -187,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.venv is not None:
         wheels = ["installed"]
     rows: list[dict[str, Any]] = []
+    compiled: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="bench-first-run-") as tmp_name:
         tmp = Path(tmp_name)
         for wheel in wheels:
@@ -218,11 +218,13 @@ def main(argv: list[str] | None = None) -> int:
                         flush=True,
                     )
             if a.kernels:
-                a.out.mkdir(parents=True, exist_ok=True)
                 caches = tmp / f"caches-kernels-{wheel}"
                 for name in ("numba", "tables"):
                     (caches / name).mkdir(parents=True, exist_ok=True)
-                kernels(venv, caches, a.out)
+                compiled += [
+                    {"wheel": wheel, "kernel": n, "compile_s": round(sec, 2)}
+                    for n, sec in kernels(venv, caches)
+                ]
             if a.venv is None and a.keep_venv is None:
                 shutil.rmtree(venv, ignore_errors=True)
     print()
@@ -245,6 +247,8 @@ def main(argv: list[str] | None = None) -> int:
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "first_run.csv"
     write_csv_rows(path, rows)
+    if a.kernels:
+        write_csv_rows(a.out / "first_run_kernels.csv", compiled)
     print(f"wrote {path}")
     return 0
 
