@@ -5,9 +5,10 @@
 
 By default the benchmark makes a virtual environment in a temporary folder and installs the project into it
 (``pip install .``, timed, the wheel's build included; the dependencies come from pip's own cache when it has
-them). ``--wheels`` names the wheels to install, each into its own new environment, in turn: ``with-kernels``
-is what ``pip install .`` builds (``setup.py`` compiles the kernels into the wheel), ``without-kernels`` the
-same build with ``BRDF_STUDIO_PREBUILD=0`` (every kernel compiles at first use). With ``--venv DIR`` it uses
+them). ``--wheels`` names the wheels to install, each into its own new environment, in turn:
+``with-kernels`` is what ``pip install .`` builds (:mod:`core._wheel_kernels` compiles the kernels into the
+wheel), ``without-kernels`` the same build with ``BRDF_STUDIO_PREBUILD=0`` (every kernel compiles at first
+use). With ``--venv DIR`` it uses
 an environment that has the project installed already (this checkout's ``.venv``, say) and skips the
 install. Then, ``--runs`` times, in a new process each with its own empty numba cache
 (``$BRDF_STUDIO_NUMBA_CACHE``) and table cache (``$BRDF_STUDIO_CACHE``), it runs the installed command
@@ -46,7 +47,7 @@ COMPILED = re.compile(r"compiled (\d+) kernels? in (\d+) s")
 
 
 WHEELS = {"with-kernels": "1", "without-kernels": "0"}
-"""The wheels ``--wheels`` can install: ``setup.py``'s default build, which compiles the kernels into the
+"""The wheels ``--wheels`` can install: the default build, which compiles the kernels into the
 wheel, and the same build without them (``BRDF_STUDIO_PREBUILD=0``): every kernel compiles at first use."""
 
 

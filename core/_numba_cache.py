@@ -230,8 +230,8 @@ def configure() -> Path | None:
 
 
 PREBUILT = Path(__file__).resolve().parent / "_kernels"
-"""Kernels compiled when the wheel was built (``setup.py``; absent from a source checkout): a numba cache
-folder laid out as :func:`relative_folder` lays out the user's, and its ``BUILD_ID``."""
+"""Kernels compiled when the wheel was built (:mod:`core._wheel_kernels`; absent from a source checkout): a
+numba cache folder laid out as :func:`relative_folder` lays out the user's, and its ``BUILD_ID``."""
 
 
 def seed(folder: Path, prebuilt: Path = PREBUILT) -> int:

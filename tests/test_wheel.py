@@ -1,5 +1,6 @@
-"""The wheel ``pip install .`` builds carries its kernels compiled (setup.py), and an installed copy loads them
-instead of compiling: the first run after the install (bench/first_run.py times it) depends on it."""
+"""The wheel ``pip install .`` builds carries its kernels compiled (core/_wheel_kernels.py), and an installed
+copy loads them instead of compiling: the first run after the install (bench/first_run.py times it) depends
+on it."""
 
 from __future__ import annotations
 

@@ -147,8 +147,8 @@ def _hits_and_misses(tree: Path, cache: Path) -> tuple[int, int]:
 def test_a_compile_stored_by_one_copy_of_the_sources_serves_another_and_a_wheel_seeds_it(tmp_path):
     """The cache's folders are named by the sources' place in the packages, not their absolute path: a copy
     of the same bytes elsewhere (another clone, an installed wheel) loads what the first copy compiled. A
-    wheel's kernels (``core/_kernels`` with its ``BUILD_ID``, as setup.py builds them) seed an empty user
-    cache once, and the installed copy then loads instead of compiling."""
+    wheel's kernels (``core/_kernels`` with its ``BUILD_ID``, as core/_wheel_kernels.py builds them) seed an
+    empty user cache once, and the installed copy then loads instead of compiling."""
     import shutil
 
     a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"

@@ -1,6 +1,7 @@
 """Build step: the wheel carries its kernels compiled, so that the first run after ``pip install .`` loads them.
 
-The project's metadata is in ``pyproject.toml``; this file only adds one step to ``build_py``. After the
+Used only when a wheel is built: ``pyproject.toml`` names :class:`BuildWithKernels` as setuptools' ``build_py``
+(``[tool.setuptools.cmdclass]``; setuptools loads this file by its path, without importing ``core``). After the
 packages are copied into the build folder, the warm-ups of ``core`` and ``renderer`` (``brdf-studio setup``'s)
 run there, in two processes, with numba's cache pointed at ``core/_kernels`` inside that folder. The cache's
 folders are named by the sources' place in the packages and its entries are stamped by the sources' bytes
@@ -22,7 +23,6 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from setuptools import setup
 from setuptools.command.build_py import build_py
 
 KERNELS = Path("core") / "_kernels"
@@ -56,6 +56,3 @@ class BuildWithKernels(build_py):
                     "BRDF_STUDIO_PREBUILD=0 builds the wheel without them, and they compile at first use"
                 )
         (target / "BUILD_ID").write_text(uuid.uuid4().hex + "\n", encoding="utf-8")
-
-
-setup(cmdclass={"build_py": BuildWithKernels})
