@@ -64,3 +64,20 @@ def test_the_equal_time_table_gives_each_rmse_without_the_references_noise(bench
         assert 0.0 < ref and 0.0 <= own <= rmse
         # (the file's six digits: a difference of squares within a few 1e-6 of the larger)
         assert own**2 == pytest.approx(max(rmse**2 - ref**2, 0.0), abs=5e-6 * rmse**2)
+
+
+def test_the_last_cornell_ratio_is_against_the_fastest_mitsuba_at_each_level(bench):
+    """Ours over each Mitsuba configuration, then over the fastest of them level by level: a configuration
+    that is fastest at one level and slowest at another counts only where it leads."""
+    ours = [{"seconds": 1.0, "rmse": 0.04}, {"seconds": 4.0, "rmse": 0.01}]
+    fast_early = [{"seconds": 0.5, "rmse": 0.04}, {"seconds": 8.0, "rmse": 0.01}]
+    fast_late = [{"seconds": 2.0, "rmse": 0.04}, {"seconds": 2.0, "rmse": 0.01}]
+    never = [{"seconds": 1.0, "rmse": 0.09}, {"seconds": 9.0, "rmse": 0.05}]
+    curves = {"us": ours, "mitsuba a": fast_early, "mitsuba b": fast_late, "mitsuba c": never}
+    rows = {r["against"]: r for r in bench.ratio_rows(curves, "us", (0.04, 0.01))}
+    assert list(rows) == ["a", "b", "c", bench.BEST_MITSUBA]
+    assert rows["a"]["ratio_0.04"] == pytest.approx(2.0) and rows["a"]["ratio_0.01"] == pytest.approx(0.5)
+    assert rows["b"]["ratio_0.04"] == pytest.approx(0.5) and rows["b"]["ratio_0.01"] == pytest.approx(2.0)
+    assert rows["c"]["ratio_0.04"] is None
+    best = rows[bench.BEST_MITSUBA]
+    assert best["ratio_0.04"] == pytest.approx(2.0) and best["ratio_0.01"] == pytest.approx(2.0)
