@@ -20,6 +20,7 @@ no folder can be written is numba's default (next to the sources) left in place.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import re
@@ -145,8 +146,9 @@ def _file_hash(path: Path) -> bytes:
 
 @cache
 def closure_hash(path: str) -> bytes:
-    """Hash of the import closure of the source file ``path`` and of the numba, NumPy and Python versions (read
-    once per process: the sources of a running process do not change; each file is read and hashed once).
+    """Hash of the import closure of the source file ``path`` and of the numba, NumPy and Python versions
+    (read once per process: the sources of a running process do not change; each file is read and hashed
+    once).
     A module's data file of the same name with the suffix ``.npz`` (``_he_series.npz``) counts as part of the
     module: its values are frozen into the compiled kernels that read them at import."""
     import numba
@@ -249,15 +251,18 @@ def seed(folder: Path, prebuilt: Path = PREBUILT) -> int:
     if not build or marker.exists() or prebuilt.resolve() == folder.resolve():
         return 0
     copied = 0
-    try:
-        for src in prebuilt.rglob("*.nb[ic]"):
-            dst = folder / src.relative_to(prebuilt)
+    for src in prebuilt.rglob("*.nb[ic]"):
+        dst = folder / src.relative_to(prebuilt)
+        tmp = dst.with_name(f"{dst.name}.seed-{os.getpid()}")
+        try:
             dst.parent.mkdir(parents=True, exist_ok=True)
-            tmp = dst.with_name(f"{dst.name}.seed-{os.getpid()}")
             shutil.copyfile(src, tmp)
             os.replace(tmp, dst)
-            copied += 1
+        except OSError:
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
+            return copied  # not marked: the next process tries again
+        copied += 1
+    with contextlib.suppress(OSError):
         marker.touch()
-    except OSError:
-        return copied
     return copied
