@@ -47,8 +47,8 @@ class BuildWithKernels(build_py):
                 "BRDF_STUDIO_NUMBA_CACHE": str(target),
                 "BRDF_STUDIO_CACHE": tables,
             }
-            code = "import sys; from core.warmup import run_in_processes as r; "
-            code += "sys.exit(r(['core.warmup', 'renderer.warmup']))"
+            code = "import sys; from core.warmup import WARM_UP_MODULES, run_in_processes; "
+            code += "sys.exit(run_in_processes(WARM_UP_MODULES))"
             print("compiling the kernels into the wheel (minutes; the first run then loads them)", flush=True)
             if subprocess.run([sys.executable, "-c", code], cwd=lib, env=env).returncode != 0:
                 raise SystemExit(

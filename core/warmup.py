@@ -180,6 +180,11 @@ def run(warm_ups: Sequence[WarmUp], out: TextIO = sys.stdout) -> float:
     return total
 
 
+WARM_UP_MODULES = ("core.warmup", "renderer.warmup")
+"""Every warm-up of the distribution, by module: what ``brdf-studio setup`` and the wheel's build run, each in
+its own process (:func:`run_in_processes`; ``core`` names the renderer's module, it never imports it)."""
+
+
 def run_in_processes(modules: Sequence[str], out: TextIO = sys.stdout) -> int:
     """Run ``python -m MODULE`` for each of ``modules`` (warm-up modules such as this one) at the same time,
     each in its own process, and relay their lines to ``out`` prefixed by the module's package as they come;

@@ -28,11 +28,6 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from core.warmup import run_in_processes
+    from core.warmup import WARM_UP_MODULES, run_in_processes
 
     return run_in_processes(WARM_UP_MODULES, out=sys.stdout)
-
-
-WARM_UP_MODULES = ("core.warmup", "renderer.warmup")
-"""The warm-ups ``setup`` runs, each in its own process at the same time (numba compiles one kernel at a
-time per process)."""

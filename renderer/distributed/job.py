@@ -3,8 +3,9 @@
 :func:`prepare_distributed` reads the scene's files and builds the sampler tables on the client
 (:mod:`renderer.distributed.bundle`, :mod:`renderer.distributed.tables`; a client preparing the same scene
 and strategy again reuses both), scatters their bytes to the cluster and returns a :class:`DistributedJob`,
-whose :meth:`~DistributedJob.passes` behaves as :meth:`renderer.render.RenderJob.passes`: a :class:`~renderer.render.Frame` as the image grows, to a sample
-budget or a time budget, stopped by a ``cancel`` event.
+whose :meth:`~DistributedJob.passes` behaves as :meth:`renderer.render.RenderJob.passes`: a
+:class:`~renderer.render.Frame` as the image grows, to a sample budget or a time budget, stopped by a
+``cancel`` event.
 
 Why the image is exact, by construction:
 
