@@ -123,9 +123,14 @@ class Param:
         return f
 
 
+def _has_trait(trait: Traits) -> property:
+    """A read-only ``bool`` property of a :class:`Model`: whether its traits include ``trait``."""
+    return property(lambda model: trait in model.traits, doc=f"Whether the model is {trait.name}.")
+
+
 @dataclass(frozen=True)
 class Model:
-    """A BRDF model: its declaration and its kernels. Create with :func:`register` in the model's module."""
+    """A BRDF model: its declaration and its kernels. Create with :func:`declare` in the model's module."""
 
     name: str
     label: str
@@ -165,21 +170,10 @@ class Model:
             return loaded_from_source, (self.source.path, self.source.text)
         return super().__reduce_ex__(protocol)
 
-    @property
-    def isotropic(self) -> bool:
-        return Traits.ISOTROPIC in self.traits
-
-    @property
-    def reciprocal(self) -> bool:
-        return Traits.RECIPROCAL in self.traits
-
-    @property
-    def energy_conserving(self) -> bool:
-        return Traits.ENERGY_CONSERVING in self.traits
-
-    @property
-    def mirror_symmetric(self) -> bool:
-        return Traits.MIRROR_SYMMETRIC in self.traits
+    isotropic = _has_trait(Traits.ISOTROPIC)
+    reciprocal = _has_trait(Traits.RECIPROCAL)
+    energy_conserving = _has_trait(Traits.ENERGY_CONSERVING)
+    mirror_symmetric = _has_trait(Traits.MIRROR_SYMMETRIC)
 
     def param(self, name: str) -> Param:
         for p in self.params:
@@ -290,6 +284,33 @@ def register(model: Model) -> Model:
         raise ValueError(f"model '{model.name}' registered twice")
     _REGISTRY[model.name] = model
     return model
+
+
+def declare(namespace: Mapping[str, Any], label: str, traits: Traits, **fields: Any) -> Model:
+    """Register the model a module of ``core/models/`` declares, read from its ``namespace`` (``globals()``).
+
+    The module's names say the rest: the model is named after the module (``core.models.ward`` declares
+    ``ward``), its parameters are ``PARAMS``, its citation ``CITATION``, its notes ``NOTES`` (optional), its
+    documentation the module's docstring, and its kernels ``eval_<module>``, ``sample_<module>``,
+    ``pdf_<module>`` and ``derive_<module>`` (all but ``eval`` optional). ``fields`` give any other
+    :class:`Model` field, or one of these in place of the module's (two models of one module differ in
+    ``name`` and ``params``)::
+
+        WARD = declare(globals(), "Ward (1992)", Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC)
+    """
+    module = str(namespace["__name__"]).rpartition(".")[2]
+    declared: dict[str, Any] = {
+        "name": module,
+        "citation": namespace["CITATION"],
+        "params": namespace["PARAMS"],
+        "eval": namespace[f"eval_{module}"],
+        "sample": namespace.get(f"sample_{module}"),
+        "pdf": namespace.get(f"pdf_{module}"),
+        "derive": namespace.get(f"derive_{module}"),
+        "doc": namespace.get("__doc__") or "",
+        "notes": namespace.get("NOTES", ""),
+    }
+    return register(Model(label=label, traits=traits, **(declared | fields)))
 
 
 def _load_models() -> None:

@@ -32,9 +32,14 @@ import math
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models._microfacet import reflect_about, upper_half_vector
 from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
+
+CITATION = (
+    "M. Ashikhmin and P. Shirley, An Anisotropic Phong BRDF Model, "
+    "Journal of Graphics Tools 5(2):25-32, 2000."
+)
 
 PI = math.pi
 TWO_PI = 2.0 * math.pi
@@ -146,19 +151,6 @@ def sample_ashikhmin_shirley(wo, p, u1, u2, u3):
     return wi[0], wi[1], wi[2], pdf_ashikhmin_shirley(wo, wi, p)
 
 
-ASHIKHMIN_SHIRLEY = register(
-    Model(
-        name="ashikhmin_shirley",
-        label="Ashikhmin-Shirley (2000)",
-        citation=(
-            "M. Ashikhmin and P. Shirley, An Anisotropic Phong BRDF Model, "
-            "Journal of Graphics Tools 5(2):25-32, 2000."
-        ),
-        params=PARAMS,
-        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
-        eval=eval_ashikhmin_shirley,
-        sample=sample_ashikhmin_shirley,
-        pdf=pdf_ashikhmin_shirley,
-        doc=__doc__ or "",
-    )
+ASHIKHMIN_SHIRLEY = declare(
+    globals(), "Ashikhmin-Shirley (2000)", Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC
 )

@@ -55,8 +55,14 @@ from __future__ import annotations
 import math
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models._fresnel import fresnel_conductor
+
+CITATION = (
+    "J. R. Maxwell, J. Beard, S. Weiner, D. Ladd, S. Ladd, Bidirectional reflectance model validation "
+    "and utilization, AFAL-TR-73-303, ERIM, 1973; NEF form after H. B. Westlund and G. W. Meyer, "
+    "A BRDF database employing the Beard-Maxwell reflection model, Graphics Interface 2002."
+)
 
 INV_PI = 0.3183098861837907
 COS_FLOOR = 1e-6
@@ -177,23 +183,11 @@ def eval_beard_maxwell(wi, wo, p):
     )
 
 
-BEARD_MAXWELL = register(
-    Model(
-        name="beard_maxwell",
-        label="Beard-Maxwell (1973, NEF form)",
-        citation=(
-            "J. R. Maxwell, J. Beard, S. Weiner, D. Ladd, S. Ladd, Bidirectional reflectance model validation "
-            "and utilization, AFAL-TR-73-303, ERIM, 1973; NEF form after H. B. Westlund and G. W. Meyer, "
-            "A BRDF database employing the Beard-Maxwell reflection model, Graphics Interface 2002."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_beard_maxwell,
-        doc=__doc__ or "",
-        notes=(
-            "First-surface facet lobe: Beckmann with RMS slope m scaled by rs (the seed gives no width). "
-            "rd, rv are reflectances (terms divided by pi). Cosines in denominators floored at 1e-6. "
-            "Omega and tau in radians; tau = 0 is the sharp-shadowing limit."
-        ),
-    )
+NOTES = (
+    "First-surface facet lobe: Beckmann with RMS slope m scaled by rs (the seed gives no width). "
+    "rd, rv are reflectances (terms divided by pi). Cosines in denominators floored at 1e-6. "
+    "Omega and tau in radians; tau = 0 is the sharp-shadowing limit."
 )
+
+
+BEARD_MAXWELL = declare(globals(), "Beard-Maxwell (1973, NEF form)", Traits.ISOTROPIC | Traits.RECIPROCAL)

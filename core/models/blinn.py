@@ -20,15 +20,20 @@ from numba import njit
 
 from core.geometry import half_vector
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
+    diffuse_plus_lobe,
     half_vector_mixture_pdf,
     half_vector_mixture_sample,
     lobe_probability_clamped,
     luminance_at,
 )
 
-INV_PI = 0.3183098861837907
+CITATION = (
+    "J. F. Blinn, Models of light reflection for computer synthesized pictures, "
+    "Computer Graphics (SIGGRAPH '77) 11(2):192-198, 1977."
+)
+
 EIGHT_PI = 25.132741228718345
 
 
@@ -47,11 +52,7 @@ def eval_blinn(wi, wo, p):
     # Both directions are above the horizon, so wi + wo has a positive z and h is well defined.
     cos_h = min(half_vector(wi, wo)[2], 1.0)
     spec = cos_h ** p[N]
-    return (
-        p[KD] * INV_PI + p[KS] * spec,
-        p[KD + 1] * INV_PI + p[KS + 1] * spec,
-        p[KD + 2] * INV_PI + p[KS + 2] * spec,
-    )
+    return diffuse_plus_lobe(p, KD, KS, spec)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -74,19 +75,10 @@ def sample_blinn(wo, p, u1, u2, u3):
     return half_vector_mixture_sample(wo, p[N], _lobe_probability(wo, p), u1, u2, u3)
 
 
-BLINN = register(
-    Model(
-        name="blinn",
-        label="Blinn (1977)",
-        citation="J. F. Blinn, Models of light reflection for computer synthesized pictures, "
-        "Computer Graphics (SIGGRAPH '77) 11(2):192-198, 1977.",
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_blinn,
-        sample=sample_blinn,
-        pdf=pdf_blinn,
-        doc=__doc__ or "",
-        notes="Blinn-Phong BRDF f = kd/pi + ks (n.h)^n, used as a BRDF directly (no division by "
-        "cos(theta_i)), hence reciprocal. Not normalized: not energy-conserving for every setting.",
-    )
+NOTES = (
+    "Blinn-Phong BRDF f = kd/pi + ks (n.h)^n, used as a BRDF directly (no division by "
+    "cos(theta_i)), hence reciprocal. Not normalized: not energy-conserving for every setting."
 )
+
+
+BLINN = declare(globals(), "Blinn (1977)", Traits.ISOTROPIC | Traits.RECIPROCAL)

@@ -27,16 +27,23 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import upper_half_vector
-from core.models.lobes import beckmann_mixture_pdf, beckmann_mixture_sample, lobe_probability, luminance_at
+from core.models.lobes import (
+    beckmann_mixture_pdf,
+    beckmann_mixture_sample,
+    diffuse_plus_lobe,
+    luminance_lobe_probability,
+)
+
+CITATION = (
+    "R. L. Cook and K. E. Torrance, A Reflectance Model for Computer Graphics, "
+    "ACM Transactions on Graphics 1(1):7-24, 1982."
+)
 
 PI = math.pi
-INV_PI = 1.0 / math.pi
 
 
 PARAMS = (
@@ -64,42 +71,20 @@ def eval_cook_torrance(wi, wo, p):
         g = min(1.0, 2.0 * hz * wo[2] / c, 2.0 * hz * wi[2] / c)
         f = fresnel_conductor(c, p[N_REAL], p[N_IMAG])
         spec = f * d * g / (PI * wi[2] * wo[2])
-    return (
-        p[KD] * INV_PI + p[KS] * spec,
-        p[KD + 1] * INV_PI + p[KS + 1] * spec,
-        p[KD + 2] * INV_PI + p[KS + 2] * spec,
-    )
-
-
-@njit(inline="always", nogil=True, cache=True)
-def _lobe_probability(p):
-    return lobe_probability(luminance_at(p, KS), luminance_at(p, KD))
+    return diffuse_plus_lobe(p, KD, KS, spec)
 
 
 @kernel
 def pdf_cook_torrance(wo, wi, p):
-    return beckmann_mixture_pdf(wo, wi, p[M], p[M], _lobe_probability(p))
+    return beckmann_mixture_pdf(wo, wi, p[M], p[M], luminance_lobe_probability(p, KS, KD))
 
 
 @kernel
 def sample_cook_torrance(wo, p, u1, u2, u3):
-    return beckmann_mixture_sample(wo, p[M], p[M], _lobe_probability(p), u1, u2, u3)
+    return beckmann_mixture_sample(wo, p[M], p[M], luminance_lobe_probability(p, KS, KD), u1, u2, u3)
 
 
-COOK_TORRANCE = register(
-    Model(
-        name="cook_torrance",
-        label="Cook-Torrance (1982)",
-        citation=(
-            "R. L. Cook and K. E. Torrance, A Reflectance Model for Computer Graphics, "
-            "ACM Transactions on Graphics 1(1):7-24, 1982."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_cook_torrance,
-        sample=sample_cook_torrance,
-        pdf=pdf_cook_torrance,
-        doc=__doc__ or "",
-        notes="Beckmann D with the SIGGRAPH '81 normalization (see the module docstring).",
-    )
-)
+NOTES = "Beckmann D with the SIGGRAPH '81 normalization (see the module docstring)."
+
+
+COOK_TORRANCE = declare(globals(), "Cook-Torrance (1982)", Traits.ISOTROPIC | Traits.RECIPROCAL)

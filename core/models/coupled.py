@@ -42,10 +42,15 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._kelemen_albedo import N_TABLE, albedo_tables, hemispherical_average, table_map
 from core.models._microfacet import beckmann_d, reflect_about
 from core.models.lobes import LUMA, cosine_hemisphere, cosine_hemisphere_pdf, lobe_probability, luminance3
+
+CITATION = (
+    "C. Kelemen and L. Szirmay-Kalos, A microfacet based coupled specular-matte BRDF model with "
+    "importance sampling, Eurographics 2001 Short Presentations."
+)
 
 INV_PI = 0.3183098861837907
 TWO_PI = 6.283185307179586
@@ -224,25 +229,15 @@ def sample_coupled(wo, p, u1, u2, u3):
     return wi[0], wi[1], wi[2], pdf_coupled(wo, wi, p)
 
 
-COUPLED = register(
-    Model(
-        name="coupled",
-        label="Kelemen & Szirmay-Kalos coupled (2001)",
-        citation=(
-            "C. Kelemen and L. Szirmay-Kalos, A microfacet based coupled specular-matte BRDF model with "
-            "importance sampling, Eurographics 2001 Short Presentations."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
-        eval=eval_coupled,
-        sample=sample_coupled,
-        pdf=pdf_coupled,
-        derive=derive_coupled,
-        doc=__doc__ or "",
-        notes=(
-            "Specular P(H) F / |L+V|^2 (Beckmann, Schlick) plus the coupled matte term with the tabulated "
-            "specular albedo (computed per roughness in derive, ~1e-7 accurate). Albedo = a + R_m (1 - a) <= 1. "
-            "Sampler: halfway-vector Beckmann sampling mixed with the cosine lobe, exact mixture pdf."
-        ),
-    )
+NOTES = (
+    "Specular P(H) F / |L+V|^2 (Beckmann, Schlick) plus the coupled matte term with the tabulated "
+    "specular albedo (computed per roughness in derive, ~1e-7 accurate). Albedo = a + R_m (1 - a) <= 1. "
+    "Sampler: halfway-vector Beckmann sampling mixed with the cosine lobe, exact mixture pdf."
+)
+
+
+COUPLED = declare(
+    globals(),
+    "Kelemen & Szirmay-Kalos coupled (2001)",
+    Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
 )

@@ -65,7 +65,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._microfacet import (
     ggx_anisotropic_d,
     ggx_anisotropic_g1_over_cos,
@@ -75,6 +75,11 @@ from core.models._microfacet import (
     upper_half_vector,
 )
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, luminance3
+
+CITATION = (
+    'B. Burley, "Physically-Based Shading at Disney", SIGGRAPH 2012 course notes (Practical '
+    "Physically-Based Shading in Film and Game Production)."
+)
 
 PI = math.pi
 INV_PI = 1.0 / math.pi
@@ -326,24 +331,10 @@ def derive_disney(p_user: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(p_user, dtype=np.float64), derived])
 
 
-DISNEY = register(
-    Model(
-        name="disney",
-        label="Disney principled (Burley 2012)",
-        citation=(
-            'B. Burley, "Physically-Based Shading at Disney", SIGGRAPH 2012 course notes (Practical '
-            "Physically-Based Shading in Film and Game Production)."
-        ),
-        params=PARAMS,
-        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
-        eval=eval_disney,
-        sample=sample_disney,
-        pdf=pdf_disney,
-        derive=derive_disney,
-        doc=__doc__ or "",
-        notes=(
-            "baseColor is linear RGB (no 2.2 power as in BRDF Explorer). Isotropic at anisotropic = 0 "
-            "(measured so by the adaptive sampler)."
-        ),
-    )
+NOTES = (
+    "baseColor is linear RGB (no 2.2 power as in BRDF Explorer). Isotropic at anisotropic = 0 "
+    "(measured so by the adaptive sampler)."
 )
+
+
+DISNEY = declare(globals(), "Disney principled (Burley 2012)", Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC)

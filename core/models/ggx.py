@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import ggx_visible_normal, reflect_about, upper_half_vector
 from core.models.lobes import (
@@ -40,6 +40,12 @@ from core.models.lobes import (
     lobe_probability,
     luminance3,
     mixture_pdf,
+)
+
+CITATION = (
+    "B. Walter, S. R. Marschner, H. Li and K. E. Torrance, Microfacet Models for Refraction through "
+    "Rough Surfaces, Eurographics Symposium on Rendering 2007; E. Heitz, Sampling the GGX "
+    "Distribution of Visible Normals, JCGT 7(4), 2018."
 )
 
 PI = math.pi
@@ -134,21 +140,4 @@ def derive_ggx(p_user: np.ndarray) -> np.ndarray:
     return np.append(p_user, ps)
 
 
-GGX = register(
-    Model(
-        name="ggx",
-        label="GGX (Walter et al. 2007)",
-        citation=(
-            "B. Walter, S. R. Marschner, H. Li and K. E. Torrance, Microfacet Models for Refraction through "
-            "Rough Surfaces, Eurographics Symposium on Rendering 2007; E. Heitz, Sampling the GGX "
-            "Distribution of Visible Normals, JCGT 7(4), 2018."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_ggx,
-        sample=sample_ggx,
-        pdf=pdf_ggx,
-        derive=derive_ggx,
-        doc=__doc__ or "",
-    )
-)
+GGX = declare(globals(), "GGX (Walter et al. 2007)", Traits.ISOTROPIC | Traits.RECIPROCAL)

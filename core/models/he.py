@@ -75,7 +75,7 @@ import math
 import numpy as np
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_conductor
 from core.models._he_series import (
     direction_k,
@@ -84,6 +84,11 @@ from core.models._he_series import (
     log_roughness_ratio_of_k,
     shadow_over_cos,
     tabulated_series_log,
+)
+
+CITATION = (
+    "X. D. He, K. E. Torrance, F. X. Sillion and D. P. Greenberg, A comprehensive physical model for "
+    "light reflection, Proc. SIGGRAPH 1991, 175-186."
 )
 
 INV_PI = 0.3183098861837907
@@ -242,23 +247,11 @@ def _specular_weight(p, theta_i):
     )
 
 
-HE = register(
-    Model(
-        name="he",
-        label="He-Torrance-Sillion-Greenberg (1991)",
-        citation=(
-            "X. D. He, K. E. Torrance, F. X. Sillion and D. P. Greenberg, A comprehensive physical model for "
-            "light reflection, Proc. SIGGRAPH 1991, 175-186."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_he,
-        derive=derive_he,
-        doc=__doc__ or "",
-        notes=(
-            "Directional-diffuse term with the full series, effective roughness (Newton), Smith/erfc "
-            "shadowing, complex Fresnel; plus uniform diffuse kd/pi. The specular Dirac term is left out "
-            "(see specular_weight). Single wavelength; RGB index. Not energy-conserving in general."
-        ),
-    )
+NOTES = (
+    "Directional-diffuse term with the full series, effective roughness (Newton), Smith/erfc "
+    "shadowing, complex Fresnel; plus uniform diffuse kd/pi. The specular Dirac term is left out "
+    "(see specular_weight). Single wavelength; RGB index. Not energy-conserving in general."
 )
+
+
+HE = declare(globals(), "He-Torrance-Sillion-Greenberg (1991)", Traits.ISOTROPIC | Traits.RECIPROCAL)

@@ -29,15 +29,20 @@ from numba import njit
 
 from core.geometry import normalize
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
+    diffuse_plus_lobe,
     lobe_probability_clamped,
     luminance_at,
 )
 
-INV_PI = 0.3183098861837907
+CITATION = (
+    "E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, Non-linear approximation "
+    "of reflectance functions, SIGGRAPH '97, pp. 117-126, 1997."
+)
+
 TWO_PI = 6.283185307179586
 
 
@@ -58,11 +63,7 @@ def eval_lafortune(wi, wo, p):
         return 0.0, 0.0, 0.0
     base = p[CX] * wi[0] * wo[0] + p[CY] * wi[1] * wo[1] + p[CZ] * wi[2] * wo[2]
     lobe = base ** p[N] if base > 0.0 else 0.0
-    return (
-        p[KD] * INV_PI + p[KP] * lobe,
-        p[KD + 1] * INV_PI + p[KP + 1] * lobe,
-        p[KD + 2] * INV_PI + p[KP + 2] * lobe,
-    )
+    return diffuse_plus_lobe(p, KD, KP, lobe)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -99,20 +100,11 @@ def sample_lafortune(wo, p, u1, u2, u3):
     return cosine_lobe_mixture_sample(axis, p[N], _lobe_probability(axis, length, p), u1, u2, u3)
 
 
-LAFORTUNE = register(
-    Model(
-        name="lafortune",
-        label="Lafortune (1997)",
-        citation="E. P. F. Lafortune, S.-C. Foo, K. E. Torrance, D. P. Greenberg, Non-linear approximation "
-        "of reflectance functions, SIGGRAPH '97, pp. 117-126, 1997.",
-        params=PARAMS,
-        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
-        eval=eval_lafortune,
-        sample=sample_lafortune,
-        pdf=pdf_lafortune,
-        doc=__doc__ or "",
-        notes="One generalized cosine lobe plus Lambert: f = kd/pi + kp max(0, Cx ux vx + Cy uy vy + "
-        "Cz uz vz)^n. A negative base is clamped at 0 (its non-integer power is undefined). kd is not in the "
-        "seed's table (default 0, the seed's setting). Anisotropic when cx != cy; not normalized.",
-    )
+NOTES = (
+    "One generalized cosine lobe plus Lambert: f = kd/pi + kp max(0, Cx ux vx + Cy uy vy + "
+    "Cz uz vz)^n. A negative base is clamped at 0 (its non-integer power is undefined). kd is not in the "
+    "seed's table (default 0, the seed's setting). Anisotropic when cx != cy; not normalized."
 )
+
+
+LAFORTUNE = declare(globals(), "Lafortune (1997)", Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC)

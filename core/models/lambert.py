@@ -7,8 +7,10 @@
 from __future__ import annotations
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+
+CITATION = "J. H. Lambert, Photometria, 1760."
 
 INV_PI = 0.3183098861837907
 
@@ -34,16 +36,6 @@ def pdf_lambert(wo, wi, p):
     return cosine_hemisphere_pdf(wi[2])
 
 
-LAMBERT = register(
-    Model(
-        name="lambert",
-        label="Lambert (1760)",
-        citation="J. H. Lambert, Photometria, 1760.",
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING,
-        eval=eval_lambert,
-        sample=sample_lambert,
-        pdf=pdf_lambert,
-        doc=__doc__ or "",
-    )
+LAMBERT = declare(
+    globals(), "Lambert (1760)", Traits.ISOTROPIC | Traits.RECIPROCAL | Traits.ENERGY_CONSERVING
 )

@@ -20,15 +20,19 @@ from numba import njit
 
 from core.geometry import dot, mirror
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
+    diffuse_plus_lobe,
     lobe_probability_clamped,
     luminance_at,
 )
 
-INV_PI = 0.3183098861837907
+CITATION = (
+    "R. R. Lewis, Making shaders more physically plausible, Computer Graphics Forum 13(2):109-120, 1994."
+)
+
 INV_TWO_PI = 0.15915494309189535
 
 
@@ -49,11 +53,7 @@ def eval_lewis(wi, wo, p):
     spec = 0.0
     if cos_alpha > 0.0:
         spec = (n + 2.0) * INV_TWO_PI * min(cos_alpha, 1.0) ** n
-    return (
-        p[KD] * INV_PI + p[KS] * spec,
-        p[KD + 1] * INV_PI + p[KS + 1] * spec,
-        p[KD + 2] * INV_PI + p[KS + 2] * spec,
-    )
+    return diffuse_plus_lobe(p, KD, KS, spec)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -72,20 +72,11 @@ def sample_lewis(wo, p, u1, u2, u3):
     return cosine_lobe_mixture_sample(mirror(wo), p[N], _lobe_probability(wo, p), u1, u2, u3)
 
 
-LEWIS = register(
-    Model(
-        name="lewis",
-        label="Lewis (1994)",
-        citation="R. R. Lewis, Making shaders more physically plausible, Computer Graphics Forum "
-        "13(2):109-120, 1994.",
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_lewis,
-        sample=sample_lewis,
-        pdf=pdf_lewis,
-        doc=__doc__ or "",
-        notes="Normalized, reciprocal Phong: f = kd/pi + ks (n+2)/(2 pi) cos^n(alpha). Energy-conserving "
-        "when kd + ks <= 1 in every channel (albedo <= kd + ks, with equality of the specular part at "
-        "normal incidence); the bounds allow more, so ENERGY_CONSERVING is not declared.",
-    )
+NOTES = (
+    "Normalized, reciprocal Phong: f = kd/pi + ks (n+2)/(2 pi) cos^n(alpha). Energy-conserving "
+    "when kd + ks <= 1 in every channel (albedo <= kd + ks, with equality of the specular part at "
+    "normal incidence); the bounds allow more, so ENERGY_CONSERVING is not declared."
 )
+
+
+LEWIS = declare(globals(), "Lewis (1994)", Traits.ISOTROPIC | Traits.RECIPROCAL)

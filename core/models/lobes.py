@@ -116,6 +116,13 @@ def lobe_probability(w_lobe, w_diffuse):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def luminance_lobe_probability(p, ks, kd):
+    """:func:`lobe_probability` of the luminances of the colours at ``p[ks:ks+3]`` (the lobe's) and
+    ``p[kd:kd+3]`` (the diffuse albedo)."""
+    return lobe_probability(luminance_at(p, ks), luminance_at(p, kd))
+
+
+@njit(inline="always", nogil=True, cache=True)
 def lobe_probability_clamped(w_lobe, w_diffuse):
     """:func:`lobe_probability` clamped to [0.1, 0.9] when both components carry energy, so neither is ever
     starved when the albedos are rough estimates (the variance of ``f cos / pdf`` stays within 10x of either
@@ -128,12 +135,25 @@ def lobe_probability_clamped(w_lobe, w_diffuse):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def diffuse_plus_lobe(p, kd, ks, lobe):
+    """The RGB value ``kd / pi + ks * lobe`` of a Lambertian term plus a scalar lobe ``lobe`` weighted by a
+    colour: ``kd`` and ``ks`` are the offsets of the two colours in the kernel row ``p``."""
+    return (
+        p[kd] * INV_PI + p[ks] * lobe,
+        p[kd + 1] * INV_PI + p[ks + 1] * lobe,
+        p[kd + 2] * INV_PI + p[ks + 2] * lobe,
+    )
+
+
+@njit(inline="always", nogil=True, cache=True)
 def mixture_pdf(q, lobe_pdf, cos_theta_i):
     """Density of the mixture: the lobe (density ``lobe_pdf`` at ``wi``) with probability ``q``, the cosine
     hemisphere otherwise."""
     return q * lobe_pdf + (1.0 - q) * cosine_hemisphere_pdf(cos_theta_i)
 
 
+# The three mixtures below share their shape but not their lobe: numba inlines each with its own lobe, where a
+# lobe passed as an argument would be a call through a function pointer in every sample.
 @njit(inline="always", nogil=True, cache=True)
 def cosine_lobe_mixture_sample(axis, n, q, u1, u2, u3):
     """With probability ``q`` (``u3 < q``) a direction of :func:`cosine_power_lobe` about ``axis``, otherwise

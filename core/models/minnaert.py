@@ -29,7 +29,11 @@ its own; the generic cosine-weighted sampler applies.
 from __future__ import annotations
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
+
+CITATION = (
+    "M. Minnaert, The reciprocity principle in lunar photometry, Astrophysical Journal 93:403-410, 1941."
+)
 
 INV_PI = 0.3183098861837907
 COS_FLOOR = 1e-6
@@ -70,21 +74,10 @@ def eval_minnaert(wi, wo, p):
     return p[KD] * shape, p[KD + 1] * shape, p[KD + 2] * shape
 
 
-MINNAERT = register(
-    Model(
-        name="minnaert",
-        label="Minnaert (1941)",
-        citation=(
-            "M. Minnaert, The reciprocity principle in lunar photometry, "
-            "Astrophysical Journal 93:403-410, 1941."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_minnaert,
-        doc=__doc__ or "",
-        notes=(
-            "Cosines are clamped at 1e-6 before the power (finite everywhere, reciprocal, exact below "
-            "89.99994 deg). Albedo 2 kd/(k+1) cos_o^(k-1): not energy-conserving unless k = 1."
-        ),
-    )
+NOTES = (
+    "Cosines are clamped at 1e-6 before the power (finite everywhere, reciprocal, exact below "
+    "89.99994 deg). Albedo 2 kd/(k+1) cos_o^(k-1): not energy-conserving unless k = 1."
 )
+
+
+MINNAERT = declare(globals(), "Minnaert (1941)", Traits.ISOTROPIC | Traits.RECIPROCAL)

@@ -46,7 +46,11 @@ from __future__ import annotations
 import math
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
+
+CITATION = (
+    "M. Oren and S. K. Nayar, Generalization of Lambert's reflectance model, Proc. SIGGRAPH 1994, 239-246."
+)
 
 INV_PI = 0.3183098861837907
 TWO_OVER_PI = 0.6366197723675814
@@ -119,23 +123,12 @@ def eval_oren_nayar(wi, wo, p):
     )
 
 
-OREN_NAYAR = register(
-    Model(
-        name="oren_nayar",
-        label="Oren-Nayar (1994)",
-        citation=(
-            "M. Oren and S. K. Nayar, Generalization of Lambert's reflectance model, "
-            "Proc. SIGGRAPH 1994, 239-246."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
-        eval=eval_oren_nayar,
-        doc=__doc__ or "",
-        notes=(
-            "Full model with the C1, C2, C3 direct terms and the interreflection term. sigma is limited "
-            "to 0.66 rad, where the published formula is non-negative for all directions. Azimuth terms "
-            "vanish at normal incidence (continuous, NaN-free). Albedo up to ~1.04 near grazing for rho = 1: "
-            "not energy-conserving."
-        ),
-    )
+NOTES = (
+    "Full model with the C1, C2, C3 direct terms and the interreflection term. sigma is limited "
+    "to 0.66 rad, where the published formula is non-negative for all directions. Azimuth terms "
+    "vanish at normal incidence (continuous, NaN-free). Albedo up to ~1.04 near grazing for rho = 1: "
+    "not energy-conserving."
 )
+
+
+OREN_NAYAR = declare(globals(), "Oren-Nayar (1994)", Traits.ISOTROPIC | Traits.RECIPROCAL)

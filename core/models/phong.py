@@ -23,15 +23,20 @@ from numba import njit
 
 from core.geometry import dot, mirror
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
+    diffuse_plus_lobe,
     lobe_probability_clamped,
     luminance_at,
 )
 
-INV_PI = 0.3183098861837907
+CITATION = (
+    "B. T. Phong, Illumination for computer generated pictures, Communications of the ACM "
+    "18(6):311-317, 1975."
+)
+
 TWO_PI = 6.283185307179586
 COS_THETA_I_FLOOR = 1e-6
 """The specular term divides by ``max(cos(theta_i), 1e-6)``: exact for ``theta_i <= 89.99994`` degrees, and
@@ -55,11 +60,7 @@ def eval_phong(wi, wo, p):
     spec = 0.0
     if cos_alpha > 0.0:
         spec = min(cos_alpha, 1.0) ** n / max(wi[2], COS_THETA_I_FLOOR)
-    return (
-        p[KD] * INV_PI + p[KS] * spec,
-        p[KD + 1] * INV_PI + p[KS + 1] * spec,
-        p[KD + 2] * INV_PI + p[KS + 2] * spec,
-    )
+    return diffuse_plus_lobe(p, KD, KS, spec)
 
 
 @njit(inline="always", nogil=True, cache=True)
@@ -78,21 +79,12 @@ def sample_phong(wo, p, u1, u2, u3):
     return cosine_lobe_mixture_sample(mirror(wo), p[N], _lobe_probability(p), u1, u2, u3)
 
 
-PHONG = register(
-    Model(
-        name="phong",
-        label="Phong (1975)",
-        citation="B. T. Phong, Illumination for computer generated pictures, Communications of the ACM "
-        "18(6):311-317, 1975.",
-        params=PARAMS,
-        traits=Traits.ISOTROPIC,
-        eval=eval_phong,
-        sample=sample_phong,
-        pdf=pdf_phong,
-        doc=__doc__ or "",
-        notes="A shading model made a BRDF by dividing the reflected intensity by the irradiance "
-        "cos(theta_i): f = kd/pi + ks cos^n(alpha)/cos(theta_i). Not reciprocal (the cos(theta_i) division), "
-        "not energy-conserving (albedo up to kd + 2 pi ks/(n+1)). cos(theta_i) is floored at 1e-6 so the "
-        "value stays finite at grazing incidence. For the reciprocal, normalized Phong use 'lewis'.",
-    )
+NOTES = (
+    "A shading model made a BRDF by dividing the reflected intensity by the irradiance "
+    "cos(theta_i): f = kd/pi + ks cos^n(alpha)/cos(theta_i). Not reciprocal (the cos(theta_i) division), "
+    "not energy-conserving (albedo up to kd + 2 pi ks/(n+1)). cos(theta_i) is floored at 1e-6 so the "
+    "value stays finite at grazing incidence. For the reciprocal, normalized Phong use 'lewis'."
 )
+
+
+PHONG = declare(globals(), "Phong (1975)", Traits.ISOTROPIC)

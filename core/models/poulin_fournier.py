@@ -62,7 +62,12 @@ import math
 import numpy as np
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
+
+CITATION = (
+    "P. Poulin and A. Fournier, A model for anisotropic reflection, Proc. SIGGRAPH 1990, "
+    "Computer Graphics 24(4), 273-282."
+)
 
 INV_PI = 0.3183098861837907
 INV_TWO_PI = 0.15915494309189535
@@ -273,24 +278,12 @@ def eval_poulin_fournier(wi, wo, p):
     )
 
 
-POULIN_FOURNIER = register(
-    Model(
-        name="poulin_fournier",
-        label="Poulin-Fournier (1990)",
-        citation=(
-            "P. Poulin and A. Fournier, A model for anisotropic reflection, Proc. SIGGRAPH 1990, "
-            "Computer Graphics 24(4), 273-282."
-        ),
-        params=PARAMS,
-        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
-        eval=eval_poulin_fournier,
-        derive=derive_poulin_fournier,
-        doc=__doc__ or "",
-        notes=(
-            "Cylinders along the tangent x; cap self-shadowing and masking by the neighbouring cylinder; "
-            "diffuse part in closed form, Phong part by 24-point Gauss-Legendre over the lit-and-seen interval. "
-            "Local BRDF: Lambert + Lewis-normalized Phong. Raised cylinders or grooves. Energy is "
-            "conserved for kd + ks <= 1 (not guaranteed by the bounds)."
-        ),
-    )
+NOTES = (
+    "Cylinders along the tangent x; cap self-shadowing and masking by the neighbouring cylinder; "
+    "diffuse part in closed form, Phong part by 24-point Gauss-Legendre over the lit-and-seen interval. "
+    "Local BRDF: Lambert + Lewis-normalized Phong. Raised cylinders or grooves. Energy is "
+    "conserved for kd + ks <= 1 (not guaranteed by the bounds)."
 )
+
+
+POULIN_FOURNIER = declare(globals(), "Poulin-Fournier (1990)", Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC)

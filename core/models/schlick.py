@@ -58,9 +58,14 @@ import numpy as np
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, param_row_size, register
+from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_schlick
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
+
+CITATION = (
+    "C. Schlick, An inexpensive BRDF model for physically-based rendering, "
+    "Computer Graphics Forum 13(3):233-246, 1994."
+)
 
 INV_PI = 0.3183098861837907
 HALF_PI = 1.5707963267948966
@@ -252,33 +257,16 @@ def derive_schlick(user: np.ndarray) -> np.ndarray:
     return np.concatenate([user, weights / weights.sum()])
 
 
-_CITATION = (
-    "C. Schlick, An inexpensive BRDF model for physically-based rendering, "
-    "Computer Graphics Forum 13(3):233-246, 1994."
-)
-_NOTES = (
+NOTES = (
     "eval excludes the mirror impulse c = 1 - 4r(1-r) of layers with r < 1/2 (with the seed's dr = 0 the "
     "base layer is all impulse, so schlick_d equals schlick_s at the defaults). 1/(v v') floored at 1e-6. "
     "Sampler: cosine + Schlick's Z/A inversions per layer, exact mixture pdf."
 )
-
-
-def _schlick_model(name: str, label: str, double: bool) -> Model:
-    """The two registered settings share the kernels; they differ in the ``ly`` default."""
-    return Model(
-        name=name,
-        label=label,
-        citation=_CITATION,
-        params=_params(double=double),
-        traits=Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC,
-        eval=eval_schlick,
-        sample=sample_schlick,
-        pdf=pdf_schlick,
-        derive=derive_schlick,
-        doc=__doc__ or "",
-        notes=_NOTES,
-    )
-
-
-SCHLICK_D = register(_schlick_model("schlick_d", "Schlick (1994), double layer", double=True))
-SCHLICK_S = register(_schlick_model("schlick_s", "Schlick (1994), single layer", double=False))
+TRAITS = Traits.RECIPROCAL | Traits.MIRROR_SYMMETRIC
+# The two registered settings share the kernels; they differ in the ``ly`` default.
+SCHLICK_D = declare(
+    globals(), "Schlick (1994), double layer", TRAITS, name="schlick_d", params=_params(double=True)
+)
+SCHLICK_S = declare(
+    globals(), "Schlick (1994), single layer", TRAITS, name="schlick_s", params=_params(double=False)
+)

@@ -44,7 +44,12 @@ import math
 from numba import njit
 
 from core.jit import kernel
-from core.model import Model, Param, Traits, param_offsets, register
+from core.model import Param, Traits, declare, param_offsets
+
+CITATION = (
+    "P. S. Strauss, A realistic lighting model for computer animators, "
+    "IEEE Computer Graphics and Applications 10(6):56-64, 1990."
+)
 
 INV_PI = 0.3183098861837907
 TWO_OVER_PI = 0.6366197723675814
@@ -134,21 +139,10 @@ def eval_strauss(wi, wo, p):
     return out_r, out_g, out_b
 
 
-STRAUSS = register(
-    Model(
-        name="strauss",
-        label="Strauss (1990)",
-        citation=(
-            "P. S. Strauss, A realistic lighting model for computer animators, "
-            "IEEE Computer Graphics and Applications 10(6):56-64, 1990."
-        ),
-        params=PARAMS,
-        traits=Traits.ISOTROPIC,
-        eval=eval_strauss,
-        doc=__doc__ or "",
-        notes=(
-            "Shading model made a BRDF by dividing Strauss's intensity by pi cos(theta_i) (cos_i floored "
-            "at 1e-6): not reciprocal, not energy-conserving. Seed ks/kd weight the specular/diffuse terms."
-        ),
-    )
+NOTES = (
+    "Shading model made a BRDF by dividing Strauss's intensity by pi cos(theta_i) (cos_i floored "
+    "at 1e-6): not reciprocal, not energy-conserving. Seed ks/kd weight the specular/diffuse terms."
 )
+
+
+STRAUSS = declare(globals(), "Strauss (1990)", Traits.ISOTROPIC)
