@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from llvmlite import ir
 
 from core.glsl import program as p
-from core.glsl.emitter import DOUBLE, I64, PTR, FunctionEmitter, return_type, scalar_type, zero_value
+from core.glsl.emitter import DOUBLE, I64, PTR, FunctionEmitter, return_type, scalar_type
 
 ENTRY_NAME = "brdf"
 BATCH_NAME = "brdf_batch"
@@ -134,13 +134,7 @@ class ModuleBuilder:
         emitter = FunctionEmitter(self, main)
         emitter.bind_hidden(params, frame)
         for global_variable in self.program.globals:
-            pointers = emitter.storage(global_variable.variable)
-            if global_variable.initializer is None:
-                values = [zero_value(global_variable.variable.type)] * len(pointers)
-            else:
-                values = emitter.expr(global_variable.initializer)
-            for pointer, value in zip(pointers, values, strict=True):
-                emitter.builder.store(value, pointer)
+            emitter.initialize(global_variable.variable, global_variable.initializer)
         one, zero = ir.Constant(DOUBLE, 1.0), ir.Constant(DOUBLE, 0.0)
         frame_axes = [zero, zero, one, one, zero, zero, zero, one, zero]
         result = emitter.builder.call(

@@ -118,6 +118,16 @@ class FunctionEmitter:
             return [self.builder.fcmp_unordered("!=", values[0], ir.Constant(DOUBLE, 0.0))]
         return values
 
+    def initialize(self, variable: p.Variable, initializer: p.Expr | None) -> None:
+        """Store ``initializer``'s value (zero without one) in a local's or a global's storage."""
+        pointers = self.storage(variable)
+        if initializer is None:
+            values = [zero_value(variable.type)] * len(pointers)
+        else:
+            values = self.expr(initializer)
+        for pointer, value in zip(pointers, values, strict=True):
+            self.builder.store(value, pointer)
+
     # ---- functions and statements
 
     def emit_function(self, function: p.Function) -> None:
@@ -162,13 +172,7 @@ class FunctionEmitter:
                 self.statement(child)
         elif isinstance(statement, p.Declare):
             self.module_builder.note_literal(statement.variable, statement.initializer)
-            pointers = self.storage(statement.variable)
-            if statement.initializer is None:
-                values = [zero_value(statement.variable.type)] * len(pointers)
-            else:
-                values = self.expr(statement.initializer)
-            for pointer, value in zip(pointers, values, strict=True):
-                self.builder.store(value, pointer)
+            self.initialize(statement.variable, statement.initializer)
         elif isinstance(statement, p.Evaluate):
             self.expr(statement.expression)
         elif isinstance(statement, p.If):

@@ -227,7 +227,10 @@ class ExpressionChecker:
         return p.Swizzle(float_type(len(components)), operand, components)
 
     def expr_Index(self, e: s.Index) -> p.Expr:
-        operand = self.value(self.expr(e.operand), e.pos)
+        return self.index_of(self.value(self.expr(e.operand), e.pos), e)
+
+    def index_of(self, operand: p.Expr, e: s.Index) -> p.IndexOf:
+        """``operand[e.index]``, read or assigned: a vector indexed by an int, a constant index in range."""
         if not operand.type.is_vector:
             raise self.error(e.pos, f"a {operand.type} cannot be indexed: '[]' needs a vector")
         index = self.expr(e.index)
@@ -264,18 +267,7 @@ class ExpressionChecker:
                 raise self.error(e.pos, f"cannot assign to '.{e.name}': it names a component twice")
             return swizzle
         if isinstance(e, s.Index):
-            operand = self.target(e.operand, op)
-            if not operand.type.is_vector:
-                raise self.error(e.pos, f"a {operand.type} cannot be indexed: '[]' needs a vector")
-            index = self.expr(e.index)
-            if index.type != INT:
-                raise self.error(e.index.pos, f"an index must be an int, not {index.type}")
-            if isinstance(index, p.Constant) and not 0 <= int(index.values[0]) < operand.type.size:
-                raise self.error(
-                    e.index.pos,
-                    f"index {index.values[0]} is outside the {operand.type.size} components of a {operand.type}",
-                )
-            return p.IndexOf(FLOAT, operand, index)
+            return self.index_of(self.target(e.operand, op), e)
         raise self.error(e.pos, "this expression cannot be assigned to")
 
     def expr_Assignment(self, e: s.Assignment) -> p.Expr:

@@ -1,6 +1,10 @@
 """A checked shader: every expression typed, every name bound to its variable or function, every implicit
 conversion explicit. :mod:`core.glsl.checker` builds it from the syntax tree and :mod:`core.glsl.codegen`
-lowers it to LLVM IR; neither the scopes nor the overload rules reach the code generator."""
+lowers it to LLVM IR; neither the scopes nor the overload rules reach the code generator.
+
+Its nodes repeat many of :mod:`core.glsl.syntax`'s, field for field but for a type and a bound variable: the
+two trees are two stages (the text as written, the program as checked), and each stage's code matches on its
+own node classes."""
 
 from __future__ import annotations
 
