@@ -86,12 +86,17 @@ class LatLongEnvironment:
         sky = np.where(w[..., 2] > 0, 0.4 + 0.6 * w[..., 2], 0.05)
         return sky + 2000.0 * (cos_sun > math.cos(0.06)) + 5.0 * np.exp((cos_sun - 1.0) * 30.0)
 
-    def radiance(self, wi: np.ndarray) -> np.ndarray:
+    def pixel(self, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The row and column of the pixel each direction of ``wi`` (n, 3) falls in, as two (n,) int arrays."""
         h, w = self.image.shape
         theta = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
         phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), TWO_PI)
         r = np.minimum((theta / math.pi * h).astype(int), h - 1)
         c = np.minimum((phi / TWO_PI * w).astype(int), w - 1)
+        return r, c
+
+    def radiance(self, wi: np.ndarray) -> np.ndarray:
+        r, c = self.pixel(wi)
         return self.image[r, c]
 
     def sample(self, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -109,10 +114,6 @@ class LatLongEnvironment:
         return wi, self.pdf(wi)
 
     def pdf(self, wi: np.ndarray) -> np.ndarray:
-        h, w = self.image.shape
-        theta = np.arccos(np.clip(wi[:, 2], -1.0, 1.0))
-        phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), TWO_PI)
-        r = np.minimum((theta / math.pi * h).astype(int), h - 1)
-        c = np.minimum((phi / TWO_PI * w).astype(int), w - 1)
-        k = r * w + c
+        r, c = self.pixel(wi)
+        k = r * self.image.shape[1] + c
         return (self.cdf[k + 1] - self.cdf[k]) / self.pixel_solid[r]
