@@ -79,6 +79,14 @@ def _kind_problem(mode: int) -> str | None:
     return None
 
 
+def check_input_file(path: Path, where: str) -> None:
+    """:class:`FileFormatError` naming ``where`` when ``path`` does not exist or is not a regular file."""
+    if not path.exists():
+        raise FileFormatError(f"{where} does not exist")
+    if not path.is_file():
+        raise FileFormatError(f"{where} is not a regular file")
+
+
 def check_input_size(
     path: str | os.PathLike[str], limit: int, what: str, error: type[FileFormatError] = FileFormatError
 ) -> int:

@@ -37,7 +37,7 @@ import math
 import os
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +46,7 @@ from numba import njit
 from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
 from core.errors import FileFormatError
 from core.fastmath import atan2
-from core.io import atomic_write
+from core.io import atomic_write, check_input_file
 from core.jit import kernel
 from core.measured import FileBRDF
 from core.model import BRDF, Model, Traits
@@ -334,16 +334,12 @@ MERL = Model(
 """The measured 'model': declared like the analytic ones, but not registered (it needs a file, not
 parameters). Every measured BRDF shares it."""
 
-MERL_NEAREST = Model(
+MERL_NEAREST = replace(
+    MERL,
     name="merl_nearest",
     label="Measured (MERL, nearest cell)",
-    citation=_MERL_CITATION,
-    params=(),
-    traits=Traits.ISOTROPIC | Traits.RECIPROCAL,
     eval=eval_merl_nearest,
-    doc=__doc__ or "",
     notes="Containing-cell lookup as MERL's reference reader; piecewise constant.",
-    measured=True,
 )
 
 
@@ -382,10 +378,7 @@ def read_merl(path: str | os.PathLike[str]) -> MerlTable:
     """Read a MERL ``.binary`` file; raises :class:`FileFormatError` naming what is wrong."""
     p = Path(path)
     where = f"MERL file '{p}'"
-    if not p.exists():
-        raise FileFormatError(f"{where} does not exist")
-    if not p.is_file():
-        raise FileFormatError(f"{where} is not a regular file")
+    check_input_file(p, where)
     try:
         size = p.stat().st_size
         with open(p, "rb") as fh:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import FileFormatError
-from core.io import atomic_write, read_bounded
+from core.io import atomic_write, check_input_file, read_bounded
 
 MAGIC = b"tensor_file\0"
 VERSION = (1, 0)
@@ -47,10 +47,7 @@ def read_tensor_file(path: str | os.PathLike[str], what: str = "tensor file") ->
     """Every field of the file at ``path``, by name (arrays in their stored type and shape)."""
     p = Path(path)
     where = f"{what} '{p}'"
-    if not p.exists():
-        raise FileFormatError(f"{where} does not exist")
-    if not p.is_file():
-        raise FileFormatError(f"{where} is not a regular file")
+    check_input_file(p, where)
     try:
         data = read_bounded(p, MAX_BYTES, what)
     except OSError as exc:
