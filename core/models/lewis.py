@@ -18,12 +18,13 @@ from __future__ import annotations
 
 from numba import njit
 
-from core.geometry import dot, mirror
+from core.geometry import mirror
 from core.jit import kernel
 from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
+    cosine_power,
     diffuse_plus_lobe,
     lobe_probability_clamped,
     luminance_at,
@@ -49,10 +50,7 @@ def eval_lewis(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
     n = p[N]
-    cos_alpha = dot(mirror(wo), wi)
-    spec = 0.0
-    if cos_alpha > 0.0:
-        spec = (n + 2.0) * INV_TWO_PI * min(cos_alpha, 1.0) ** n
+    spec = (n + 2.0) * INV_TWO_PI * cosine_power(mirror(wo), wi, n)
     return diffuse_plus_lobe(p, KD, KS, spec)
 
 

@@ -62,6 +62,14 @@ def cosine_power_lobe(axis, n, u1, u2):
 
 
 @njit(inline="always", nogil=True, cache=True)
+def cosine_power(axis, w, n):
+    """``cos^n`` of the angle between unit ``axis`` and ``w``, 0 beyond a right angle (the cosine clamped at 1
+    against rounding): the value of a Phong-type lobe."""
+    c = dot(axis, w)
+    return min(c, 1.0) ** n if c > 0.0 else 0.0
+
+
+@njit(inline="always", nogil=True, cache=True)
 def cosine_power_lobe_pdf(axis, n, w):
     c = dot(axis, w)
     if c <= 0.0:

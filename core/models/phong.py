@@ -21,12 +21,13 @@ from __future__ import annotations
 
 from numba import njit
 
-from core.geometry import dot, mirror
+from core.geometry import mirror
 from core.jit import kernel
 from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,
+    cosine_power,
     diffuse_plus_lobe,
     lobe_probability_clamped,
     luminance_at,
@@ -55,11 +56,7 @@ N, KS, KD = param_offsets(PARAMS, "n", "ks", "kd")
 def eval_phong(wi, wo, p):
     if wi[2] <= 0.0 or wo[2] <= 0.0:
         return 0.0, 0.0, 0.0
-    n = p[N]
-    cos_alpha = dot(mirror(wo), wi)
-    spec = 0.0
-    if cos_alpha > 0.0:
-        spec = min(cos_alpha, 1.0) ** n / max(wi[2], COS_THETA_I_FLOOR)
+    spec = cosine_power(mirror(wo), wi, p[N]) / max(wi[2], COS_THETA_I_FLOOR)
     return diffuse_plus_lobe(p, KD, KS, spec)
 
 
