@@ -101,7 +101,8 @@ def check_buffers(n: int, **arrays: np.ndarray) -> None:
 class Sampler:
     """Base class of the sampling strategies.
 
-    A strategy provides ``_sample_directions(wo (n, 3), u (n, 3)) -> DirectionSamples`` and
+    A strategy provides ``_sample_directions(wo (n, 3), u (n, 3)) -> DirectionSamples`` (or, where its kernel
+    writes into given arrays, ``_directions_into``, from which the other is made) and
     ``_pdf_rows(wo, wi) -> (n,)``; the base class draws the uniforms and evaluates ``f`` once, in compiled
     code, for the directions drawn. A strategy whose kernels compute ``f`` anyway overrides
     :meth:`_sample_rows` (or :meth:`sample_each` and :meth:`pdf` themselves) and returns it.
@@ -213,7 +214,14 @@ class Sampler:
         return self._with_f(wo, drawn.wi, drawn.pdf)
 
     def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        raise NotImplementedError
+        """The strategy's directions for the rows of ``wo`` from ``u``, and their density; made from
+        :meth:`_directions_into` (into new arrays) for a strategy that provides that one instead."""
+        if type(self)._directions_into is Sampler._directions_into:
+            raise NotImplementedError
+        wi = np.empty_like(wo)
+        pdf = np.empty(wo.shape[0])
+        self._directions_into(wo, u, wi, pdf)
+        return DirectionSamples(wi, pdf)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         raise NotImplementedError

@@ -7,7 +7,10 @@ base class for the directions drawn.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numba import njit
 
 from core.errors import UnknownNameError
 from core.jit import kernel
@@ -19,15 +22,21 @@ from core.sampling.base import Sampler, register_sampler
 INV_TWO_PI = 0.15915494309189535
 
 
+@njit(inline="always", nogil=True, cache=True)
+def _store(wi_out, pdf_out, i, x, y, z, pdf):
+    """Row ``i`` of a draw: the direction ``(x, y, z)`` and its density."""
+    wi_out[i, 0] = x
+    wi_out[i, 1] = y
+    wi_out[i, 2] = z
+    pdf_out[i] = pdf
+
+
 @kernel
 def sample_uniform_rows(u, wi_out, pdf_out):
     """``wi_out (n, 3)``, ``pdf_out (n,)``: directions uniform over the upper hemisphere from ``u (n, 3)``."""
     for i in range(u.shape[0]):
         x, y, z = uniform_hemisphere(u[i, 0], u[i, 1])
-        wi_out[i, 0] = x
-        wi_out[i, 1] = y
-        wi_out[i, 2] = z
-        pdf_out[i] = INV_TWO_PI
+        _store(wi_out, pdf_out, i, x, y, z, INV_TWO_PI)
 
 
 @kernel
@@ -43,10 +52,7 @@ def sample_cosine_rows(u, wi_out, pdf_out):
     """``wi_out (n, 3)``, ``pdf_out (n,)``: cosine-weighted directions over the upper hemisphere."""
     for i in range(u.shape[0]):
         x, y, z = cosine_hemisphere(u[i, 0], u[i, 1])
-        wi_out[i, 0] = x
-        wi_out[i, 1] = y
-        wi_out[i, 2] = z
-        pdf_out[i] = cosine_hemisphere_pdf(z)
+        _store(wi_out, pdf_out, i, x, y, z, cosine_hemisphere_pdf(z))
 
 
 @kernel
@@ -56,38 +62,36 @@ def pdf_cosine_rows(wi, out):
         out[i] = cosine_hemisphere_pdf(wi[i, 2])
 
 
-class UniformSampler(Sampler):
+class _WarpSampler(Sampler):
+    """A warp of the hemisphere that knows no model: its kernels ``draw_rows(u, wi, pdf)`` and
+    ``pdf_rows(wi, out)`` (module functions, compiled once for every material)."""
+
+    draw_rows: Callable[[np.ndarray, np.ndarray, np.ndarray], None]
+    density_rows: Callable[[np.ndarray, np.ndarray], None]
+
+    def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
+        type(self).draw_rows(np.ascontiguousarray(u), wi, pdf)
+
+    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        out = np.empty(wi.shape[0])
+        type(self).density_rows(wi, out)
+        return out
+
+
+class UniformSampler(_WarpSampler):
     """Uniform over the upper hemisphere: ``pdf = 1 / (2 pi)``."""
 
     name = "uniform"
-
-    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        wi = np.empty_like(wo)
-        pdf = np.empty(wo.shape[0])
-        sample_uniform_rows(np.ascontiguousarray(u), wi, pdf)
-        return DirectionSamples(wi, pdf)
-
-    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-        out = np.empty(wi.shape[0])
-        pdf_uniform_rows(wi, out)
-        return out
+    draw_rows = sample_uniform_rows
+    density_rows = pdf_uniform_rows
 
 
-class CosineSampler(Sampler):
+class CosineSampler(_WarpSampler):
     """Cosine-weighted upper hemisphere: ``pdf = cos(theta_i) / pi``."""
 
     name = "cosine"
-
-    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        wi = np.empty_like(wo)
-        pdf = np.empty(wo.shape[0])
-        sample_cosine_rows(np.ascontiguousarray(u), wi, pdf)
-        return DirectionSamples(wi, pdf)
-
-    def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-        out = np.empty(wi.shape[0])
-        pdf_cosine_rows(wi, out)
-        return out
+    draw_rows = sample_cosine_rows
+    density_rows = pdf_cosine_rows
 
 
 class AnalyticSampler(Sampler):

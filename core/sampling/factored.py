@@ -31,7 +31,7 @@ from numba import njit
 from core import fastmath
 from core.errors import ParameterError
 from core.jit import kernel
-from core.kernels import DirectionSamples, eval_batch
+from core.kernels import eval_batch
 from core.model import BRDF, LUMINANCE
 from core.rng import next_u01, stream
 from core.sampling.base import (
@@ -366,12 +366,6 @@ class FactoredSampler(Sampler):
         self._u_guide = _guides(self._u_cdf)
         self._v_guide = _guides(self._v_cdf)
         self._fit_error = float(np.linalg.norm(Y - F @ G) / max(np.linalg.norm(Y), 1e-300))
-
-    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        wi = np.empty_like(wo)
-        pdf = np.empty(wo.shape[0])
-        self._directions_into(wo, u, wi, pdf)
-        return DirectionSamples(wi, pdf)
 
     def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
         self._draw(wo, u, 0, _NO_POINTS, wi, pdf)

@@ -28,7 +28,7 @@ from numba import njit
 from core import fastmath
 from core.errors import ParameterError
 from core.jit import kernel
-from core.kernels import DirectionSamples, eval_batch
+from core.kernels import eval_batch
 from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
 from core.sampling.distributions import find_interval, guided_interval, interval_guides, walk_interval
@@ -383,12 +383,6 @@ class CDFSampler(Sampler):
             self._cf,
             self._coff,
         )
-
-    def _sample_directions(self, wo: np.ndarray, u: np.ndarray) -> DirectionSamples:
-        wi = np.empty_like(wo)
-        pdf = np.empty(wo.shape[0])
-        self._directions_into(wo, u, wi, pdf)
-        return DirectionSamples(wi, pdf)
 
     def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
         cond, half = np.empty(_BLOCK, dtype=np.int64), np.empty((_BLOCK, 4))
