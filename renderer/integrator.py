@@ -1,7 +1,7 @@
 """Wavefront path tracing: a pass traces a batch of paths per pixel, all advancing bounce by bounce.
 
 Per bounce: Embree finds the closest hits of every live ray in one batched query; compiled stages
-(:mod:`renderer.kernels`) add sky or emitted light (MIS-weighted against light sampling), group the surviving
+(:mod:`renderer.stages`) add sky or emitted light (MIS-weighted against light sampling), group the surviving
 vertices by material, and take one light sample each (next-event estimation, MIS-weighted against BRDF
 sampling); each material's sampler then evaluates its BRDF and pdf at the light samples and draws its BRDF
 samples on one contiguous slice (the sampler's draws carry ``f`` with them); a last stage adds the light
@@ -11,7 +11,7 @@ Python runs a fixed number of calls per bounce and per material, whatever the nu
 go in interleaved wavefronts (:mod:`renderer.wavefront`) traced on the tracer's threads at once, each
 wavefront's stages and Embree queries on its own thread (the kernels release the GIL).
 
-NEE picks a light type (area, point, sky) by shares a pilot of camera rays sets, then a light (emissive
+NEE picks a light type (area, point, sky) by shares a pilot of camera rays sets (:mod:`renderer.light_shares`), then a light (emissive
 triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
 (area pdf converted to solid angle, environment-map pdf, uniform sphere for a constant sky) and the sampler's
 ``pdf(wo, wi)``; point lights are delta lights (no MIS). Optionally (``ris_candidates``) the sky's direct light
@@ -33,28 +33,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.dispatch import MERL, MERL_NEAREST
-from core.model import LUMINANCE
 from core.scene import Scene
-from renderer.envmap import env_args
-from renderer.kernels import (
-    BY_SAMPLER,
-    COMPILED_STRATEGIES,
-    SOBOL_DEPTH,
-    add_rows,
-    bsdf_points,
-    bsdf_stage,
-    bsdf_step,
-    camera_rays,
-    camera_stage,
-    continue_stage,
-    hit_stage,
-    shadow_stage,
-    sort_by_material,
-    surface_frames,
-    surface_stage,
-    tangent_frames,
-)
+from renderer.envmap import sky_record
+from renderer.light_shares import light_shares
 from renderer.qmc import key
+from renderer.ris import ris_sky
+from renderer.stages.bsdf import BY_SAMPLER, COMPILED_STRATEGIES, bsdf_points, bsdf_stage
+from renderer.stages.camera import camera_rays, camera_stage
+from renderer.stages.continuation import bsdf_step, continue_stage, shadow_stage
+from renderer.stages.hits import hit_stage, sort_by_material
+from renderer.stages.primitives import SOBOL_DEPTH
+from renderer.stages.records import Estimator, Lights, Materials, PassKeys, PinholeCamera, lights, triangles
+from renderer.stages.surface import surface_frames, surface_stage
 from renderer.wavefront import WAVEFRONT, Buffers, Wave, waves
 from renderer.world import NO_MATERIAL, World
 
@@ -62,11 +52,6 @@ PARALLEL_MIN = 16384
 """Images of more pixels than this compile their models' kernels on all threads (``World.compile``)."""
 LOAD_PASS = (1 << 62) + 0x10AD
 """The pass index of :meth:`PathTracer.load_kernels`' paths (no render numbers its passes this high)."""
-
-SHARE_PILOT = 4096
-"""Camera rays of the pilot that sets NEE's light-type probabilities (:meth:`PathTracer._light_shares`)."""
-SHARE_FLOOR = 0.1
-"""The least probability of a light type present (before renormalizing)."""
 
 KEEP_RADIANCE_ROWS = 1 << 21
 """Passes of at most this many paths (48 MB of radiance rows) keep their radiance rows from pass to pass
@@ -97,21 +82,20 @@ class Camera:
 
     def __init__(self, scene: Scene, width: int, height: int):
         cam = scene.camera
-        self.width, self.height = width, height
-        self.origin = np.asarray(cam.position, dtype=np.float64)
-        fwd = np.asarray(cam.target, dtype=np.float64) - self.origin
-        self.forward = fwd / np.linalg.norm(fwd)
-        right = np.cross(self.forward, np.asarray(cam.up, dtype=np.float64))
-        self.right = right / np.linalg.norm(right)
-        self.up = np.cross(self.right, self.forward)
-        self.tan_half = np.tan(np.radians(cam.fov_deg) / 2.0)
-        self.aspect = width / height
+        origin = np.asarray(cam.position, dtype=np.float64)
+        fwd = np.asarray(cam.target, dtype=np.float64) - origin
+        forward = fwd / np.linalg.norm(fwd)
+        right = np.cross(forward, np.asarray(cam.up, dtype=np.float64))
+        right = right / np.linalg.norm(right)
+        up = np.cross(right, forward)
+        tan_half = float(np.tan(np.radians(cam.fov_deg) / 2.0))
+        self.record = PinholeCamera(
+            width, height, origin, forward, right, up, tan_half, float(width / height)
+        )
+        """what the compiled stages read"""
 
     def rays(self, pixels: np.ndarray, jitter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return camera_rays(
-            pixels, jitter, self.width, self.height, self.origin, self.forward, self.right, self.up,
-            float(self.tan_half), float(self.aspect),
-        )  # fmt: skip
+        return camera_rays(pixels, jitter, self.record)  # type: ignore[no-any-return]
 
 
 class PathTracer:
@@ -143,11 +127,15 @@ class PathTracer:
         self.mis = mis
         self.stats = PassStats()
         self._seed_key = _key(seed % (1 << 64), 0x5EED)
-        self._env = tuple(
-            np.ascontiguousarray(x) if isinstance(x, np.ndarray) else x for x in env_args(world.env)
+        # the records the compiled stages read (renderer.stages.records), built once
+        self.estimator = Estimator(power=mis == "power", nee=self.has_nee_lights, ris=self.ris > 0)
+        self.triangles = triangles(world)
+        self.lights: Lights = lights(world, sky_record(world.env), 0.0, 0.0, 0.0)
+        shares = light_shares(
+            world, self.camera.record, self.triangles, self.lights, present, seed, self._seed_key
         )
-        self.p_area, self.p_point, self.p_env = self._light_shares(present)
-        self._strategies()
+        self.lights = self.lights.with_shares(*shares)
+        self.materials = self._materials()
         self.threads = max(1, int(getattr(world, "threads", 1)))
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
         # one set of wavefront buffers per thread at work: a wavefront takes a free set and gives it back
@@ -157,7 +145,34 @@ class PathTracer:
         self._radiance: np.ndarray | None = None
         self._mean: np.ndarray | None = None  # and their mean per pixel, when a pass has several samples
 
-    def _strategies(self) -> None:
+    @property
+    def p_area(self) -> float:
+        """NEE's probability of an area light (:mod:`renderer.light_shares`)."""
+        return self.lights.p_area
+
+    @p_area.setter
+    def p_area(self, p: float) -> None:
+        self.lights = self.lights.with_shares(p, self.lights.p_point, self.lights.p_env)
+
+    @property
+    def p_point(self) -> float:
+        """NEE's probability of a point light."""
+        return self.lights.p_point
+
+    @p_point.setter
+    def p_point(self, p: float) -> None:
+        self.lights = self.lights.with_shares(self.lights.p_area, p, self.lights.p_env)
+
+    @property
+    def p_env(self) -> float:
+        """NEE's probability of the sky."""
+        return self.lights.p_env
+
+    @p_env.setter
+    def p_env(self, p: float) -> None:
+        self.lights = self.lights.with_shares(self.lights.p_area, self.lights.p_point, p)
+
+    def _materials(self) -> Materials:
         """Per material index: whether its BRDF samples are drawn in compiled code (a strategy without
         tables: ``uniform``, ``cosine``, ``analytic``) or by its sampler object, the model's dispatch id and
         its parameters (rows padded to one length)."""
@@ -166,30 +181,31 @@ class PathTracer:
         compiled = (UniformSampler, CosineSampler, AnalyticSampler)
         rts = self.world.materials_by_index
         n = len(rts)
-        self.mat_strategy = np.full(n, BY_SAMPLER, dtype=np.int64)
-        self.mat_model = np.zeros(n, dtype=np.int64)
-        # MERL tables (4.4 M values) go to mat_tables as float32 (renderer.kernels._eval), every other model's
-        # parameters to mat_params: neither matrix pads a small row to a table's width
+        strategy = np.full(n, BY_SAMPLER, dtype=np.int64)
+        model = np.zeros(n, dtype=np.int64)
+        # MERL tables (4.4 M values) go to tables as float32 (renderer.stages.bsdf._eval), every other model's
+        # parameters to params: neither matrix pads a small row to a table's width
         table = [rt is not None and rt.brdf.model.id in (MERL, MERL_NEAREST) for rt in rts]
         width = max(
             [len(rt.brdf.params) for rt, t in zip(rts, table, strict=True) if rt is not None and not t] + [1]
         )
         t_width = max([len(rt.brdf.params) for rt, t in zip(rts, table, strict=True) if t] + [1])
-        self.mat_params = np.zeros((n, width))
-        self.mat_tables = np.zeros((n, t_width), dtype=np.float32)
+        params = np.zeros((n, width))
+        tables = np.zeros((n, t_width), dtype=np.float32)
         for m, rt in enumerate(rts):
             if rt is None:
                 continue
-            self.mat_model[m] = rt.brdf.model.id
+            model[m] = rt.brdf.model.id
             if table[m]:
-                self.mat_tables[m, : len(rt.brdf.params)] = rt.brdf.params
+                tables[m, : len(rt.brdf.params)] = rt.brdf.params
             else:
-                self.mat_params[m, : len(rt.brdf.params)] = rt.brdf.params
+                params[m, : len(rt.brdf.params)] = rt.brdf.params
             # a sampler with tables whose density is a compiled strategy's (the adaptive sampler's flat table
             # of a Lambertian material: the cosine density) is drawn as that strategy
             name = rt.sampler.name if type(rt.sampler) in compiled else rt.sampler.compiled_equivalent()
             if name is not None:
-                self.mat_strategy[m] = COMPILED_STRATEGIES[name]
+                strategy[m] = COMPILED_STRATEGIES[name]
+        return Materials(strategy, model, params, tables)
 
     def _rng(self, pass_index: int, depth: int, role: int, wave: int = 0) -> np.random.Generator:
         return np.random.default_rng([self.seed, pass_index, depth + 1, role, wave])
@@ -202,75 +218,6 @@ class PathTracer:
         """``stage(0, n, *args)`` on the calling thread (a wavefront's thread); what it returns (a count of
         dropped contributions), or 0. Every compiled stage of a wavefront goes through here."""
         return int(stage(0, n, *args) or 0)
-
-    # ------------------------------------------------------------------------------------------ light types
-    def _light_shares(self, present: tuple[bool, bool, bool]) -> tuple[float, float, float]:
-        """The probabilities of NEE's light types (area, point, sky) among those ``present``: with one type,
-        1; with several, from a pilot: at the first hits of :data:`SHARE_PILOT` camera rays through a
-        coarse grid of pixels, one light sample of each type, its shadow ray traced, and the estimate a
-        white Lambertian surface makes of it, ``X = lum(L) cos / (pi pdf)`` (0 where occluded); a type's
-        share is proportional to the square root of ``E[X^2]`` (what minimizes the variance of one sample of
-        a type chosen at random, ``sum E[X_k^2] / p_k``), at least :data:`SHARE_FLOOR` (a type the pilot
-        happened to miss keeps samples). Equal shares where the pilot finds nothing. Deterministic (the
-        pilot's numbers come from the seed); unbiased whatever the shares (MIS reads them)."""
-        k = sum(present)
-        if k <= 1:
-            return tuple(1.0 if on else 0.0 for on in present)  # type: ignore[return-value]
-        moments = self._light_moments(present)
-        if not np.all(np.isfinite(moments)) or moments.sum() <= 0.0:
-            return tuple(1.0 / k if on else 0.0 for on in present)  # type: ignore[return-value]
-        w = np.where(present, np.sqrt(moments), 0.0)
-        p = np.where(present, np.maximum(w / w.sum(), SHARE_FLOOR), 0.0)
-        p /= p.sum()
-        return float(p[0]), float(p[1]), float(p[2])
-
-    def _light_moments(self, present: tuple[bool, bool, bool]) -> np.ndarray:
-        """``E[X^2]`` per light type over the pilot's vertices (see :meth:`_light_shares`): each type's light
-        samples are the render's own (``surface_stage`` with that type's share set to 1), their shadow rays
-        traced by the render's occlusion query."""
-        w = self.world
-        n_pix = self.width * self.height
-        pix = np.unique(np.linspace(0, n_pix - 1, min(SHARE_PILOT, n_pix)).astype(np.int64))
-        rng = np.random.default_rng([self.seed, 0x5A4E])
-        o, d = self.camera.rays(pix, rng.random((len(pix), 2)))
-        hits = w.accel.intersect(o, d)
-        keep = hits.prim >= 0
-        keep[keep] = w.tri_material[hits.prim[keep]] != NO_MATERIAL
-        out = np.zeros(3)
-        n = int(np.count_nonzero(keep))
-        if n == 0:
-            return out
-        B = Buffers(n)
-        B.o[:], B.d[:], B.path[:] = o[keep], d[keep], pix[keep]
-        B.t[:], B.bu[:], B.bv[:], B.prim[:] = hits.t[keep], hits.u[keep], hits.v[keep], hits.prim[keep]
-        B.mat[:] = w.tri_material[B.prim]
-        B.order[:] = np.arange(n)
-        B.beta.fill(1.0)
-        pilot_key = _key(int(self._seed_key), 0x5A4E)
-        for kind in range(3):
-            if not present[kind]:
-                continue
-            # the type's share 1 (thresholds c_area, c_point) and its probability 1: pdf is the type's own
-            c_area, c_point = (1.0, 1.0) if kind == 0 else (0.0, 1.0) if kind == 1 else (0.0, 0.0)
-            p = np.eye(3)[kind]
-            surface_stage(
-                0, n, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
-                w.tri_normal, w.tri_vnormals, w.tri_smooth, True, n_pix, 0, pilot_key, 0,
-                c_area, c_point, p[0], p[1], p[2],
-                w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
-                w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf, *self._env,
-                B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
-                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.frames,
-            )  # fmt: skip
-            le = B.l_le @ LUMINANCE
-            ok = B.l_cand & np.isfinite(le) & np.isfinite(B.l_pdf)
-            x = np.zeros(n)
-            if np.any(ok):
-                seen = ~w.accel.occluded(B.origin[ok], B.l_wi[ok], B.l_tmax[ok])
-                rows = np.flatnonzero(ok)[seen]
-                x[rows] = le[rows] * B.l_wi_local[rows, 2] / (np.pi * B.l_pdf[rows])
-            out[kind] = float(np.mean(x * x))
-        return out
 
     # ------------------------------------------------------------------------------------------ warm-up
     def incident_directions(self, max_paths: int = 8192, bounces: int = 2) -> dict[int, np.ndarray]:
@@ -295,9 +242,7 @@ class PathTracer:
             prim, mat = prim[live], mat[live]
             if len(o) == 0:
                 break
-            ng, ns, tb, bb, wo_l, origin = surface_frames(
-                o, d, t, prim, bu, bv, w.tri_normal, w.tri_vnormals, w.tri_smooth, w.eps
-            )
+            ng, ns, tb, bb, wo_l, origin = surface_frames(o, d, t, prim, bu, bv, self.triangles)
             for m in np.unique(mat):
                 found.setdefault(int(m), []).append(wo_l[mat == m])
             u = rng.random((len(o), 2))
@@ -350,7 +295,7 @@ class PathTracer:
             radiance.fill(0.0)
         else:
             radiance = np.zeros((rows, 3))
-        pass_key = _key(self._seed_key, pass_index)
+        keys = PassKeys(n_pix, first, self._seed_key, _key(self._seed_key, pass_index))
         if pixels is None:
             plan = waves(0, n_pix * int(spp))
         else:
@@ -370,7 +315,7 @@ class PathTracer:
                 B = Buffers(wave.n)
                 self.buffers.append(B)
             try:
-                return self._wavefront(B, wave, radiance, pass_index, pass_key, first)
+                return self._wavefront(B, wave, radiance, pass_index, keys)
             finally:
                 self._free.put(B)
 
@@ -425,27 +370,17 @@ class PathTracer:
             self._mean.fill(0.0)
 
     def _wavefront(
-        self,
-        B: Buffers,
-        wave: Wave,
-        radiance: np.ndarray,
-        pass_index: int,
-        pass_key: np.uint64,
-        first: int,
+        self, B: Buffers, wave: Wave, radiance: np.ndarray, pass_index: int, keys: PassKeys
     ) -> tuple[int, int]:
         """The paths of ``wave``, bounce by bounce on the calling thread with the buffers ``B``, the light of
         path ``j`` added to ``radiance`` row ``j - wave.row_offset``. Returns the number of rays traced and of
         non-finite contributions dropped."""
         w = self.world
-        n_pix = self.width * self.height
         n = wave.n
-        cam = self.camera
         rows = np.int64(wave.row_offset)
-        self._run(camera_stage, n, wave.j0, wave.block, wave.step, n_pix, first, self._seed_key, self.width,
-                  self.height, cam.origin, cam.forward, cam.right, cam.up, float(cam.tan_half), float(cam.aspect),
-                  B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf)  # fmt: skip
-        env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot = self._env
-        power = self.mis == "power"
+        est, tris, lights = self.estimator, self.triangles, self.lights
+        R, H, V, L, S = B.rays, B.hits, B.vertices, B.light, B.bsdf
+        self._run(camera_stage, n, wave.j0, wave.block, wave.step, keys, self.camera.record, R)
         n_mat = len(w.materials_by_index)
         offsets = np.zeros(n_mat + 1, dtype=np.int64)
         bad = 0
@@ -453,73 +388,53 @@ class PathTracer:
         for depth in range(self.max_depth + 1):
             if n == 0:
                 break
-            w.accel.trace(B.o32[:n], B.d32[:n], B.prim, B.t, B.bu, B.bv, parallel=False)
+            w.accel.trace(R.o32[:n], R.d32[:n], H.prim, H.t, H.bu, H.bv, parallel=False)
             rays += n
-            bad += self._run(
-                hit_stage, n, B.d, B.prim, B.t, B.beta, B.path, B.prev_pdf, radiance, rows, B.mat,
-                depth == self.max_depth, power, self.p_env, self.p_area, self.ris > 0,
-                w.tri_normal, w.tri_material, w.tri_emission, w.tri_emissive, w.tri_two_sided,
-                w.emit_pmf_per_area, env_kind, env_rad, env_pmf, env_img, env_rot, env_edges,
-            )  # fmt: skip
-            n_s = int(sort_by_material(B.mat[:n], n_mat, B.order, offsets))
+            bad += self._run(hit_stage, n, R, H, radiance, rows, depth == self.max_depth, est, tris, lights)
+            n_s = int(sort_by_material(H.mat[:n], n_mat, V.order, offsets))
             if n_s == 0:
                 break
-            self._run(
-                surface_stage, n_s, B.order, B.mat, B.o, B.d, B.t, B.prim, B.bu, B.bv, B.beta, B.path, w.eps,
-                w.tri_normal, w.tri_vnormals, w.tri_smooth,
-                self.has_nee_lights, n_pix, first, self._seed_key, depth,
-                self.p_area, self.p_area + self.p_point, self.p_area, self.p_point, self.p_env,
-                w.emit_ids, w.emit_cdf, w.v0, w.e1, w.e2, w.tri_two_sided, w.tri_emission, w.emit_pmf_per_area,
-                w.point_pos, w.point_intensity, w.point_cdf, w.point_pmf,
-                env_kind, env_rad, env_row, env_col, env_guide, env_edges, env_pmf, env_img, env_rot,
-                B.s_mat, B.ng, B.ns, B.wo, B.origin, B.s_beta, B.s_path,
-                B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.frames,
-            )  # fmt: skip
+            self._run(surface_stage, n_s, depth, keys, est, tris, lights, R, H, V, L, B.scratch)
             # ---- BRDF samples, and f and pdf at the light samples: strategies without tables in compiled code,
             # the others by their sampler objects, material by material, on contiguous slices
-            self._run(
-                bsdf_stage, n_s, n_pix, first, self._seed_key, pass_key, depth, self.has_nee_lights,
-                self.mat_strategy, self.mat_model, self.mat_params, self.mat_tables, B.s_mat, B.s_path, B.wo,
-                B.l_wi_local, B.l_cand, B.l_f, B.l_pdf_brdf, B.wi_local, B.pdf, B.f, B.blk, B.mcell, B.mfrac,
-            )  # fmt: skip
-            self._draw_by_samplers(B, offsets, pass_index, depth, wave.key, first)
+            self._run(bsdf_stage, n_s, depth, keys, est, self.materials, V, L, S, B.scratch)
+            self._draw_by_samplers(B, offsets, pass_index, depth, wave.key, keys)
             if self.ris:
-                r_bad, r_rays = self._ris_environment(
-                    B, radiance, rows, pass_index, depth, n_s, offsets, wave.key
-                )
+                r_bad, r_rays = ris_sky(
+                    w, B, radiance, rows, n_s, offsets, self.ris,
+                    lambda m, d=depth: self._seed(pass_index, d, m + 0x10000, 0, wave.key),
+                    self._rng(pass_index, depth, 7, wave.key),
+                )  # fmt: skip
                 bad += r_bad
                 rays += r_rays
-            rr_key = _key(_key(pass_key, depth), 0x7272)
+            rr_key = _key(_key(keys.pass_key, depth), 0x7272)
             counts = B.counts
             counts[:] = 0
             self._run(
-                continue_stage, n_s, power, depth + 1 >= self.rr_depth, rr_key, B.ng, B.ns, B.s_beta, B.s_path,
-                B.origin, B.l_wi, B.l_wi_local, B.l_le, B.l_pdf, B.l_tmax, B.l_delta, B.l_cand, B.l_f, B.l_pdf_brdf,
-                B.wi_local, B.pdf, B.f, B.l_contrib, B.o, B.d, B.o32, B.d32, B.beta, B.path, B.prev_pdf,
-                B.so32, B.sd32, B.st32, B.shadow_slot, counts,
-            )  # fmt: skip
+                continue_stage, n_s, est, depth + 1 >= self.rr_depth, rr_key, V, L, S, R, B.shadow, counts
+            )
             n, k = int(counts[0]), int(counts[1])
             if k:
-                blocked = w.accel.occluded(B.so32[:k], B.sd32[:k], B.st32[:k], parallel=False)
+                sh = B.shadow
+                blocked = w.accel.occluded(sh.o32[:k], sh.d32[:k], sh.tmax32[:k], parallel=False)
                 rays += k
-                bad += self._run(
-                    shadow_stage, k, blocked, B.shadow_slot, B.s_path, B.l_contrib, radiance, rows
-                )
+                bad += self._run(shadow_stage, k, blocked, sh, V, L, radiance, rows)
         return rays, bad
 
     def _draw_by_samplers(
-        self, B: Buffers, offsets: np.ndarray, pass_index: int, depth: int, wave: int, first: int
+        self, B: Buffers, offsets: np.ndarray, pass_index: int, depth: int, wave: int, keys: PassKeys
     ) -> None:
         """The vertices of materials whose strategy has tables: their sampler objects evaluate ``f`` and the
         pdf at the light samples and draw the BRDF samples (with ``f``), in slices of at most
         ``SAMPLER_SLICE`` rows of one material, on the wavefront's thread. Each slice's draws are seeded by
         ``(seed, pass, wavefront, bounce, material, slice)``: the image does not depend on the threads. Below
         ``SOBOL_DEPTH`` their warps read the Sobol points the compiled strategies draw from
-        (:func:`~renderer.kernels.bsdf_points`), so every strategy's samples are placed alike."""
+        (:func:`~renderer.stages.bsdf.bsdf_points`), so every strategy's samples are placed alike."""
+        strategy = self.materials.strategy
         jobs = []
         for m in range(len(offsets) - 1):
             a, b = int(offsets[m]), int(offsets[m + 1])
-            if a == b or self.mat_strategy[m] != BY_SAMPLER:
+            if a == b or strategy[m] != BY_SAMPLER:
                 continue
             sampler = self.world.materials_by_index[m].sampler
             for k, lo in enumerate(range(a, b, SAMPLER_SLICE)):
@@ -528,68 +443,12 @@ class PathTracer:
                 )
 
         placed = depth < SOBOL_DEPTH
-        n_pix = self.width * self.height
+        V, L, S = B.vertices, B.light, B.bsdf
         for sampler, lo, hi, seed in jobs:
             if placed:
-                bsdf_points(lo, hi, n_pix, first, self._seed_key, depth, B.s_path, B.points)
+                bsdf_points(lo, hi, keys, depth, V.path, S.points)
             if self.has_nee_lights:
-                sampler.eval_pdf_where(B.wo[lo:hi], B.l_wi_local[lo:hi], B.l_cand[lo:hi], B.l_f[lo:hi],
-                                       B.l_pdf_brdf[lo:hi])  # fmt: skip
-            sampler.sample_into(B.wo[lo:hi], seed, B.wi_local[lo:hi], B.pdf[lo:hi], B.f[lo:hi],
-                                points=B.points[lo:hi] if placed else None)  # fmt: skip
-
-    def _ris_environment(
-        self,
-        B: Buffers,
-        radiance: np.ndarray,
-        row_offset: np.int64,
-        pass_index: int,
-        depth: int,
-        n_s: int,
-        offsets: np.ndarray,
-        wave: int,
-    ) -> tuple[int, int]:
-        """Direct light from the sky by resampled importance sampling at the ``n_s`` surface vertices:
-        ``M`` candidates from the material's sampler, weights ``w_k = p_hat / p`` with ``p_hat = lum(f cos
-        L)`` (unoccluded), one kept with probability ``w_k / sum w``; estimate ``f cos L V * mean(w) /
-        p_hat(y)`` with one shadow ray. Returns the numbers of non-finite contributions dropped and of shadow
-        rays."""
-        w = self.world
-        m_c = self.ris
-        n = n_s
-        wo_l, origin, ng = B.wo[:n], B.origin[:n], B.ng[:n]
-        ns = B.ns[:n]
-        tb, bb = tangent_frames(ns)
-        wi_l = np.zeros((n * m_c, 3))
-        pdf = np.zeros(n * m_c)
-        f = np.zeros((n * m_c, 3))
-        wo_rep = np.repeat(wo_l, m_c, axis=0)
-        for m in range(len(offsets) - 1):
-            a, b = int(offsets[m]), int(offsets[m + 1])
-            if a == b:
-                continue
-            rows = slice(a * m_c, b * m_c)
-            sampler = w.materials_by_index[m].sampler
-            drawn = sampler.sample_each(
-                wo_rep[rows], seed=self._seed(pass_index, depth, m + 0x10000, 0, wave)
-            )
-            wi_l[rows], pdf[rows], f[rows] = drawn.wi, drawn.pdf, drawn.f
-        rep = (np.repeat(x, m_c, axis=0) for x in (tb, bb, ns, ng))
-        wi, ok, fcos_over_p = bsdf_step(wi_l, pdf, f, *rep, np.ones((n * m_c, 3)))
-        le = w.env.lookup(wi)[0]
-        weight = np.where(ok, (fcos_over_p * le) @ LUMINANCE, 0.0).reshape(n, m_c)  # p_hat / p
-        total = weight.sum(axis=1)
-        u = self._rng(pass_index, depth, 7, wave).random(n)
-        pick = np.minimum((np.cumsum(weight, axis=1) <= (u * total)[:, None]).sum(axis=1), m_c - 1)
-        chosen = np.arange(n) * m_c + pick
-        fcos_le = f[chosen] * wi_l[chosen, 2:3] * le[chosen]
-        p_hat = fcos_le @ LUMINANCE
-        good = (total > 0) & (p_hat > 0) & ok[chosen]
-        i = np.nonzero(good)[0]
-        if len(i) == 0:
-            return 0, 0
-        contrib = B.s_beta[i] * fcos_le[i] * ((total[i] / m_c) / p_hat[i])[:, None]
-        blocked = w.accel.occluded(origin[i], wi[chosen[i]], parallel=False)
-        keep = ~blocked
-        bad = add_rows(radiance, B.s_path[i[keep]] - row_offset, np.ascontiguousarray(contrib[keep]))
-        return int(bad), len(i)
+                sampler.eval_pdf_where(V.wo[lo:hi], L.wi_local[lo:hi], L.cand[lo:hi], L.f[lo:hi],
+                                       L.pdf_brdf[lo:hi])  # fmt: skip
+            sampler.sample_into(V.wo[lo:hi], seed, S.wi_local[lo:hi], S.pdf[lo:hi], S.f[lo:hi],
+                                points=S.points[lo:hi] if placed else None)  # fmt: skip

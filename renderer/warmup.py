@@ -1,7 +1,7 @@
 """Compile the renderer's cached kernels once, at setup: ``python -m renderer.warmup`` (after
 ``python -m core.warmup``, which compiles the models and samplers; see :mod:`core.warmup`).
 
-The kernels (:mod:`renderer.kernels`, the environment map's in :mod:`renderer.envmap`) are compiled by
+The kernels (:mod:`renderer.stages`, the environment map's in :mod:`renderer.envmap`) are compiled by
 rendering the bundled demo scene (an area light, a sky map, analytic and measured materials) at a few pixels,
 so that they see the argument types a real render gives them.
 

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from renderer.kernels import BLOCK
+from renderer.stages.primitives import BLOCK
+from renderer.stages.records import BsdfSamples, Hits, LightSamples, Rays, Scratch, ShadowRays, Vertices
 
 WAVEFRONT = 1 << 18
 """Paths traced together at most (a group of ``WAVES`` wavefronts): a pass of a large image runs several groups
@@ -70,43 +71,38 @@ def waves(j0: int, j1: int, row_offset: int = 0) -> list[Wave]:
 
 
 class Buffers:
-    """The arrays of one wavefront, allocated once per size and reused by every wavefront its thread traces."""
+    """The records of one wavefront (:mod:`renderer.stages.records`), allocated once per size and reused by
+    every wavefront its thread traces."""
 
     def __init__(self, n: int):
-        f64, f32, i64 = np.float64, np.float32, np.int64
-        # rays of the current bounce
-        self.o, self.d, self.beta = (np.empty((n, 3), f64) for _ in range(3))
-        self.o32, self.d32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
-        self.path, self.prev_pdf = np.empty(n, i64), np.empty(n, f64)
-        self.prim, self.t = np.empty(n, np.int32), np.empty(n, f32)
-        self.bu, self.bv = np.empty(n, f32), np.empty(n, f32)
-        self.mat, self.order, self.s_mat = np.empty(n, i64), np.empty(n, i64), np.empty(n, i64)
-        # surface vertices, sorted by material
-        self.ng, self.ns, self.wo, self.origin, self.s_beta = (np.empty((n, 3), f64) for _ in range(5))
-        self.s_path = np.empty(n, i64)
-        # their light samples and BRDF samples
-        self.l_wi_local, self.l_le, self.l_f, self.l_contrib = (np.empty((n, 3), f64) for _ in range(4))
-        self.l_pdf, self.l_pdf_brdf = np.empty(n, f64), np.empty(n, f64)
-        # what only makes shadow rays is kept in Embree's float32
-        self.l_wi, self.l_tmax = np.empty((n, 3), f32), np.empty(n, f32)
-        self.l_delta, self.l_cand = np.empty(n, np.bool_), np.empty(n, np.bool_)
-        self.wi_local, self.f = np.empty((n, 3), f64), np.empty((n, 3), f64)
-        self.pdf = np.empty(n, f64)
-        self.points = np.empty((n, 2), f64)  # the BRDF samples' Sobol points, for the strategies with tables
-        # shadow rays, and the numbers of next rays and shadow rays
-        self.so32, self.sd32 = np.empty((n, 3), f32), np.empty((n, 3), f32)
-        self.st32 = np.empty(n, f32)
-        self.shadow_slot = np.empty(n, i64)
-        self.counts = np.zeros(2, i64)
-        # the stages' scratch rows: a block's frames and light points (surface stage) and uniforms (BRDF stage)
-        self.frames, self.blk = np.empty((BLOCK, 11), f64), np.empty((BLOCK, 3), f64)
-        # and the cells of a block's deferred MERL lookups (BRDF stage)
-        self.mcell, self.mfrac = np.empty((BLOCK, 2, 3), i64), np.empty((BLOCK, 2, 3), f64)
+        self.rays = Rays.empty(n)
+        """the current bounce's rays"""
+        self.hits = Hits.empty(n)
+        """their closest hits"""
+        self.vertices = Vertices.empty(n)
+        """the surface vertices, sorted by material"""
+        self.light = LightSamples.empty(n)
+        """their light samples"""
+        self.bsdf = BsdfSamples.empty(n)
+        """their BRDF samples"""
+        self.shadow = ShadowRays.empty(n)
+        """the light samples' shadow rays"""
+        self.counts = np.zeros(2, np.int64)
+        """the numbers of next rays and of shadow rays (:func:`renderer.stages.continuation.continue_stage`)"""
+        self.scratch = Scratch.empty(BLOCK)
+        """the stages' scratch rows"""
 
     def __len__(self) -> int:
-        return len(self.path)
+        return len(self.rays.path)
+
+    def arrays(self) -> list[np.ndarray]:
+        """Every array of the records."""
+        out = [self.counts]
+        for record in (self.rays, self.hits, self.vertices, self.light, self.bsdf, self.shadow, self.scratch):
+            out.extend(record)
+        return out
 
     def touch(self) -> None:
         """Write every array once (zeros): their pages are mapped now rather than in a pass's stages."""
-        for a in vars(self).values():
+        for a in self.arrays():
             a.fill(0)

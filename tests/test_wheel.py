@@ -40,7 +40,7 @@ def test_the_wheel_carries_compiled_kernels_that_an_installed_copy_loads(tmp_pat
     assert "core/_kernels/BUILD_ID" in names
     compiled = [n for n in names if n.startswith("core/_kernels/") and n.endswith(".nbi")]
     assert any(n.startswith("core/_kernels/core/kernels") for n in compiled), compiled[:5]
-    assert any(n.startswith("core/_kernels/renderer/kernels") for n in compiled), compiled[:5]
+    assert any(n.startswith("core/_kernels/renderer/stages") for n in compiled), compiled[:5]
     # installed elsewhere, with an empty cache of its own: the switch loads, nothing compiles
     user = tmp_path / "user-cache"
     env = {**env, "PYTHONPATH": str(site), "BRDF_STUDIO_NUMBA_CACHE": str(user)}

@@ -61,8 +61,15 @@ def test_a_kernel_that_allocates_does_not_compile() -> None:
 
 
 HOT_KERNELS = [
-    ("renderer.kernels", name)
-    for name in ("camera_stage", "hit_stage", "surface_stage", "bsdf_stage", "continue_stage", "shadow_stage")
+    (f"renderer.stages.{module}", name)
+    for module, name in (
+        ("camera", "camera_stage"),
+        ("hits", "hit_stage"),
+        ("surface", "surface_stage"),
+        ("bsdf", "bsdf_stage"),
+        ("continuation", "continue_stage"),
+        ("continuation", "shadow_stage"),
+    )  # fmt: skip
 ] + [
     ("core.sampling.adaptive.draw", "sample_rows"),
     ("core.sampling.adaptive.draw", "pdf_rows"),

@@ -1,4 +1,4 @@
-"""The compiled BRDF stage (``renderer.kernels.bsdf_stage``) on a measured material mixed with an analytic one:
+"""The compiled BRDF stage (``renderer.stages.bsdf.bsdf_stage``) on a measured material mixed with an analytic one:
 the lookups it defers to a block's end (its cells first, the corners' reads of the whole block, then the sums)
 give ``core.merl.eval_merl``'s values to the bit at the light samples and at the BRDF samples, across blocks
 and in blocks that mix materials, and the rows without a light candidate keep their ``f``."""
@@ -13,7 +13,17 @@ from numba import njit
 from core.dispatch import LAMBERT, MERL
 from core.merl import eval_merl, measured_brdf
 from core.model import make_brdf
-from renderer.kernels import BLOCK, COSINE, bsdf_stage
+from renderer.stages.bsdf import COSINE, bsdf_stage
+from renderer.stages.primitives import BLOCK
+from renderer.stages.records import (
+    BsdfSamples,
+    Estimator,
+    LightSamples,
+    Materials,
+    PassKeys,
+    Scratch,
+    Vertices,
+)
 
 
 @njit(cache=False)
@@ -36,24 +46,27 @@ def test_measured_lookups_deferred_to_the_blocks_end_are_the_lookups() -> None:
     lambert = make_brdf("lambert", {"kd": 0.5})
     rng = np.random.default_rng(4)
     n = 3 * BLOCK + 21
-    mat_strategy = np.array([COSINE, COSINE])
-    mat_model = np.array([MERL, LAMBERT])
-    mat_params = np.zeros((2, len(lambert.params)))
-    mat_params[1] = lambert.params
     mat_tables = np.zeros((2, merl.params.shape[0]), dtype=np.float32)
     mat_tables[0] = merl.params
-    s_mat = np.where(rng.random(n) < 0.7, 0, 1).astype(np.int64)
+    mat_params = np.zeros((2, len(lambert.params)))
+    mat_params[1] = lambert.params
+    materials = Materials(np.array([COSINE, COSINE]), np.array([MERL, LAMBERT]), mat_params, mat_tables)
+    vtx, samples, bsdf = Vertices.empty(n), LightSamples.empty(n), BsdfSamples.empty(n)
+    s_mat, s_wo = vtx.mat, vtx.wo
+    s_mat[:] = np.where(rng.random(n) < 0.7, 0, 1)
     s_mat[:BLOCK] = 0  # a block of the measured material only
-    s_path = np.arange(n, dtype=np.int64)
-    s_wo = _directions(rng, n, below=0.05)
-    l_wi_local = _directions(rng, n, below=0.1)
-    l_cand = rng.random(n) < 0.8
-    l_f, f = np.full((n, 3), 7.0), np.full((n, 3), 7.0)
-    l_pdf_brdf, pdf = np.full(n, 7.0), np.full(n, 7.0)
-    wi_local = np.full((n, 3), 7.0)
-    blk, mcell, mfrac = np.empty((BLOCK, 3)), np.empty((BLOCK, 2, 3), dtype=np.int64), np.empty((BLOCK, 2, 3))
-    bsdf_stage(0, n, n, 0, 11, 12, 0, True, mat_strategy, mat_model, mat_params, mat_tables, s_mat, s_path, s_wo,
-               l_wi_local, l_cand, l_f, l_pdf_brdf, wi_local, pdf, f, blk, mcell, mfrac)  # fmt: skip
+    vtx.path[:] = np.arange(n)
+    s_wo[:] = _directions(rng, n, below=0.05)
+    l_wi_local, l_cand, l_f, f = samples.wi_local, samples.cand, samples.f, bsdf.f
+    l_wi_local[:] = _directions(rng, n, below=0.1)
+    l_cand[:] = rng.random(n) < 0.8
+    for a in (l_f, f, samples.pdf_brdf, bsdf.pdf):
+        a.fill(7.0)
+    wi_local, pdf = bsdf.wi_local, bsdf.pdf
+    wi_local.fill(7.0)
+    keys = PassKeys(n, 0, np.uint64(11), np.uint64(12))
+    est = Estimator(power=True, nee=True, ris=False)
+    bsdf_stage(0, n, 0, keys, est, materials, vtx, samples, bsdf, Scratch.empty(BLOCK))
 
     measured = s_mat == 0
     want_l, want_f = np.empty((n, 3)), np.empty((n, 3))

@@ -314,7 +314,7 @@ def test_strategy_with_tables_does_not_depend_on_the_threads(tmp_path: Path) -> 
             images.append(job.tracer.render_pass(1, 16))
             job.tracer.render_pass(2, 16)
             for b in job.tracer.buffers:
-                for v in vars(b).values():
+                for v in b.arrays():
                     v.fill(-1 if v.dtype.kind in "iu" else True if v.dtype.kind == "b" else np.nan)
             images.append(job.tracer.render_pass(1, 16))
         finally:
@@ -331,16 +331,16 @@ def test_compiled_strategy_agrees_with_its_sampler_object(tmp_path: Path, sample
     image: 4x4-pixel blocks agree within a Bonferroni-corrected two-sided z-test at alpha = 0.01."""
     from scipy.stats import norm
 
-    from renderer.kernels import BY_SAMPLER
+    from renderer.stages.bsdf import BY_SAMPLER
 
     passes = 24
     blocks = {}
     for compiled in (True, False):
         job = prepare(_mixed_scene(tmp_path, sampler), seed=11 if compiled else 12)
         if not compiled:
-            job.tracer.mat_strategy[:] = BY_SAMPLER
+            job.tracer.materials.strategy[:] = BY_SAMPLER
         else:
-            assert np.all(job.tracer.mat_strategy != BY_SAMPLER)
+            assert np.all(job.tracer.materials.strategy != BY_SAMPLER)
         per = [job.tracer.render_pass(k, 16).reshape(4, 4, 4, 4, 3).mean(axis=(1, 3)) for k in range(passes)]
         blocks[compiled] = np.array(per)
     a, b = blocks[True], blocks[False]
@@ -389,13 +389,13 @@ def test_a_pass_in_several_wavefronts_is_the_same_pass(
 
 
 def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:
-    """A MERL material's table reaches the compiled BRDF stage as float32 (``mat_tables``; half the cache
+    """A MERL material's table reaches the compiled BRDF stage as float32 (``materials.tables``; half the cache
     footprint): its evaluations equal the model's own (float64 table) to float32 rounding, at random
-    direction pairs, and no float64 row of ``mat_params`` is padded to the table's width."""
+    direction pairs, and no float64 row of ``materials.params`` is padded to the table's width."""
     from numba import njit
 
     from core.dispatch import MERL, eval_model
-    from renderer.kernels import _eval
+    from renderer.stages.bsdf import _eval
 
     @njit(cache=False)
     def both(mid, wi, wo, prm, table):  # type: ignore[no-untyped-def]
@@ -422,8 +422,9 @@ def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:
     job = prepare(scene, warm_up=False)
     tr = job.tracer
     (m,) = [k for k, rt in enumerate(job.world.materials_by_index) if rt is not None]
-    assert tr.mat_model[m] == MERL and tr.mat_tables.dtype == np.float32
-    assert tr.mat_params.shape[1] < 100 and tr.mat_tables.shape[1] == len(
+    mats = tr.materials
+    assert mats.model[m] == MERL and mats.tables.dtype == np.float32
+    assert mats.params.shape[1] < 100 and mats.tables.shape[1] == len(
         job.world.materials_by_index[m].brdf.params
     )
     rng = np.random.default_rng(3)
@@ -431,7 +432,7 @@ def test_merl_tables_in_float32_evaluate_as_the_model(tmp_path: Path) -> None:
     v[..., 2] = np.abs(v[..., 2])
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
     prm = np.ascontiguousarray(job.world.materials_by_index[m].brdf.params, dtype=np.float64)
-    out = both(MERL, v[0], v[1], prm, tr.mat_tables[m])
+    out = both(MERL, v[0], v[1], prm, mats.tables[m])
     assert np.count_nonzero(out[:, 1]) > 1000
     assert np.allclose(out[:, 0], out[:, 1], rtol=1e-6, atol=1e-12)
 
@@ -443,7 +444,7 @@ def test_compiled_hemisphere_samples_are_the_lobes_directions() -> None:
     from numba import njit
 
     from core.models.lobes import cosine_hemisphere, uniform_hemisphere
-    from renderer.kernels import _cosine_hemisphere, _uniform_hemisphere
+    from renderer.stages.bsdf import _cosine_hemisphere, _uniform_hemisphere
 
     @njit(cache=False)
     def directions(u):  # type: ignore[no-untyped-def]

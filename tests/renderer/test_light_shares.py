@@ -1,4 +1,4 @@
-"""NEE's light-type probabilities: set by a pilot of camera rays (renderer.integrator.PathTracer._light_shares),
+"""NEE's light-type probabilities: set by a pilot of camera rays (renderer.light_shares),
 following where the light comes from, and unbiased whatever they are."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from renderer.integrator import SHARE_FLOOR
+from renderer.light_shares import SHARE_FLOOR
 from renderer.render import prepare
 from tests.renderer.scenes import make_scene, quad
 from tests.renderer.test_integrator import _mixed_scene

@@ -286,10 +286,11 @@ def _loaded_signatures() -> int:
     """Signatures compiled or loaded from numba's cache so far, over the renderer's compiled stages."""
     import numba
 
-    from renderer import embree, kernels
+    from renderer import embree
+    from renderer.stages import bsdf, camera, continuation, hits, surface
 
     found = 0
-    for module in (kernels, embree):
+    for module in (camera, hits, surface, bsdf, continuation, embree):
         for obj in vars(module).values():
             if isinstance(obj, numba.core.registry.CPUDispatcher):
                 found += len(obj.overloads)

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from renderer.kernels import surface_stage
 from renderer.render import prepare
+from renderer.stages.surface import surface_stage
 from tests.renderer.test_integrator import _mixed_scene
 
 _NAMES = list(inspect.signature(surface_stage.py_func).parameters)
@@ -39,9 +39,9 @@ def _light_choices_at_the_camera_vertex(job, spp: int) -> tuple[np.ndarray, np.n
         if stage is surface_stage:
             a = dict(zip(_NAMES[2:], args, strict=True))
             if a["depth"] == 0:
-                delta, t_max = a["l_delta"][:n], a["l_tmax"][:n]
+                delta, t_max = a["light"].delta[:n], a["light"].tmax[:n]
                 kind = np.where(delta, 1, np.where(t_max >= 1e30, 2, 0))
-                seen.append((a["s_path"][:n].copy(), kind))
+                seen.append((a["vtx"].path[:n].copy(), kind))
         return out
 
     tracer._run = spy  # type: ignore[method-assign]

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from renderer.stages.records import PassKeys, PinholeCamera, Rays
 from renderer.wavefront import RUN, WAVEFRONT, WAVES, waves
+
+
+def _camera() -> PinholeCamera:
+    """A 16 x 8 pixel camera at the origin looking down -z."""
+    return PinholeCamera(16, 8, np.zeros(3), np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0]),
+                         np.array([0.0, 1.0, 0.0]), 0.5, 2.0)  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -30,18 +37,15 @@ def test_waves_partition_the_paths(j0: int, j1: int) -> None:
 def test_camera_stage_traces_the_paths_of_its_wavefront() -> None:
     """The camera stage's path of row ``r`` is the wavefront's ``r``-th path, and its pixel and sample number
     follow from that path (the same ray as a wavefront of consecutive paths gives it)."""
-    from renderer.kernels import camera_stage
+    from renderer.stages.camera import camera_stage
 
-    width, height, n_pix = 16, 8, 128
-    cam = (np.zeros(3), np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    n_pix = 128
+    cam, keys = _camera(), PassKeys(n_pix, 3, np.uint64(77), np.uint64(0))
 
     def run(j0: int, n: int, block: int, step: int) -> tuple[np.ndarray, np.ndarray]:
-        o, d, beta = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-        o32, d32 = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
-        path, prev = np.empty(n, np.int64), np.empty(n)
-        camera_stage(0, n, j0, block, step, n_pix, 3, np.uint64(77), width, height, *cam, 0.5, 2.0,
-                     o, d, o32, d32, beta, path, prev)  # fmt: skip
-        return path, d
+        rays = Rays.empty(n)
+        camera_stage(0, n, j0, block, step, keys, cam, rays)
+        return rays.path, rays.d
 
     whole_path, whole_d = run(0, 3 * n_pix, 3 * n_pix, 3 * n_pix)
     for w in waves(0, 3 * n_pix):
@@ -58,19 +62,18 @@ def test_camera_stage_rows_from_any_start(a: int, block: int, step: int) -> None
     """Rows ``[a, b)`` of the camera stage, started anywhere in a run (it advances pixel, row, column and sample
     number path by path), are the rows a call over ``[0, b)`` gives: the same paths and rays, across the
     image's row ends and the pixels' wrap to the next sample."""
-    from renderer.kernels import camera_rays, camera_stage
     from renderer.qmc import key, sobol2
+    from renderer.stages.camera import camera_rays, camera_stage
 
-    width, height, n_pix, n = 16, 8, 128, 384
-    cam = (np.zeros(3), np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+    n_pix, n = 128, 384
+    cam, keys = _camera(), PassKeys(n_pix, 3, np.uint64(77), np.uint64(0))
 
     def run(lo: int) -> tuple[np.ndarray, np.ndarray]:
-        o, d, beta = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
-        o32, d32 = np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32)
-        path, prev = np.full(n, -1, np.int64), np.ones(n)
-        camera_stage(lo, n, 9, block, step, n_pix, 3, np.uint64(77), width, height, *cam, 0.5, 2.0,
-                     o, d, o32, d32, beta, path, prev)  # fmt: skip
-        return path, d
+        rays = Rays.empty(n)
+        rays.d.fill(0.0)
+        rays.path.fill(-1)
+        camera_stage(lo, n, 9, block, step, keys, cam, rays)
+        return rays.path, rays.d
 
     whole_path, whole_d = run(0)
     path, d = run(a)
@@ -87,5 +90,5 @@ def test_camera_stage_rows_from_any_start(a: int, block: int, step: int) -> None
             for p, s in zip(pixel, sample, strict=True)
         ]
     )
-    _, expect = camera_rays(pixel, jitter, width, height, *cam, 0.5, 2.0)
+    _, expect = camera_rays(pixel, jitter, cam)
     assert np.array_equal(whole_d, expect)
