@@ -64,8 +64,9 @@ from core.merl import measured_brdf
 from core.model import BRDF, LUMINANCE, all_models, make_brdf
 from core.sampling import SampleBatch, Sampler, applicable_samplers, make_sampler
 from core.sampling.adaptive import AdaptiveSampler, AdaptiveTable, TableOptions, clear_memory_cache
-from core.sampling.adaptive.sampler import table_options
-from core.sampling.adaptive.table import TableReport, build_table, memory_bytes
+from core.sampling.adaptive.records import TableReport, table_options
+from core.sampling.adaptive.store import memory_bytes
+from core.sampling.adaptive.table import build_table
 
 ROOT = Path(__file__).resolve().parents[1]
 

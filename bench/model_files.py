@@ -100,7 +100,8 @@ def table_row(brdf, strategy: str, builds: int) -> dict:  # type: ignore[no-unty
         sampler.table  # noqa: B018 (builds it)
         seconds.append(time.perf_counter() - t)
         info = sampler.info()
-    from core.sampling.adaptive.table import ISOTROPIC, MIRROR, symmetry_of
+    from core.sampling.adaptive.layout import ISOTROPIC, MIRROR
+    from core.sampling.adaptive.survey import symmetry_of
 
     layout = {ISOTROPIC: "isotropic", MIRROR: "mirror"}.get(symmetry_of(brdf), "full")
     return {

@@ -31,7 +31,7 @@ from core.sampling.adaptive.maps import (
     square_to_direction,
     square_to_disk,
 )
-from core.sampling.adaptive.table import symmetry_of
+from core.sampling.adaptive.survey import symmetry_of
 
 pytestmark = pytest.mark.usefixtures("private_tables")
 
@@ -261,7 +261,7 @@ def test_the_exact_mode_does_not_choose_a_disk_whose_azimuth_cells_cannot_reach_
     (polar halvings do not narrow azimuth cells), so the exact mode takes the wi disk there; at ``n_max = 2``,
     and in the rejection-free mode, the disk that moves less."""
     from core.sampling.adaptive.layout import cell_edges, phi_nodes
-    from core.sampling.adaptive.table import azimuth_floor, choose_projection
+    from core.sampling.adaptive.survey import azimuth_floor, choose_projection
     from core.sampling.adaptive.tree import ACCEPT_MARGIN
 
     brdf = make_brdf("poulin_fournier")
@@ -278,11 +278,11 @@ def test_the_exact_mode_narrows_the_azimuth_cells_where_their_floor_takes_most_o
     (floor above half of n_max = 2's slack): its exact table gets 6 azimuth nodes, and the floor over them is
     within that share; Ward sx=0.05 sy=0.25 keeps 4, and so does every rejection-free table."""
     from core.sampling.adaptive.layout import phi_nodes
-    from core.sampling.adaptive.table import (
+    from core.sampling.adaptive.records import TableOptions
+    from core.sampling.adaptive.survey import (
         AZIMUTH_FLOOR_GRAZING_DEG,
         AZIMUTH_FLOOR_THETAS_DEG,
         AZIMUTH_SHARE,
-        TableOptions,
         azimuth_count,
         azimuth_edges,
         azimuth_floor,
@@ -557,7 +557,8 @@ def test_a_cancelled_build_stops_at_once():
     whose event is set while it runs stops at its next tree: the test above)."""
     import threading
 
-    from core.sampling.adaptive.table import BuildCancelled, TableOptions, build_table
+    from core.sampling.adaptive.records import BuildCancelled, TableOptions
+    from core.sampling.adaptive.table import build_table
 
     cancel = threading.Event()
     cancel.set()

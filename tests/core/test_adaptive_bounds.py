@@ -17,15 +17,8 @@ from core.dispatch import eval_model
 from core.geometry import degrees_to_dir
 from core.model import make_brdf
 from core.sampling import make_sampler
-from core.sampling.adaptive.draw import (
-    _bilinear_density,
-    _g_scale,
-    _leaf_box,
-    _leaf_probability,
-    _reflect,
-    _to_local,
-    _tree_frame,
-)
+from core.sampling.adaptive.draw import _bilinear_density, _g_scale, _leaf_box, _leaf_probability
+from core.sampling.adaptive.frames import _reflect, _to_local, _tree_frame
 from core.sampling.adaptive.layout import normalizer_at
 from core.sampling.adaptive.maps import HALF_VECTOR, PI, square_to_direction
 from core.sampling.adaptive.target import luminance3

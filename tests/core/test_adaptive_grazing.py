@@ -18,7 +18,7 @@ from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive.maps import EQUAL_AREA
-from core.sampling.adaptive.table import TableOptions
+from core.sampling.adaptive.records import TableOptions
 from core.sampling.adaptive.target import make_view
 from core.sampling.adaptive.tree import view_integral
 

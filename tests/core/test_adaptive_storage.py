@@ -11,7 +11,7 @@ from core.errors import ParameterError
 from core.model import make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive.draw import _bilinear_density, _pick_leaf, descend_at
-from core.sampling.adaptive.table import CDF_ONE, CORNER_ONE, _leaf_cdf, _leaf_corners
+from core.sampling.adaptive.pack import CDF_ONE, CORNER_ONE, _leaf_cdf, _leaf_corners
 
 U53 = 2.0**-53
 """The uniforms' spacing (``core.rng.next_u01``)."""

@@ -74,7 +74,7 @@ HOT_KERNELS = [
     ("core.sampling.adaptive.draw", "sample_rows"),
     ("core.sampling.adaptive.draw", "pdf_rows"),
     ("core.sampling.adaptive.target", "g_dir"),
-    ("core.sampling.adaptive.tree", "_child_stencil"),
+    ("core.sampling.adaptive.tree.nodes", "_child_stencil"),
     ("core.merl", "eval_merl"),
     ("core.models.ggx", "eval_ggx"),
     ("core.models.ward", "sample_ward"),

@@ -81,7 +81,8 @@ def test_numba_caches_our_functions_with_the_closure_locator():
 def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monkeypatch):
     from core.model import make_brdf
     from core.sampling.adaptive import table
-    from core.sampling.adaptive.table import TableOptions, table_cache_key
+    from core.sampling.adaptive.records import TableOptions
+    from core.sampling.adaptive.store import table_cache_key
 
     ggx, phong = make_brdf("ggx"), make_brdf("phong")
     key = table_cache_key(ggx, TableOptions())

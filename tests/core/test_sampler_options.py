@@ -12,7 +12,7 @@ from core.budget import BudgetError
 from core.errors import ParameterError
 from core.model import make_brdf
 from core.sampling import make_sampler, sampler_names
-from core.sampling.adaptive.table import TableOptions
+from core.sampling.adaptive.records import TableOptions
 from core.sampling.base import check_sampler_options, sampler_option_set
 
 BAD_VALUES = [float("nan"), float("inf"), -1e308, 1e308, "x", None, [], {}, 2.5]

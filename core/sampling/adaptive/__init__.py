@@ -14,7 +14,7 @@
 Design, proofs and measurements: ``docs/adaptive.md``.
 """
 
+from core.sampling.adaptive.records import AdaptiveTable, TableOptions
 from core.sampling.adaptive.sampler import AdaptiveSampler, clear_memory_cache
-from core.sampling.adaptive.table import AdaptiveTable, TableOptions
 
 __all__ = ["AdaptiveSampler", "AdaptiveTable", "TableOptions", "clear_memory_cache"]

@@ -13,11 +13,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from core.sampling.adaptive.draw import _frame
+from core.sampling.adaptive.frames import _frame
 from core.sampling.adaptive.layout import FULL, ISOTROPIC, TWO_PI
 from core.sampling.adaptive.maps import HALF_PI, HALF_VECTOR, ORTHOGRAPHIC, PROJECTIONS, QUARTER_PI, RIM
+from core.sampling.adaptive.pack import CDF_ONE, LEAF_GRID
+from core.sampling.adaptive.records import AdaptiveTable
 from core.sampling.adaptive.sampler import AdaptiveSampler
-from core.sampling.adaptive.table import CDF_ONE, LEAF_GRID, AdaptiveTable
 
 
 class TreeView(NamedTuple):

@@ -13,13 +13,12 @@ in the process, and stored on disk (:mod:`core.cache`).
 
 from __future__ import annotations
 
-import math
 import os
 import threading
 from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from concurrent.futures import wait as futures_wait
-from dataclasses import asdict, fields, replace
+from dataclasses import asdict, replace
 from typing import Any
 
 import numpy as np
@@ -39,18 +38,18 @@ from core.sampling.adaptive.draw import (
     pdf_rows,
     sample_rows,
 )
-from core.sampling.adaptive.table import (
+from core.sampling.adaptive.records import (
+    FLOAT_OPTIONS,
+    INT_OPTIONS,
     AdaptiveTable,
     BuildCancelled,
     TableOptions,
     TableReport,
-    build_table,
-    is_lambertian,
-    load_table,
-    memory_bytes,
-    save_table,
-    table_cache_key,
+    table_options,
 )
+from core.sampling.adaptive.store import load_table, memory_bytes, save_table, table_cache_key
+from core.sampling.adaptive.survey import is_lambertian
+from core.sampling.adaptive.table import build_table
 from core.sampling.base import (
     SampleBatch,
     Sampler,
@@ -87,79 +86,6 @@ _EVERY_ROW = np.zeros(0, dtype=np.bool_)
 """``pdf_rows``'s mask for every row."""
 _NO_POINTS = np.zeros((0, 2))
 """``sample_rows``'s ``points`` when the caller places none: every uniform from the rows' streams."""
-
-_INTS = {"phi_count": (2, 64), "max_thetas": (7, 256), "rounds": (1, 64), "base_level": (1, 6), "max_level": (2, 14),
-         "capacity": (64, 1 << 16)}  # fmt: skip
-"""Integer options and their ranges (``capacity``: a table indexes a tree's leaves in 16 bits, and a tree of
-``2^16`` nodes has at most 49 153)."""
-_FLOATS = {"warp_tol": (1e-9, 1.0), "quad_tol": (1e-12, 1e-2), "warp_chi2": (1e-4, 10.0),
-           "warp_chi2_anisotropic": (1e-4, 10.0),
-           "norm_tol": (1e-9, 1e-2), "min_spacing_deg": (1e-3, 10.0)}  # fmt: skip
-
-
-def table_options(n_max: Any = 2.0, **options: Any) -> TableOptions:
-    """Validated :class:`TableOptions` (a :class:`ParameterError` names the option and its range)."""
-    known = {f.name for f in fields(TableOptions)} - {"bounds"}
-    if "parameterization" in options and options["parameterization"] not in ("auto", "wi", "half"):
-        raise ParameterError(
-            f"adaptive option parameterization must be 'auto', 'wi' or 'half', got {options['parameterization']!r}"
-        )
-    for name in options:
-        if name not in known:
-            allowed = ", ".join(sorted(known))
-            raise ParameterError(f"the adaptive sampler has no option '{name}'; its options are: {allowed}")
-    values: dict[str, Any] = {"n_max": _check_n_max(n_max)}
-    for name, value in options.items():
-        if name == "parameterization":
-            values[name] = value
-        elif name in _INTS:
-            lo, hi = _INTS[name]
-            values[name] = _check_int(name, value, lo, hi)
-        else:
-            lo, hi = _FLOATS[name]
-            values[name] = _check_float(name, value, lo, hi)
-    opts = TableOptions(**values)
-    if opts.max_level < opts.base_level:
-        raise ParameterError(f"max_level ({opts.max_level}) must be at least base_level ({opts.base_level})")
-    return opts
-
-
-def _check_n_max(n_max: Any) -> float:
-    try:
-        value = float(n_max)
-    except (TypeError, ValueError):
-        raise ParameterError(f"n_max must be a number greater than 1, got {n_max!r}") from None
-    if not math.isfinite(value) or value <= 1.0 or value > 1e3:
-        raise ParameterError(
-            f"n_max must be a number in (1, 1000] (the mean trials per sample), got {n_max!r}"
-        )
-    return value
-
-
-def _check_int(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer | float | str):
-        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}")
-    try:
-        f = float(value)
-    except ValueError:
-        raise ParameterError(
-            f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}"
-        ) from None
-    if not math.isfinite(f) or f != int(f) or not lo <= int(f) <= hi:
-        raise ParameterError(f"adaptive option {name} must be a whole number in [{lo}, {hi}], got {value!r}")
-    return int(f)
-
-
-def _check_float(name: str, value: Any, lo: float, hi: float) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(
-            f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}"
-        ) from None
-    if not math.isfinite(f) or not lo <= f <= hi:
-        raise ParameterError(f"adaptive option {name} must be a number in [{lo:g}, {hi:g}], got {value!r}")
-    return f
 
 
 def _store(cache: Any) -> TableCache | None:
@@ -444,7 +370,7 @@ class AdaptiveSampler(Sampler):
 
     def compiled_equivalent(self) -> str | None:
         """``"cosine"`` for a Lambertian BRDF, whose table is flat: both modes draw the cosine density then,
-        and report its pdf (:class:`~core.sampling.adaptive.table.AdaptiveTable` ``flat``)."""
+        and report its pdf (:class:`~core.sampling.adaptive.records.AdaptiveTable` ``flat``)."""
         if self._lambertian is None:
             self._lambertian = is_lambertian(self.brdf)
         return "cosine" if self._lambertian else None
@@ -614,8 +540,8 @@ def _declared_options(modes: tuple[str, ...]) -> tuple[SamplerOption, ...]:
             "progressive", "bool", doc="a coarse table first, the full one built in the background"
         ),
         SamplerOption("parameterization", "choice", choices=("auto", "wi", "half"), doc="the trees' disk"),
-        *(SamplerOption(k, "int", lo, hi) for k, (lo, hi) in _INTS.items()),
-        *(SamplerOption(k, "float", lo, hi) for k, (lo, hi) in _FLOATS.items()),
+        *(SamplerOption(k, "int", lo, hi) for k, (lo, hi) in INT_OPTIONS.items()),
+        *(SamplerOption(k, "float", lo, hi) for k, (lo, hi) in FLOAT_OPTIONS.items()),
     )
 
 

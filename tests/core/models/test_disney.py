@@ -19,7 +19,7 @@ from core.model import get_model
 from core.models import disney
 from core.sampling import make_sampler
 from core.sampling.adaptive.layout import ISOTROPIC, MIRROR
-from core.sampling.adaptive.table import symmetry_of
+from core.sampling.adaptive.survey import symmetry_of
 from tests.conftest import all_pairs, direction_grid
 from tests.core.models._checks import (
     albedo_estimate,
