@@ -13,6 +13,7 @@ from core.sampling.adaptive.layout import THETA_END
 from core.sampling.adaptive.maps import ORTHOGRAPHIC
 from core.sampling.adaptive.records import CELL_LUT, AdaptiveTable
 from core.sampling.adaptive.tree import TreeArrays
+from core.sampling.distributions import fill_guide
 
 if TYPE_CHECKING:
     from core.sampling.adaptive.table import _Node
@@ -173,7 +174,8 @@ def _leaf_cdf(weight: np.ndarray, envelope: bool) -> tuple[np.ndarray, np.ndarra
     counts[weight <= 0.0] = 0
     counts[int(np.argmax(weight))] += CDF_ONE - int(counts.sum())
     cdf = np.cumsum(counts)
-    guide = np.searchsorted(cdf, (np.arange(leaves) * CDF_ONE) // leaves, side="right")
+    guide = np.empty(leaves, dtype=np.int64)  # the first leaf whose count passes each of L equal steps
+    fill_guide(cdf, 0, leaves, 0.0, leaves / CDF_ONE, guide)
     if envelope:
         positive = counts > 0
         total = float(np.max(weight[positive] * CDF_ONE / counts[positive])) * (1.0 + 1e-12)
