@@ -18,7 +18,6 @@ from numba import njit
 from core.fastmath import acos_estimate, atan2_estimate, sincos_small
 from core.model import LUMINANCE
 from core.sampling.distributions import fill_guide, remainder, uniform_sphere, walk_upper_bound
-from renderer.stages.records import Sky
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 
@@ -123,21 +122,8 @@ class EnvironmentMap:
 INV_2PI2 = 1.0 / (2.0 * math.pi * math.pi)
 TWO_PI = 2.0 * math.pi
 ENV_NONE, ENV_CONSTANT, ENV_MAP = 0, 1, 2
-"""Kinds of sky for the compiled wavefront (:func:`sky_record`, :func:`env_eval_one`, :func:`env_sample_one`)."""
-
-
-def sky_record(env) -> Sky:  # type: ignore[no-untyped-def]
-    """The :class:`~renderer.stages.records.Sky` record the compiled wavefront reads for a sky (``None``,
-    constant or map), its arrays contiguous, with 1-element placeholders where a kind has none."""
-    one, no_guide = np.zeros(1), np.zeros(1, dtype=np.int32)
-    if env is None:
-        return Sky(ENV_NONE, np.zeros(3), one, one, no_guide, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0)
-    if isinstance(env, ConstantEnvironment):
-        return Sky(ENV_CONSTANT, np.ascontiguousarray(env.radiance), one, one, no_guide, one, np.zeros((1, 1)),
-                   np.zeros((1, 1, 3)), 0.0)  # fmt: skip
-    c = np.ascontiguousarray
-    return Sky(ENV_MAP, np.zeros(3), c(env._row_cdf), c(env._col_cdf_flat), c(env._guide), c(env._edges),
-               c(env._pixel_pmf), c(env.image), float(env.rotation))  # fmt: skip
+"""Kinds of sky for the compiled wavefront (:func:`env_eval_one`, :func:`env_sample_one`,
+:func:`renderer.stages.records.sky_record`)."""
 
 
 def guide_table(row_cdf: np.ndarray, col_cdf_flat: np.ndarray, h: int, w: int) -> np.ndarray:
@@ -176,7 +162,8 @@ and ``cos``."""
 @njit(inline="always", nogil=True, cache=True)
 def env_eval_one(kind, dx, dy, dz, radiance, pmf, image, rotation, edges):
     """Radiance ``(r, g, b)`` from world direction ``d`` and the sky's light-sampling pdf per solid angle.
-    ``rotation`` in ``[0, 2 pi)`` (:func:`sky_record`), ``edges`` from :func:`pixel_edges`.
+    ``rotation`` in ``[0, 2 pi)`` (:func:`renderer.stages.records.sky_record`), ``edges`` from
+    :func:`pixel_edges`.
 
     The pixel is the one of ``theta = acos(d_y)`` and ``phi = atan2(d_z, d_x) - rotation`` without either
     function: a polynomial guess of each, then a walk to the row whose edges' cosines bracket ``d_y`` and

@@ -11,8 +11,8 @@ Python runs a fixed number of calls per bounce and per material, whatever the nu
 go in interleaved wavefronts (:mod:`renderer.wavefront`) traced on the tracer's threads at once, each
 wavefront's stages and Embree queries on its own thread (the kernels release the GIL).
 
-NEE picks a light type (area, point, sky) by shares a pilot of camera rays sets (:mod:`renderer.light_shares`), then a light (emissive
-triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
+NEE picks a light type (area, point, sky) by shares a pilot of camera rays sets (:mod:`renderer.light_shares`),
+then a light (emissive triangles by area x luminance, point lights by luminance). MIS uses the exact densities: the light density
 (area pdf converted to solid angle, environment-map pdf, uniform sphere for a constant sky) and the sampler's
 ``pdf(wo, wi)``; point lights are delta lights (no MIS). Optionally (``ris_candidates``) the sky's direct light
 comes from resampled importance sampling instead. Reflection only: a direction below the geometric surface
@@ -34,7 +34,6 @@ import numpy as np
 
 from core.dispatch import MERL, MERL_NEAREST
 from core.scene import Scene
-from renderer.envmap import sky_record
 from renderer.light_shares import light_shares
 from renderer.qmc import key
 from renderer.ris import ris_sky
@@ -43,7 +42,16 @@ from renderer.stages.camera import camera_rays, camera_stage
 from renderer.stages.continuation import bsdf_step, continue_stage, shadow_stage
 from renderer.stages.hits import hit_stage, sort_by_material
 from renderer.stages.primitives import SOBOL_DEPTH
-from renderer.stages.records import Estimator, Lights, Materials, PassKeys, PinholeCamera, lights, triangles
+from renderer.stages.records import (
+    Estimator,
+    Lights,
+    Materials,
+    PassKeys,
+    PinholeCamera,
+    lights,
+    sky_record,
+    triangles,
+)
 from renderer.stages.surface import surface_frames, surface_stage
 from renderer.wavefront import WAVEFRONT, Buffers, Wave, waves
 from renderer.world import NO_MATERIAL, World

@@ -12,6 +12,7 @@ an argument of its own. Two kinds:
 numba compiles a stage once per record type (a ``NamedTuple`` of arrays and numbers) and caches it on disk as
 it does any signature; the records are ordinary tuples, so a stage compiled without reference counting
 (:func:`core.jit.kernel`) borrows their arrays from its caller as it borrows plain array arguments.
+No compiled module imports this one: an edit here recompiles no kernel.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+from renderer.envmap import ENV_CONSTANT, ENV_MAP, ENV_NONE, ConstantEnvironment, EnvironmentMap
 
 if TYPE_CHECKING:
     from renderer.world import World
@@ -96,7 +99,7 @@ class PointLights(NamedTuple):
 
 class Sky(NamedTuple):
     """The sky for :func:`renderer.envmap.env_eval_one` and :func:`renderer.envmap.env_sample_one`
-    (:func:`renderer.envmap.sky_record`): its kind and, for a map, its sampling tables, with 1-element
+    (:func:`sky_record`): its kind and, for a map, its sampling tables, with 1-element
     placeholders where a kind has none."""
 
     kind: int
@@ -174,6 +177,20 @@ class PassKeys(NamedTuple):
     """the render's: the pixels' Sobol scrambles"""
     pass_key: np.uint64
     """the pass's: its hashed uniforms"""
+
+
+def sky_record(env: ConstantEnvironment | EnvironmentMap | None) -> Sky:
+    """The :class:`~renderer.stages.records.Sky` record the compiled wavefront reads for a sky (``None``,
+    constant or map), its arrays contiguous, with 1-element placeholders where a kind has none."""
+    one, no_guide = np.zeros(1), np.zeros(1, dtype=np.int32)
+    if env is None:
+        return Sky(ENV_NONE, np.zeros(3), one, one, no_guide, one, np.zeros((1, 1)), np.zeros((1, 1, 3)), 0.0)
+    if isinstance(env, ConstantEnvironment):
+        return Sky(ENV_CONSTANT, np.ascontiguousarray(env.radiance), one, one, no_guide, one, np.zeros((1, 1)),
+                   np.zeros((1, 1, 3)), 0.0)  # fmt: skip
+    c = np.ascontiguousarray
+    return Sky(ENV_MAP, np.zeros(3), c(env._row_cdf), c(env._col_cdf_flat), c(env._guide), c(env._edges),
+               c(env._pixel_pmf), c(env.image), float(env.rotation))  # fmt: skip
 
 
 def triangles(world: World) -> Triangles:
