@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -154,11 +154,24 @@ _INSIDE = 1e-9
 _U_GUIDE = 64  # guide entries per factor's CDF (:func:`core.sampling.distributions.interval_guides`)
 
 
+class FactoredTables(NamedTuple):
+    """A :class:`FactoredSampler`'s tables as its draw reads them."""
+
+    n_theta_o: int
+    n_phi_o: int
+    reparam: bool
+    term_cdf: np.ndarray
+    u_cdf: np.ndarray
+    u_pdf: np.ndarray
+    v_cdf: np.ndarray
+    v_pdf: np.ndarray
+    cos_edges: np.ndarray
+    u_guide: np.ndarray
+    v_guide: np.ndarray
+
+
 @kernel
-def _factored_sample_rows(
-    wo, u, seed, points, n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide,
-    v_guide, wi_out, pdf_out,
-):  # fmt: skip
+def _factored_sample_rows(wo, u, seed, points, t, wi_out, pdf_out):
     """One draw per row of ``wo`` from the uniforms ``u (n, 3)`` (column 0 the term, 1 and 2 the cell and the
     point in it), into ``wi_out`` and ``pdf_out``; with ``u`` empty, row ``i``'s uniforms come from the counter
     stream ``(seed, i)`` (:func:`core.rng.stream`), columns 1 and 2 from ``points (n, 2)`` when it has rows: a
@@ -166,6 +179,7 @@ def _factored_sample_rows(
     The density is :func:`_pdf_at`'s at the direction returned;
     without the half-vector reparameterization, a direction drawn at least ``_INSIDE`` inside its cell takes
     the cell's density directly (the one :func:`_pdf_at` finds there, by the same sum: the same bits)."""
+    n_theta_o, n_phi_o, reparam, term_cdf, u_cdf, u_pdf, v_cdf, v_pdf, cos_edges, u_guide, v_guide = t
     n_terms = u_cdf.shape[0]
     n_tp = u_cdf.shape[1] - 1
     n_pp = v_cdf.shape[1] - 1
@@ -373,10 +387,11 @@ class FactoredSampler(Sampler):
     def _draw(self, wo: np.ndarray, u: np.ndarray, seed: int, points: np.ndarray, wi: np.ndarray,
               pdf: np.ndarray) -> None:  # fmt: skip
         s = self.settings
-        _factored_sample_rows(
-            wo, u, int(seed) % (1 << 63), points, s.n_theta_o, s.n_phi_o, s.reparam, self._term_cdf, self._u_cdf,
-            self._u_pdf, self._v_cdf, self._v_pdf, self._cos_edges, self._u_guide, self._v_guide, wi, pdf,
+        tables = FactoredTables(
+            int(s.n_theta_o), int(s.n_phi_o), bool(s.reparam), self._term_cdf, self._u_cdf, self._u_pdf, self._v_cdf,
+            self._v_pdf, self._cos_edges, self._u_guide, self._v_guide,
         )  # fmt: skip
+        _factored_sample_rows(wo, u, int(seed) % (1 << 63), points, tables, wi, pdf)
 
     def sample_each(self, wo: np.ndarray, seed: int = 0) -> SampleBatch:
         """One sample per row of ``wo``, its uniforms from the counter stream ``(seed, row)`` (as

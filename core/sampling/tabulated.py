@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -163,23 +163,44 @@ def _azimuth_knot(grid, cx, clo, chi, phi):
     return find_interval(cx, clo, chi, phi)
 
 
+class CdfTables(NamedTuple):
+    """A :class:`CDFSampler`'s tables as its kernels read them (see the class for the layout)."""
+
+    n_theta_o: int
+    n_phi_o: int
+    n_rows: int
+    """Polar rows of ``wi`` per bin."""
+    grid: bool
+    """Whether the tables are the uniform grid (no simplification)."""
+    mx: np.ndarray
+    mf: np.ndarray
+    moff: np.ndarray
+    cx: np.ndarray
+    cf: np.ndarray
+    coff: np.ndarray
+    mrow: np.ndarray
+    mguide: np.ndarray
+    cguide: np.ndarray
+
+
 @njit(inline="always", nogil=True, cache=True)
-def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, mrow):
+def _cdf_density(w, d, t):
     """The density of a draw (:func:`_cdf_marginal`, :func:`_cdf_conditional`) at ``wi = d`` for ``wo = w``
     (above the horizon). The marginal's segment is walked to from a guess (:func:`~core.sampling.distributions.walk_interval`: the same index
     as a search): the grid's row itself when the tables are the uniform grid (no simplification), else the
     row's entry of ``mrow`` (:func:`cell_knots`), the knot at or below the row's lower edge: a simplified
     marginal's knots are some of the grid's edges, so the guess is the answer but at a row's edge."""
+    n_rows, grid, mx, mf, moff, cx, cf, coff = t.n_rows, t.grid, t.mx, t.mf, t.moff, t.cx, t.cf, t.coff
     # wi.z = 0 belongs to the last row: a draw can round onto the horizon (x = 0), and its density is this
     if d[2] < 0.0:
         return 0.0
-    b, c_ref, s_ref = bin_of(w, n_theta_o, n_phi_o)
+    b, c_ref, s_ref = bin_of(w, t.n_theta_o, t.n_phi_o)
     cos_t = min(1.0, d[2])
     x = -cos_t
     lo = moff[b]
     hi = moff[b + 1]
     row = fastmath.polar_cell(cos_t, n_rows)
-    k = walk_interval(mx, lo, hi, x, lo + row if grid else lo + np.int64(mrow[b, row]))
+    k = walk_interval(mx, lo, hi, x, lo + row if grid else lo + np.int64(t.mrow[b, row]))
     dx = mx[k + 1] - mx[k]
     dF = mf[k + 1] - mf[k]
     c = b * n_rows + row
@@ -197,10 +218,7 @@ def _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, c
 
 
 @kernel
-def _cdf_sample_rows(
-    wo, u, mguide, cguide, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, wi_out, pdf_out, cond,
-    half,
-):  # fmt: skip
+def _cdf_sample_rows(wo, u, t, wi_out, pdf_out, cond, half):
     """One direction per row of ``wo`` from the uniforms ``u (n, >= 2)``, into ``wi_out`` and ``pdf_out``.
 
     In blocks of ``_BLOCK`` rows, each in two loops (every row's marginal, then every row's conditional):
@@ -208,6 +226,8 @@ def _cdf_sample_rows(
     independent rows the processor has several rows' reads in flight at once. ``cond (_BLOCK,)`` int64 and
     ``half (_BLOCK, 4)`` are the block's scratch (the caller's: a kernel allocates nothing, core.jit).
     Returns the read-ahead's sum (kept: not a dead computation to the compiler)."""
+    mguide, cguide, mx, mf, moff, cx, cf, coff = t.mguide, t.cguide, t.mx, t.mf, t.moff, t.cx, t.cf, t.coff
+    n_theta_o, n_phi_o, n_rows = t.n_theta_o, t.n_phi_o, t.n_rows
     touched = 0.0
     for i0 in range(0, wo.shape[0], _BLOCK):
         i1 = min(wo.shape[0], i0 + _BLOCK)
@@ -245,7 +265,7 @@ def _cdf_sample_rows(
 
 
 @kernel
-def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff, mrow, out):
+def _cdf_pdf_rows(wo, wi, mask, t, out):
     """The density at the rows of ``(wo, wi)`` where ``mask`` holds (every row for an empty ``mask``)."""
     every = mask.shape[0] == 0
     for i in range(wo.shape[0]):
@@ -255,8 +275,7 @@ def _cdf_pdf_rows(wo, wi, mask, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, 
             if w[2] <= 0.0:
                 out[i] = 0.0
             else:
-                out[i] = _cdf_density(w, d, n_theta_o, n_phi_o, n_rows, grid, mx, mf, moff, cx, cf, coff,
-                                      mrow)  # fmt: skip
+                out[i] = _cdf_density(w, d, t)
 
 
 class CDFSampler(Sampler):
@@ -370,23 +389,15 @@ class CDFSampler(Sampler):
         self._mguide = interval_guides(self._mf, self._moff, _MARGINAL_GUIDE)
         self._cguide = interval_guides(self._cf, self._coff, _CONDITIONAL_GUIDE)
 
-    def _tables(self) -> tuple[Any, ...]:
-        return (
-            self.n_theta_o,
-            self.n_phi_o,
-            self.n_theta,
-            self.tol == 0.0,
-            self._mx,
-            self._mf,
-            self._moff,
-            self._cx,
-            self._cf,
-            self._coff,
-        )
+    def _tables(self) -> CdfTables:
+        return CdfTables(
+            int(self.n_theta_o), int(self.n_phi_o), int(self.n_theta), bool(self.tol == 0.0), self._mx, self._mf,
+            self._moff, self._cx, self._cf, self._coff, self._mrow, self._mguide, self._cguide,
+        )  # fmt: skip
 
     def _directions_into(self, wo: np.ndarray, u: np.ndarray, wi: np.ndarray, pdf: np.ndarray) -> None:
         cond, half = np.empty(_BLOCK, dtype=np.int64), np.empty((_BLOCK, 4))
-        _cdf_sample_rows(wo, u, self._mguide, self._cguide, *self._tables(), wi, pdf, cond, half)
+        _cdf_sample_rows(wo, u, self._tables(), wi, pdf, cond, half)
 
     def _pdf_rows(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         out = np.empty(wo.shape[0])
@@ -394,7 +405,7 @@ class CDFSampler(Sampler):
         return out
 
     def _pdf_where(self, wo: np.ndarray, wi: np.ndarray, mask: np.ndarray, pdf: np.ndarray) -> None:
-        _cdf_pdf_rows(wo, wi, mask, *self._tables(), self._mrow, pdf)
+        _cdf_pdf_rows(wo, wi, mask, self._tables(), pdf)
 
     def memory_bytes(self) -> int:
         arrays = (self._m, self._c, self._moff, self._coff, self._mguide, self._cguide, self._mrow)
