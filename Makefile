@@ -45,7 +45,7 @@ lint: $(STAMP)
 
 # The user guide, the results and the API reference from the docstrings, into site/ (a warning is an error).
 docs: $(STAMP)
-	$(BIN)/mkdocs build --strict --site-dir site
+	$(BIN)/mkdocs build --strict --config-file .ci/mkdocs.yml --site-dir site
 
 test: setup lint
 	$(BIN)/python -m pytest -n $(JOBS) -q

@@ -80,7 +80,7 @@ def test_numba_caches_our_functions_with_the_closure_locator():
 
 def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monkeypatch):
     from core.model import make_brdf
-    from core.sampling.adaptive import table
+    from core.sampling.adaptive import store
     from core.sampling.adaptive.records import TableOptions
     from core.sampling.adaptive.store import table_cache_key
 
@@ -89,17 +89,18 @@ def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monke
     assert key == table_cache_key(ggx, TableOptions())
     assert key != table_cache_key(ggx, TableOptions(n_max=3.0))
     assert key != table_cache_key(make_brdf("ggx", {"alpha": 0.1}), TableOptions())
-    files = table.source_files(ggx)
+    files = store.source_files(ggx)
     names = {p.name for p in files}
-    assert {"ggx.py", "_fresnel.py", "dispatch.py", "tree.py", "draw.py"} <= names
+    assert {"ggx.py", "_fresnel.py", "dispatch.py", "draw.py", "table.py"} <= names
+    assert {"grow.py", "bounds.py", "probe.py"} <= {p.name for p in files if p.parent.name == "tree"}
     assert "phong.py" not in names and "integrator.py" not in names
-    assert "phong.py" in {p.name for p in table.source_files(phong)}
+    assert "phong.py" in {p.name for p in store.source_files(phong)}
     # a model that is a package of its own: every file of the package (RGL's lookup reads its marginals)
     from types import SimpleNamespace
 
     from core.rgl.material import RGL
 
-    rgl = {p.name for p in table.source_files(SimpleNamespace(model=RGL))}  # type: ignore[arg-type]
+    rgl = {p.name for p in store.source_files(SimpleNamespace(model=RGL))}  # type: ignore[arg-type]
     assert {"lookup.py", "marginal.py", "tensor_file.py"} <= rgl and "ggx.py" not in rgl
 
 

@@ -23,12 +23,13 @@ _SOURCES_HASH: dict[str, str] = {}
 def source_files(brdf: BRDF) -> list[Path]:
     """The sources that can change a material's table: the model's own file (and, for a model that is a
     package of its own such as ``core/rgl``, the package's other files), the shared model helpers
-    (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package. An
-    edit anywhere else (the app, the renderer, another model) keeps the stored tables."""
+    (``core/models/_*.py``, ``lobes.py``, ``core/geometry.py``), the dispatch switch and this package with its
+    subpackages (the tree's steps). An edit anywhere else (the app, the renderer, another model) keeps the
+    stored tables."""
     func = getattr(brdf.model.eval, "py_func", brdf.model.eval)
     own = Path(inspect.getfile(func)).resolve()
     core = Path(__file__).resolve().parents[2]
-    files = sorted(Path(__file__).resolve().parent.glob("*.py"))
+    files = sorted(f for f in Path(__file__).resolve().parent.rglob("*.py") if "__pycache__" not in f.parts)
     files += sorted((core / "models").glob("_*.py"))
     files += [core / "models" / "lobes.py", core / "geometry.py", core / "dispatch.py", core / "rng.py"]
     if own.parent != core / "models" and own.parent != core:
