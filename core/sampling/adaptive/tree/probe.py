@@ -7,6 +7,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from core.jit import kernel
 from core.rng import next_u01, stream
@@ -99,11 +100,11 @@ def _inv_norm_top(norm, norm_meta, cell):
     return top * INV_NORM_MARGIN
 
 
-@kernel
-def _ratio_at(tg, cell, view, leaf, rho, nm, u1, u2, t, w):
-    """``rho g / (c q)`` at point ``(u1, u2)`` of the leaf (``leaf = x0, y0, h, c0, c1, c2, c3``: its square
-    and its corner densities; all four 1: ``rho g / c`` itself) and the view ``t, w`` of the way across the
-    cell in theta and phi (``view (6,)`` is scratch, its constant entries set by the caller)."""
+@njit(inline="always", nogil=True, cache=True)
+def _g_in_leaf(tg, cell, view, leaf, u1, u2, t, w):
+    """``(g, q, theta, phi)``: ``g`` at point ``(u1, u2)`` of the leaf (``leaf = x0, y0, h, c0, c1, c2, c3``: its
+    square and its corner densities), ``q`` the corners' bilinear interpolant there, at the view ``t, w`` of the
+    way across the cell in theta and phi (``view (6,)`` is scratch, its constant entries set by the caller)."""
     x0, y0, h, c0, c1, c2, c3 = leaf
     box = cell.bounds
     theta = box[0] + t * (box[1] - box[0])
@@ -114,7 +115,14 @@ def _ratio_at(tg, cell, view, leaf, rho, nm, u1, u2, t, w):
         view[0] = math.sin(theta)
         view[2] = math.cos(theta)
     qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
-    g = g_at(tg.mid, tg.p, x0 + u1 * h, y0 + u2 * h, tg.projection, view)
+    return g_at(tg.mid, tg.p, x0 + u1 * h, y0 + u2 * h, tg.projection, view), qq, theta, phi
+
+
+@kernel
+def _ratio_at(tg, cell, view, leaf, rho, nm, u1, u2, t, w):
+    """``rho g / (c q)`` at point ``(u1, u2)`` of the leaf and the view ``t, w`` of the way across the cell
+    (:func:`_g_in_leaf`; all four corner densities 1: ``rho g / c`` itself)."""
+    g, qq, theta, phi = _g_in_leaf(tg, cell, view, leaf, u1, u2, t, w)
     if not g > 0.0:
         return 0.0
     return g * rho * inv_norm(nm.table, nm.meta, theta, phi) / qq
@@ -215,15 +223,7 @@ def probe(tg, cv, cell, nodes, n, stv, m, seed, safety, nm, rho, state):
             rng, u2 = next_u01(rng)
             rng, u3 = next_u01(rng)
             rng, u4 = next_u01(rng)
-            theta = box[0] + u3 * span_t
-            phi = box[2] + u4 * span_w
-            if cell.azimuths:
-                _view_row(theta, phi, cell.follow, view)
-            else:
-                view[0] = math.sin(theta)
-                view[2] = math.cos(theta)
-            qq = (1.0 - u1) * (1.0 - u2) * c0 + u1 * (1.0 - u2) * c1 + (1.0 - u1) * u2 * c2 + u1 * u2 * c3
-            g = g_at(tg.mid, tg.p, x0[i] + u1 * h, y0[i] + u2 * h, tg.projection, view)
+            g, qq, theta, phi = _g_in_leaf(tg, cell, view, leaf, u1, u2, u3, u4)
             if g * top / qq > second:
                 r = g * rho * inv_norm(nm.table, nm.meta, theta, phi) / qq
                 if r > worst:
