@@ -11,11 +11,13 @@ rendered); whatever an interrupt breaks on its way out is reported as the interr
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
 import traceback
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
 
 from app.commands import _signals as signals
 from app.commands._args import OneLineParser
@@ -85,6 +87,29 @@ def _main(argv: list[str]) -> int:
     return _run(handlers[args.command], args)
 
 
+@contextlib.contextmanager
+def _notices(command: str) -> Iterator[None]:
+    """Print each :class:`~core.errors.FormerSamplerName` notice (a former sampler name, and the current
+    one to use) as one ``notice:`` line on stderr, once per message; other warnings as usual."""
+    from core.errors import FormerSamplerName
+
+    shown = warnings.showwarning
+    printed: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):  # noqa: ANN001, ANN202
+        if not issubclass(category, FormerSamplerName):
+            return shown(message, category, filename, lineno, file, line)
+        if str(message) not in printed:
+            printed.add(str(message))
+            print(f"brdf-studio {command}: notice: {message}", file=sys.stderr)
+        return None
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", FormerSamplerName)
+        warnings.showwarning = show
+        yield
+
+
 def _run(handler: object, args: argparse.Namespace) -> int:
     from app.commands._args import check_environment
     from core.errors import BrdfStudioError
@@ -97,7 +122,8 @@ def _run(handler: object, args: argparse.Namespace) -> int:
 
             notice = CompileNotice(args.command)
             notice.install()
-        return int(handler.run(args) or 0)  # type: ignore[attr-defined]
+        with _notices(args.command):
+            return int(handler.run(args) or 0)  # type: ignore[attr-defined]
     except BrdfStudioError as exc:
         text = "; ".join(line for line in str(exc).splitlines() if line.strip())  # one line, always
         print(f"brdf-studio {args.command}: error: {text}", file=sys.stderr)

@@ -58,7 +58,7 @@ FIRST_PASS_SPP = 1
 after it trace ~2^18 paths each, :func:`renderer.render.pass_spp`: 5 spp at 256x192, ~1 s in a cold
 process). The estimate is the same; only the passes' sizes differ."""
 
-WARM_STRATEGIES = ("uniform", "adaptive_warp", "adaptive")
+WARM_STRATEGIES = ("uniform", "adaptive_warp", "adaptive_exact")
 """Strategies whose kernels the idle render process loads before its first job (the panel's defaults and
 the adaptive modes, whose table builders are the slowest to load)."""
 

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from core.sampling.adaptive.inspect import TreeView
 
 
-ADAPTIVE_SAMPLERS = {"exact": "adaptive", "warp": "adaptive_warp"}
+ADAPTIVE_SAMPLERS = {"exact": "adaptive_exact", "warp": "adaptive_warp"}
 """The registered sampler of each mode of the adaptive sampler."""
 
 
@@ -291,7 +291,7 @@ def sampling_snapshot(
     phi_deg: float,
     n_max: float = 2.0,
     mode: str = "exact",
-    ratio_sampler: str = "adaptive",
+    ratio_sampler: str = "adaptive_exact",
     n_samples: int = 2000,
     seed: int = 1,
     grid: int = 96,

@@ -36,7 +36,7 @@
    seen most often): what to make faster or move off the GUI thread.
 
 3. ``first`` (only when asked for): the demo scene in the Render tab, A = uniform, B = ``adaptive_warp``, then
-   B = ``adaptive`` (exact), 256x192, equal spp; for each pair a new render process with a new, empty table
+   B = ``adaptive_exact``, 256x192, equal spp; for each pair a new render process with a new, empty table
    cache, started ``--lead`` seconds before the click (the panel starts it when the Render tab is shown);
    seconds from the click (``RenderPanel.start``) until each strategy's first frame is drawn
    (``RenderPanel._show_frame``). Target: <= 5 s. Then where the seconds went: the render process's time
@@ -292,7 +292,7 @@ def first_part(events, window, lead_s: float = 3.0, timeout: float = 600.0) -> t
           f"{panel.mode.currentText()}; the render process started {lead_s:g} s before the click, as when "
           f"the Render tab is shown; load average {os.getloadavg()[0]:.2f})")  # fmt: skip
     print(f"{'A / B':<24} {'strategy':<15} {'s to first image':>17} {'target s':>9} {'met':>4}")
-    for b in ("adaptive_warp", "adaptive"):
+    for b in ("adaptive_warp", "adaptive_exact"):
         panel.server.stop()  # a new process, with a new and empty table cache
         os.environ["BRDF_STUDIO_CACHE"] = tempfile.mkdtemp(prefix="brdf-studio-bench-first-")
         panel.server.ensure_started()

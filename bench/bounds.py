@@ -64,13 +64,15 @@ WARM = {"max_thetas": 7, "rounds": 1, "quad_tol": 1e-2, "phi_count": 2, "capacit
 
 
 def warm_up(brdf: BRDF) -> None:
-    make_sampler("adaptive", brdf, n_max=N_MAX, cache=False, **WARM).sample(degrees_to_dir(45.0), 100, seed=1)
+    make_sampler("adaptive_exact", brdf, n_max=N_MAX, cache=False, **WARM).sample(
+        degrees_to_dir(45.0), 100, seed=1
+    )
 
 
 def run_model(label: str, brdf: BRDF, trials: int) -> list[Row]:
     warm_up(brdf)
     clear_memory_cache()
-    sampler = make_sampler("adaptive", brdf, n_max=N_MAX, cache=False, threads=True)
+    sampler = make_sampler("adaptive_exact", brdf, n_max=N_MAX, cache=False, threads=True)
     t0 = time.perf_counter()
     info = sampler.info()  # builds the table
     build = time.perf_counter() - t0

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-SAMPLERS = ("adaptive_warp", "adaptive", "uniform")
+SAMPLERS = ("adaptive_warp", "adaptive_exact", "uniform")
 
 
 def render(sampler: str, cache: Path, spp: int, width: int, height: int, out_exr: Path) -> dict[str, Any]:
@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{sampler:<13} (kernels compiled or loaded, not counted: {kernels['wall_s']:.1f} s)",
                 flush=True,
             )
-            keep = a.keep is not None and sampler == "adaptive"
+            keep = a.keep is not None and sampler == "adaptive_exact"
             cache = a.keep if keep else tmp / f"tables-{sampler}"
             for case in ("cold", "warm"):
                 r = render(sampler, cache, a.spp, width, height, tmp / f"{sampler}-{case}.exr")

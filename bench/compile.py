@@ -11,7 +11,7 @@ cache does not fire it; nested compiles of callees are counted once, inside thei
 - ``adaptive phong`` and ``adaptive ward``: a Phong table and an anisotropic Ward table (``sx = 0.05,
   sy = 0.25``) built with the sampler's defaults (no disk cache), then both modes' draws, densities,
   normalizer and acceptance on a batch of views;
-- ``render adaptive``: a 32 x 24, 1 spp render of the demo scene with ``sampler="adaptive"`` through
+- ``render adaptive``: a 32 x 24, 1 spp render of the demo scene with ``sampler="adaptive_exact"`` through
   :func:`renderer.render.render`, the table cache (``$BRDF_STUDIO_CACHE``) a fresh temporary folder, so
   every table the scene needs is built in the process.
 
@@ -107,7 +107,7 @@ def _adaptive(model: str, params: dict[str, Any]) -> None:
     wo = np.random.default_rng(3).normal(size=(4096, 3))
     wo[:, 2] = np.abs(wo[:, 2])
     wo /= np.linalg.norm(wo, axis=1)[:, None]
-    for name in ("adaptive", "adaptive_warp"):
+    for name in ("adaptive_exact", "adaptive_warp"):
         sampler = make_sampler(name, brdf, cache=False)
         assert isinstance(sampler, AdaptiveSampler)
         sampler.preload()
@@ -124,7 +124,7 @@ def _render_adaptive() -> None:
     from renderer.render import render
 
     scene = load_scene(str(files("resources") / "scenes" / "demo" / "demo.json"))
-    render(scene, spp=1, width=32, height=24, sampler="adaptive")
+    render(scene, spp=1, width=32, height=24, sampler="adaptive_exact")
 
 
 CASES: dict[str, Callable[[], None]] = {

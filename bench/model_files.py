@@ -13,7 +13,7 @@ repository) or any translation of the same model with its parameter names (defau
   dispatch's file-model branch and the built-in ``disney`` kernel at the same parameters (the file's defaults; ``baseColor`` raised to 2.2 for the built-in, whose colour
   is linear), their ratio, and the
   largest difference between the two relative to the larger value (the file computes in float32, as GLSL);
-- **tables**: the ``adaptive`` (exact) and ``adaptive_warp`` tables built without a cache, isotropic
+- **tables**: the ``adaptive_exact`` and ``adaptive_warp`` tables built without a cache, isotropic
   (``anisotropic`` 0) and anisotropic (0.8), each build from scratch after a warm-up build of another model
   (the build's kernels compiled or loaded): seconds (median of ``--builds``), the layout's symmetry, leaves,
   evaluations, the smallest acceptance (the guarantee is ``1/n_max``) and the normalizer's estimated error;
@@ -151,10 +151,10 @@ def main() -> int:
     print(f"\ntables without a cache, n_max 2, median of {args.builds} builds")
     print(f"{'setting':<12} {'sampler':<14} {'model':<9} {'s':>7} {'layout':<10} {'leaves':>7} {'evals':>9} "
           f"{'acc min':>8} {'norm err':>9}  target")  # fmt: skip
-    for strategy in ("adaptive", "adaptive_warp"):  # warm-up: the build's kernels compiled or loaded
+    for strategy in ("adaptive_exact", "adaptive_warp"):  # warm-up: the build's kernels compiled or loaded
         make_sampler(strategy, make_brdf("lambert", {}), n_max=2.0, cache=False).table  # noqa: B018
     for name, values in settings.items():
-        for strategy in ("adaptive", "adaptive_warp"):
+        for strategy in ("adaptive_exact", "adaptive_warp"):
             for label, brdf in (
                 ("file", make_brdf(str(path), values)),
                 ("built-in", make_brdf("disney", as_built_in(values))),

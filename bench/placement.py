@@ -27,8 +27,8 @@ from core.model import make_brdf
 from core.sampling import make_sampler
 
 CASES = [
-    ("adaptive_warp", "adaptive", {"mode": "warp", "cache": False}),
-    ("adaptive (exact)", "adaptive", {"mode": "exact", "cache": False}),
+    ("adaptive_warp", "adaptive_warp", {"cache": False}),
+    ("adaptive_exact", "adaptive_exact", {"cache": False}),
     ("uniform_cdf", "uniform_cdf", {}),
     ("factored", "factored", {}),
     ("analytic", "analytic", {}),

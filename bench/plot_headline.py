@@ -10,7 +10,7 @@ Reads the two tables kept in ``docs/results`` (each written from a run of its be
   ``python bench/render.py --cornell --time 20 --skip-scalar``;
 - ``demo_equal_time.csv``: RMSE after 20 s of rendering, divided by uniform's, three seeds, from
   ``python bench/render.py --size 512 --time 20 --skip-throughput --strategies
-  uniform,analytic,adaptive,adaptive_warp --seed S``.
+  uniform,analytic,adaptive_exact,adaptive_warp --seed S``.
 
 Runs in a second; renders nothing.
 """
@@ -28,7 +28,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-STRATEGIES = ("uniform", "analytic", "adaptive", "adaptive_warp")
+STRATEGIES = ("uniform", "analytic", "adaptive_exact", "adaptive_warp")
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     right.text(len(names) - 0.5, 0.205, "1/5 of uniform", ha="right", va="bottom", fontsize=8, color="grey")
     right.set_xticks(
         range(len(names)),
-        [n.replace("adaptive", "adaptive\n(exact)", 1) if n == "adaptive" else n for n in names],
+        [n.replace("_", "_\n", 1) if n.startswith("adaptive_") else n for n in names],
     )
     right.set_ylabel("RMSE ÷ uniform's (three seeds)")
     right.set_title("Demo scene, 512², 20 s each")

@@ -52,7 +52,7 @@ def sky(w: np.ndarray) -> np.ndarray:
 
 def variances(brdf, wo: np.ndarray, n: int, rotations: np.ndarray, seed: int) -> dict[str, dict[str, float]]:
     """``{sampler: {lighting: variance per sample}}`` at one ``wo`` (``inf`` where a sampler misses f)."""
-    q = make_sampler("adaptive", brdf)
+    q = make_sampler("adaptive_exact", brdf)
     drawn = q.sample(wo, n, seed)
     wi, q_pdf = drawn.wi, drawn.pdf
     wos = np.broadcast_to(wo, wi.shape)
@@ -62,8 +62,8 @@ def variances(brdf, wo: np.ndarray, n: int, rotations: np.ndarray, seed: int) ->
     lights["rotated_sky"] = np.stack([sky(wi @ r.T) for r in rotations])
     out: dict[str, dict[str, float]] = {}
     for name in applicable_samplers(brdf):
-        s = q if name == "adaptive" else make_sampler(name, brdf)
-        p = q_pdf if name == "adaptive" else s.pdf(wos, wi)
+        s = q if name == "adaptive_exact" else make_sampler(name, brdf)
+        p = q_pdf if name == "adaptive_exact" else s.pdf(wos, wi)
         row = {}
         for lighting, L in lights.items():
             mean = (norm * L).mean(axis=1)  # L_r per lighting instance
@@ -93,9 +93,9 @@ def run(models: list[str] | None, n: int, n_rot: int, out: Path) -> list[dict]:
         record: dict = {"model": model.name}
         line = f"{model.name:<18}"
         for k in LIGHTINGS:
-            others = {s: v[k] for s, v in total.items() if s != "adaptive"}
+            others = {s: v[k] for s, v in total.items() if s != "adaptive_exact"}
             best = min(others, key=others.get)
-            ad = total["adaptive"][k]
+            ad = total["adaptive_exact"][k]
             ratio = ad / others[best] if others[best] > 0 else (1.0 if ad == 0 else math.inf)
             # ties within TIE: the adaptive pdf's normalizer is interpolated to ~1e-6 relative
             met = ad <= others[best] * (1.0 + TIE) or abs(ad) <= 1e-9 * max(abs(others[best]), 1.0)

@@ -26,3 +26,8 @@ class FileFormatError(BrdfStudioError):
 
 class OutputError(BrdfStudioError):
     """An output file cannot be written."""
+
+
+class FormerSamplerName(DeprecationWarning):
+    """The notice that a sampler was named by a former name (or with a former option); its message names the
+    current name to use. The command line prints it as a ``notice:`` line."""

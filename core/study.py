@@ -27,13 +27,14 @@ from core.io import atomic_write_text
 from core.lighting import CapLight, Furnace, LatLongEnvironment
 from core.model import BRDF, LUMINANCE, all_models
 from core.sampling import Sampler, make_sampler
+from core.sampling.base import current_sampler
 from core.sampling.ris import ris_sample
 
 DEFAULT_SAMPLERS = (
     "uniform",
     "cosine",
     "analytic",
-    "adaptive",
+    "adaptive_exact",
     "adaptive_warp",
     "uniform_cdf",
     "compress_cdf",
@@ -79,7 +80,7 @@ class StudyConfig:
     batch: int = 1 << 17
     reference_samples: int = 1 << 20
     samplers: Sequence[str] = DEFAULT_SAMPLERS
-    options: dict[str, dict[str, Any]] = field(default_factory=lambda: {"adaptive": {"n_max": 2.0}})
+    options: dict[str, dict[str, Any]] = field(default_factory=lambda: {"adaptive_exact": {"n_max": 2.0}})
 
 
 class _Estimator:
@@ -116,6 +117,21 @@ class _Estimator:
         return int(self.sampler.info().get("memory_bytes", 0))
 
 
+def current_samplers(config: StudyConfig) -> tuple[list[str], dict[str, dict[str, Any]]]:
+    """The study's strategies and their options by current name: a former name (``adaptive``) is read as
+    the strategy it means, with the notice that names it (:func:`core.sampling.base.current_sampler`)."""
+    names: list[str] = []
+    options: dict[str, dict[str, Any]] = {}
+    for given in config.samplers:
+        if given == "ris":
+            names.append(given)
+            continue
+        name, opts = current_sampler(given, config.options.get(given, {}))
+        names.append(name)
+        options[name] = opts
+    return names, options
+
+
 def _applicable(name: str, brdf: BRDF) -> bool:
     return not (name == "analytic" and brdf.model.sample is None)
 
@@ -128,7 +144,8 @@ def study_material(
     tick: Callable[[], None] = lambda: None,
 ) -> list[Row]:
     """Every row of the study for one material."""
-    estimators = [_Estimator(s, brdf, config.options) for s in config.samplers if _applicable(s, brdf)]
+    samplers, options = current_samplers(config)
+    estimators = [_Estimator(s, brdf, options) for s in samplers if _applicable(s, brdf)]
     rows: list[Row] = []
     for theta in config.thetas:
         wo = degrees_to_dir(min(theta, 89.9))
@@ -408,7 +425,7 @@ def seed_comparison_markdown(rows: list[Row]) -> str:
         ada = [
             r
             for r in sel
-            if r.sampler == "adaptive" and r.light == sel[0].light and r.samples == sel[0].samples
+            if r.sampler == "adaptive_exact" and r.light == sel[0].light and r.samples == sel[0].samples
         ]
         seed = SEED_TABLES.get(mat)
         cells = []

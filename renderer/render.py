@@ -2,7 +2,7 @@
 
 ::
 
-    job = prepare(load_scene("scene.json"), sampler="adaptive")
+    job = prepare(load_scene("scene.json"), sampler="adaptive_exact")
     for frame in job.passes(spp=64):          # or time_s=10.0 (equal-time mode)
         show(frame.image, frame.spp, frame.elapsed)   # break out of the loop to stop early
 

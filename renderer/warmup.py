@@ -63,7 +63,7 @@ class _Stopped(Exception):
 
 
 def load_kernels(
-    strategies: Sequence[str] = ("uniform", "adaptive_warp", "adaptive"),
+    strategies: Sequence[str] = ("uniform", "adaptive_warp", "adaptive_exact"),
     stop: Callable[[], bool] = lambda: False,
 ) -> Iterator[tuple[str, float]]:
     """Load into this process every kernel a render with ``strategies`` calls (numba's compiled code, read

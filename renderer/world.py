@@ -19,6 +19,7 @@ import numpy as np
 from core.errors import BrdfStudioError, UnknownNameError
 from core.model import BRDF, LUMINANCE, make_brdf
 from core.sampling import Sampler, make_sampler
+from core.sampling.base import current_sampler, current_sampler_name
 from core.scene import Material, QuadLight, Scene, kept_groups
 from renderer.accel import Accel
 from renderer.envmap import ConstantEnvironment, EnvironmentMap, load_environment
@@ -78,12 +79,13 @@ class World:
         material_samplers: dict[str, str] | None = None,
     ):
         self.scene = scene
-        self.sampler_name = sampler or scene.render.sampler
-        self.sampler_options = dict(
-            scene.render.sampler_options if sampler_options is None else sampler_options
+        # a former strategy name (``adaptive``) is read as the current one, with the notice that names it
+        self.sampler_name, self.sampler_options = current_sampler(
+            sampler or scene.render.sampler,
+            scene.render.sampler_options if sampler_options is None else sampler_options,
         )
         self.threads = threads
-        self.material_samplers = dict(material_samplers or {})
+        self.material_samplers = {k: current_sampler_name(v) for k, v in (material_samplers or {}).items()}
         """Per-material strategy overrides by material name (others use ``sampler_name``)."""
         unknown = set(self.material_samplers) - {m.name for m in scene.materials}
         if unknown:

@@ -11,7 +11,7 @@ Forms (the same in every command):
 - a list (``--theta``, ``--n-max``, ``--compare``, ``--models``, ``--samplers``, ``--param``,
   ``--material``, ``--measured``): values after the option, separated by spaces, and the option may be
   repeated: ``--theta 0 30 60`` and ``--theta 0 --theta 30 60`` are the same. Lists of numbers and of
-  registered names may also be separated by commas (``--theta 0,30,60``, ``--compare uniform,adaptive``);
+  registered names may also be separated by commas (``--theta 0,30,60``, ``--compare uniform,adaptive_exact``);
   values that may hold commas themselves (``--param kd=0.2,0.5,0.8``, material names, file names) are not
   split.
 """

@@ -11,6 +11,7 @@ from app.commands._args import add_list, theta, whole
 from core.errors import ParameterError, UnknownNameError
 from core.model import get_model
 from core.sampling import sampler_names
+from core.sampling.base import current_sampler_name
 from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results
 
 QUICK_MODELS = ("lambert", "phong", "ward")
@@ -63,6 +64,7 @@ def _config(args: argparse.Namespace) -> StudyConfig:
     if args.thetas:
         cfg.thetas = tuple(args.thetas)
     if args.samplers:
+        args.samplers = [s if s == "ris" else current_sampler_name(s) for s in args.samplers]
         unknown = [s for s in args.samplers if s not in sampler_names() and s != "ris"]
         if unknown:
             raise UnknownNameError(

@@ -22,7 +22,7 @@ from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.model import LUMINANCE, all_models
 from core.sampling import applicable_samplers, make_sampler
-from core.sampling.base import check_sampler_options
+from core.sampling.base import check_sampler_options, current_sampler_name
 
 THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 N_MAXES = (1.3, 2.0, 3.0)
@@ -38,7 +38,11 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
     )
     add_brdf_arguments(p)
     p.add_argument(
-        "--sampler", type=name, default="adaptive", metavar="S", help="sampling strategy (default adaptive)"
+        "--sampler",
+        type=name,
+        default="adaptive_exact",
+        metavar="S",
+        help="sampling strategy (default adaptive_exact)",
     )
     add_list(
         p, "--n-max", item=number(1.0, 1000.0, lo_open=True), metavar="X", help="adaptive n_max, (1, 1000]"
@@ -119,12 +123,15 @@ def run(args: argparse.Namespace) -> int:
         jobs = [(m.bind(), s) for m in all_models() for s in applicable_samplers(m.bind())]
     else:
         brdf = brdf_from_args(args)
+        args.sampler = current_sampler_name(args.sampler)
         # unknown sampler, or an option it does not take: a clear error before any work
-        check_sampler_options(args.sampler, {"n_max": n_maxes[0]} if args.sampler == "adaptive" else {})
-        if args.n_max and args.sampler != "adaptive":
-            raise ParameterError(f"--n-max is an option of the 'adaptive' sampler, not of '{args.sampler}'")
+        check_sampler_options(args.sampler, {"n_max": n_maxes[0]} if args.sampler == "adaptive_exact" else {})
+        if args.n_max and args.sampler != "adaptive_exact":
+            raise ParameterError(
+                f"--n-max is an option of the 'adaptive_exact' sampler, not of '{args.sampler}'"
+            )
         jobs = [(brdf, args.sampler)]
-    runs = [(b, s, x) for b, s in jobs for x in (n_maxes if s == "adaptive" else [None])]
+    runs = [(b, s, x) for b, s in jobs for x in (n_maxes if s == "adaptive_exact" else [None])]
     n_tests = 2 * len(runs) * len(thetas)
     failures = 0
     t0 = time.perf_counter()

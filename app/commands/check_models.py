@@ -76,7 +76,7 @@ def direction_pairs(polar_angles: int) -> tuple[np.ndarray, np.ndarray]:
     return np.repeat(w, len(w), axis=0), np.tile(w, (len(w), 1))
 
 
-ADAPTIVE_SAMPLERS = ("adaptive", "adaptive_warp")
+ADAPTIVE_SAMPLERS = ("adaptive_exact", "adaptive_warp")
 SAMPLER_THETAS = (0.0, 30.0, 60.0, 80.0, 89.0)
 """The outgoing polar angles of the samplers' check, as ``brdf-studio check`` takes them by default."""
 SAMPLER_PHI = 17.0

@@ -3,7 +3,7 @@
 ::
 
     brdf-studio render SCENE.json [--sampler S] [--spp N | --time SEC | --until-cancelled] -o OUT.exr
-                       [--compare uniform,adaptive] [--reference REF.exr] [--seed K] [--width W --height H]
+                       [--compare uniform,adaptive_exact] [--reference REF.exr] [--seed K] [--width W --height H]
                        [--ris M] [--n-max X] [--max-depth D] [--exposure EV]
     brdf-studio render --demo
     brdf-studio render SCENE.json --spp 4096 --scheduler tcp://HOST:8786   (or --workers N: a local cluster)
@@ -94,7 +94,9 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
         help="render until Ctrl-C, then save what was rendered (exit code 130)",
     )
     p.add_argument("-o", "--output", help="output EXR (default: <scene name>.exr in the current folder)")
-    add_list(p, "--compare", metavar="S", help="render each strategy with the same budget (uniform,adaptive)")
+    add_list(
+        p, "--compare", metavar="S", help="render each strategy with the same budget (uniform,adaptive_exact)"
+    )
     p.add_argument(
         "--reference", metavar="REF.exr", help="reference image: report RMSE/relMSE and error curves"
     )
@@ -159,10 +161,11 @@ def demo_scene_path() -> Path:
 
 def _strategies(args: argparse.Namespace, default: str) -> list[str]:
     from core.sampling import sampler_names
+    from core.sampling.base import current_sampler_name
 
-    names = list(args.compare) if args.compare else [args.sampler or default]
     if args.compare and args.sampler:
         raise ParameterError("give --sampler or --compare, not both")
+    names = [current_sampler_name(s) for s in (args.compare if args.compare else [args.sampler or default])]
     known = sampler_names()
     for s in names:
         if s not in known:

@@ -48,7 +48,11 @@ def add_parser(sub: argparse._SubParsersAction) -> list[str]:
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
-        "--sampler", type=name, default="adaptive", metavar="S", help="sampling strategy (default adaptive)"
+        "--sampler",
+        type=name,
+        default="adaptive_exact",
+        metavar="S",
+        help="sampling strategy (default adaptive_exact)",
     )
     p.add_argument(
         "--n-max",

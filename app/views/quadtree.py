@@ -121,11 +121,11 @@ class SamplingView(QWidget):
             self.figure_view.setMaximumHeight(cap)
 
     def refresh_strategies(self) -> None:
-        current = self.strategy.currentText() or "adaptive"
+        current = self.strategy.currentText() or "adaptive_exact"
         self.strategy.clear()
         names = sampler_names()
         self.strategy.addItems(names)
-        self.strategy.setCurrentText(current if current in names else "adaptive")
+        self.strategy.setCurrentText(current if current in names else "adaptive_exact")
 
     def options(self) -> dict:
         return {

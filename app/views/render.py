@@ -94,7 +94,7 @@ class RenderPanel(QWidget):
         self.strategy_a.addItems(names)
         self.strategy_b.addItems(["(none)", *names])
         self.strategy_a.setCurrentText("uniform")
-        self.strategy_b.setCurrentText("adaptive" if "adaptive" in names else "cosine")
+        self.strategy_b.setCurrentText("adaptive_exact" if "adaptive_exact" in names else "cosine")
         self.mode = QComboBox()
         self.mode.addItem("equal spp", "spp")
         self.mode.addItem("equal time", "time")

@@ -19,7 +19,9 @@ sphere (it integrates to 1 there for ``wo`` above the horizon), and each draw ca
 (``tests/core/test_sampler_horizon.py``).
 
 Strategies live in the modules and subpackages of :mod:`core.sampling` and call :func:`register_sampler` when
-imported; :func:`make_sampler` imports them all on first use, so adding a strategy is adding a module.
+imported; :func:`make_sampler` imports them all on first use, so adding a strategy is adding a module. A former
+name of a strategy (:func:`register_former_name`) is accepted wherever a user names one: :func:`current_sampler`
+maps it to the current name, with a :class:`~core.errors.FormerSamplerName` notice that names it.
 """
 
 from __future__ import annotations
@@ -28,13 +30,14 @@ import importlib
 import math
 import os
 import pkgutil
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from core.errors import ParameterError, UnknownNameError
+from core.errors import FormerSamplerName, ParameterError, UnknownNameError
 from core.kernels import DirectionSamples, eval_into
 from core.model import BRDF
 
@@ -340,9 +343,11 @@ class SamplerOption:
 
 
 SamplerFactory = Callable[..., Sampler]
+FormerNameResolver = Callable[[dict[str, Any]], "tuple[str, dict[str, Any]] | None"]
 _SAMPLERS: dict[str, SamplerFactory] = {}
 _OPTIONS: dict[str, dict[str, SamplerOption]] = {}
 _MEMORY: dict[str, Callable[[BRDF, dict[str, Any]], float]] = {}
+_FORMER: dict[str, FormerNameResolver] = {}
 _loaded = False
 
 
@@ -360,6 +365,41 @@ def register_sampler(
     _OPTIONS[name] = {o.name: o for o in options}
     if memory is not None:
         _MEMORY[name] = memory
+
+
+def register_former_name(name: str, resolve: FormerNameResolver) -> None:
+    """Accept ``name`` with the options given with it as a former way of naming a strategy:
+    ``resolve(options)`` returns the current name and the options it takes (the former ones removed), or
+    ``None`` when ``name`` with these options is current (a registered strategy given only its own options).
+    It may raise :class:`ParameterError` for former options that name nothing."""
+    _FORMER[name] = resolve
+
+
+def current_sampler(name: str, options: Mapping[str, Any] | None = None) -> tuple[str, dict[str, Any]]:
+    """The current name and options of the strategy a user named as ``name`` with ``options``: a former name
+    (or former option) is mapped to the strategy it means, with a :class:`~core.errors.FormerSamplerName`
+    notice naming the current name; any other name and its options are returned as given."""
+    _load_samplers()
+    given = dict(options or {})
+    resolve = _FORMER.get(name)
+    resolved = resolve(given) if resolve is not None else None
+    if resolved is None:
+        return name, given
+    current, current_options = resolved
+    dropped = " and ".join(f"{k}={v!r}" for k, v in given.items() if k not in current_options)
+    if current == name:
+        text = f"the sampler '{name}' takes no {dropped}: its name says it; leave it out"
+    else:
+        given_as = f"'{name}' with {dropped}" if dropped else f"'{name}'"
+        text = f"{given_as} is a former name of the sampler '{current}'; use '{current}'"
+    warnings.warn(text, FormerSamplerName, stacklevel=3)
+    return current, current_options
+
+
+def current_sampler_name(name: str) -> str:
+    """The current name of the strategy a user named ``name`` (no options), with the notice of
+    :func:`current_sampler` for a former name."""
+    return current_sampler(name)[0]
 
 
 def sampler_option_set(name: str) -> dict[str, SamplerOption]:
@@ -394,8 +434,11 @@ def sampler_names() -> list[str]:
 
 
 def make_sampler(name: str, brdf: BRDF, **options: Any) -> Sampler:
-    """A sampler by name (``uniform``, ``cosine``, ``analytic``, ``adaptive``, ...) for ``brdf``."""
+    """A sampler by name (``uniform``, ``cosine``, ``analytic``, ``adaptive_exact``, ``adaptive_warp``, ...) for
+    ``brdf``; a former name is accepted with a notice (:func:`current_sampler`)."""
     _load_samplers()
+    if name in _FORMER:
+        name, options = current_sampler(name, options)
     try:
         factory = _SAMPLERS[name]
     except KeyError:

@@ -102,7 +102,7 @@ class AnalyticSampler(Sampler):
     def __init__(self, brdf: BRDF):
         if brdf.model.sample is None or brdf.model.pdf is None:
             raise UnknownNameError(
-                f"model '{brdf.model.name}' has no analytic sampler; use 'adaptive', 'cosine' or 'uniform'"
+                f"model '{brdf.model.name}' has no analytic sampler; use 'adaptive_exact', 'adaptive_warp', 'cosine' or 'uniform'"
             )
         super().__init__(brdf)
 

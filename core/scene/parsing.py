@@ -78,8 +78,18 @@ def scene_from_dict(
     for mat in scene.materials:
         if mat.model is not None and is_model_file(mat.model):
             mat.model = model_file_path(scene, mat.model)
+    _current_sampler(scene)
     validate_scene(scene, check_files=check_files)
     return scene
+
+
+def _current_sampler(scene: Scene) -> None:
+    """A former sampler name (``"adaptive"``) read as the current one, with the notice that names it
+    (:func:`core.sampling.base.current_sampler`)."""
+    from core.sampling.base import current_sampler
+
+    render = scene.render
+    render.sampler, render.sampler_options = current_sampler(render.sampler, render.sampler_options)
 
 
 _LIGHT_ADAPTER: TypeAdapter[PointLight | QuadLight] = TypeAdapter(Light)

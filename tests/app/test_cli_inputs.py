@@ -459,10 +459,13 @@ def test_generated_broken_scenes_large(capsys, scene_dir, scene):
         ),
         ({"meshes": [{"path": "ball.obj", "material": "ball", "transform": {"scale": 1e200}}]}, "scale"),
         ({"render": {"sampler": "cosine", "sampler_options": {"n_max": 0.5}}}, "takes no options"),
-        ({"render": {"sampler": "adaptive", "sampler_options": {"theta_step": 0}}}, "no option 'theta_step'"),
-        ({"render": {"sampler": "adaptive", "sampler_options": {"cache": 5}}}, "'cache'"),
-        ({"render": {"sampler": "adaptive", "sampler_options": {"threads": "x"}}}, "'threads'"),
-        ({"render": {"sampler": "adaptive", "sampler_options": {"max_level": -3}}}, "[2, 14]"),
+        (
+            {"render": {"sampler": "adaptive_exact", "sampler_options": {"theta_step": 0}}},
+            "no option 'theta_step'",
+        ),
+        ({"render": {"sampler": "adaptive_exact", "sampler_options": {"cache": 5}}}, "'cache'"),
+        ({"render": {"sampler": "adaptive_exact", "sampler_options": {"threads": "x"}}}, "'threads'"),
+        ({"render": {"sampler": "adaptive_exact", "sampler_options": {"max_level": -3}}}, "[2, 14]"),
         ({"render": {"spp": 10**20}}, "render.spp"),
         ({"render": {"time_s": 1e300}}, "render.time_s"),
     ],
@@ -651,7 +654,7 @@ def test_workers_are_capped_to_what_the_machine_holds(capsys, monkeypatch):
 def test_a_scene_cache_folder_that_cannot_be_written_is_refused(capsys, scene_dir, tmp_path, cache):
     (tmp_path / "a_file").write_text("")
     scene = json.loads(json.dumps(SCENE))
-    scene["render"] = {**scene["render"], "sampler": "adaptive"}
+    scene["render"] = {**scene["render"], "sampler": "adaptive_exact"}
     scene["render"]["sampler_options"] = {"cache": cache.format(file=tmp_path / "a_file")}
     code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "o.exr")
     _one_line("render", code, err, "render.sampler_options", "option 'cache'")
@@ -779,7 +782,11 @@ def corpus_last_inputs(tmp_path: Path, scene_dir: Path) -> list[tuple[str, list[
 
     def cache(folder: str):  # type: ignore[no-untyped-def]
         def edit(scene: dict) -> None:
-            scene["render"] = {**scene["render"], "sampler": "adaptive", "sampler_options": {"cache": folder}}
+            scene["render"] = {
+                **scene["render"],
+                "sampler": "adaptive_exact",
+                "sampler_options": {"cache": folder},
+            }
 
         return edit
 
@@ -860,3 +867,25 @@ def test_the_last_inputs_are_one_line_each(capsys, scene_dir, tmp_path, monkeypa
         if why is not None:
             found.append(f"{env} {argv}: {why}: {err.strip()[:300]}")
     assert found == []
+
+
+def test_a_scene_naming_the_former_sampler_adaptive_renders_with_a_notice(capsys, scene_dir, tmp_path):
+    """An older scene file's ``"sampler": "adaptive"`` renders as ``adaptive_exact``, with one notice line
+    naming the current name; ``--sampler adaptive`` the same."""
+    from renderer.image_io import read_exr
+
+    scene = json.loads(json.dumps(SCENE))
+    small = {"cache": False, "max_thetas": 7, "phi_count": 2, "capacity": 256, "warp_tol": 1e-2}
+    scene["render"] = {**scene["render"], "sampler": "adaptive", "sampler_options": small}
+    notice = "brdf-studio render: notice: 'adaptive' is a former name of the sampler 'adaptive_exact'; use 'adaptive_exact'"
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "old.exr")
+    assert code == 0 and err.strip().splitlines() == [notice], err
+    scene["render"]["sampler"] = "adaptive_exact"
+    code, err = render_scene_json(capsys, scene_dir, json.dumps(scene), tmp_path / "new.exr")
+    assert code == 0 and err.strip() == "", err
+    assert np.array_equal(read_exr(tmp_path / "old.exr"), read_exr(tmp_path / "new.exr"))  # the same strategy
+    path = scene_dir / "broken.json"
+    code, _, err = run_cli(capsys, ["render", str(path), "--quiet", "-o", str(tmp_path / "cli.exr"), "--spp", "1",
+                                    "--sampler", "adaptive"])  # fmt: skip
+    assert code == 0 and err.strip().splitlines() == [notice], err
+    assert np.array_equal(read_exr(tmp_path / "cli.exr"), read_exr(tmp_path / "new.exr"))

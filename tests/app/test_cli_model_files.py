@@ -112,7 +112,7 @@ def test_check_a_shader_with_an_adaptive_sampler(capsys):
         "--model",
         SHADER,
         "--sampler",
-        "adaptive",
+        "adaptive_exact",
         "--theta",
         "0",
         "60",
@@ -120,7 +120,7 @@ def test_check_a_shader_with_an_adaptive_sampler(capsys):
         "20000",
     )
     assert code == 0, out
-    assert f"{SHADER} / adaptive" in out and out.count("PASS") == 2 and "all passed" in out
+    assert f"{SHADER} / adaptive_exact" in out and out.count("PASS") == 2 and "all passed" in out
 
 
 def test_export_a_shader(capsys, tmp_path):
@@ -341,7 +341,7 @@ def test_check_passes_where_the_model_is_zero_for_every_direction(capsys, tmp_pa
         "    float c = dot(normalize(V - N * dot(V, N)), vec3(1.0, 0.0, 0.0));\n"
         "    return vec3(k * (1.0 + 0.0 * c) / 3.14159265);\n}\n::end shader\n"
     )
-    argv = ("check", "--model", str(shader), "--sampler", "adaptive", "--samples", "20000")
+    argv = ("check", "--model", str(shader), "--sampler", "adaptive_exact", "--samples", "20000")
     code, out, _ = run_cli(capsys, *argv, "--theta", "0,45")
     assert code == 0, out
     assert "acceptance=0.000" in out and "2 rows FAILED" not in out and "all passed" in out

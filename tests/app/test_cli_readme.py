@@ -33,7 +33,7 @@ def readme_commands() -> list[str]:
 def test_the_block_was_found():
     commands = readme_commands()
     assert len(commands) >= 10 and any(
-        "check --model ward --sampler adaptive --theta 0 30" in c for c in commands
+        "check --model ward --sampler adaptive_exact --theta 0 30" in c for c in commands
     )
 
 

@@ -24,7 +24,7 @@ def _run(capsys, *argv):
 def test_sample_writes_directions_with_pdf_and_weight(tmp_path, capsys, suffix):
     out = tmp_path / f"dirs{suffix}"
     code, text, err = _run(
-        capsys, "sample", "--model", "phong", "--param", "n=50", "--sampler", "adaptive", "--n-max", "1.5",
+        capsys, "sample", "--model", "phong", "--param", "n=50", "--sampler", "adaptive_exact", "--n-max", "1.5",
         "--theta", "40", "--phi", "10", "-n", "500", "-o", str(out),
     )  # fmt: skip
     assert code == 0, err
@@ -91,7 +91,16 @@ def test_sample_unwritable_output_and_bad_format(tmp_path, capsys):
 
 def test_check_prints_the_report_and_passes(capsys):
     code, text, err = _run(
-        capsys, "check", "--model", "lambert", "--sampler", "adaptive", "--theta", "30", "--samples", "200000"
+        capsys,
+        "check",
+        "--model",
+        "lambert",
+        "--sampler",
+        "adaptive_exact",
+        "--theta",
+        "30",
+        "--samples",
+        "200000",
     )
     assert code == 0, text + err
     assert (

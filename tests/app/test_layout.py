@@ -311,7 +311,7 @@ def test_plot_texts_lie_inside_their_figures(screen_window, qapp):
         name: [
             {"spp": 2**k, "seconds": 0.1 * 2**k, "rmse": 0.5 / 2**k, "relmse": 2.0 / 2**k} for k in range(8)
         ]
-        for name in ("uniform", "adaptive")
+        for name in ("uniform", "adaptive_exact")
     }
     for tab in _each_tab(window, qapp):
         if window.tabs.currentWidget() is window.render_panel:

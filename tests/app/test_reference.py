@@ -26,9 +26,9 @@ def test_verdict_names_the_faster_strategy_and_the_fraction():
     t = np.geomspace(0.5, 10.0, 20)
     curves = {
         "uniform": _curve([(x, 0.2 * (x / 10.0) ** -0.5) for x in t]),
-        "adaptive": _curve([(x, 0.2 / np.sqrt(7.0) * (x / 10.0) ** -0.5) for x in t]),
+        "adaptive_exact": _curve([(x, 0.2 / np.sqrt(7.0) * (x / 10.0) ** -0.5) for x in t]),
     }
-    assert equal_time_verdict(curves) == "adaptive reaches uniform's final RMSE in 1/7 of the time"
+    assert equal_time_verdict(curves) == "adaptive_exact reaches uniform's final RMSE in 1/7 of the time"
     assert "relMSE" in equal_time_verdict(curves, "relmse")
     assert equal_time_verdict({"uniform": curves["uniform"]}) == ""  # one strategy: nothing to compare
     nan = {k: [{**r, "rmse": float("nan")} for r in v] for k, v in curves.items()}

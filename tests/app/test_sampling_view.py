@@ -56,7 +56,7 @@ def test_tree_follows_parameter_and_direction(window, qtbot, tmp_path):
     # Lambert: I(wo) = int f cos dw = kd, whatever the disk projection.
     assert tree.normalizer == pytest.approx(0.5, rel=1e-6)
     assert 1.0 / snap.n_max <= snap.acceptance <= 1.0
-    if snap.ratio_sampler == "adaptive":
+    if snap.ratio_sampler == "adaptive_exact":
         assert np.nanmax(np.abs(np.log2(snap.ratio))) < 1e-6
     # what is drawn: every leaf outlined, the samples, the title naming the disk and the node
     assert _drawn_outlines(view) == len(tree.boxes)
@@ -162,7 +162,7 @@ def test_ratio_map_of_the_cosine_sampler_is_one_for_lambert(window, qtbot):
     snap = _wait_snapshot(window, qtbot, lambda s: s.ratio_sampler == "cosine")
     assert np.nanmax(np.abs(snap.ratio - 1.0)) < 1e-6
     assert snap.weight_rel_std < 1e-9
-    view.strategy.setCurrentText("adaptive")
+    view.strategy.setCurrentText("adaptive_exact")
     view.strategy.activated.emit(view.strategy.currentIndex())
     window.tabs.setCurrentIndex(0)
 

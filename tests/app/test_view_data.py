@@ -340,12 +340,12 @@ def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(m
     assert first.table["options"]["warp_tol"] == INTERIM_WARP_TOL > TableOptions().warp_tol  # a coarser fit
     later = sampling_snapshot(brdf, 40.0, 0.0, n_samples=300, grid=32, progressive=True, settle=120.0)
     assert later.table["complete"] and not later.table["full_pending"] and not later.table["interim"]
-    assert later.mode == "exact" and later.ratio_sampler == "adaptive"
+    assert later.mode == "exact" and later.ratio_sampler == "adaptive_exact"
     finite = np.isfinite(later.ratio)
     np.testing.assert_allclose(later.ratio[finite & (later.ratio > 0)], 1.0, rtol=1e-6)
 
     other = make_brdf("ggx", {"alpha": 0.1213})
-    make_sampler("adaptive", other, progressive=True).preload()  # its coarse table, as a render's
+    make_sampler("adaptive_exact", other, progressive=True).preload()  # its coarse table, as a render's
     coarse = sampling_snapshot(other, 40.0, 0.0, n_samples=300, grid=32, progressive=True)
     assert not coarse.table["interim"] and not coarse.table["complete"] and coarse.mode == "exact"
     finite = np.isfinite(coarse.ratio)

@@ -54,14 +54,14 @@ def test_quick_run_writes_its_tables(bench, tmp_path, monkeypatch, capsys):
 
     errors = {(r["case"], r["sampler"]): r for r in _read(tmp_path / "adaptive_error.csv")}
     for case in ("phong", "ward sx=0.05 sy=0.25"):
-        exact = errors[(case, "adaptive")]
+        exact = errors[(case, "adaptive_exact")]
         assert int(exact["bound_violations"]) == 0
         # f cos / pdf is I(wo) for every exact sample: its spread is rounding
         assert float(exact["weight_rel_std_mean"]) < 1e-6
         assert float(errors[(case, "adaptive_warp")]["weight_rel_std_mean"]) > 0.0
 
     samplers = {r["sampler"] for r in _read(tmp_path / "adaptive_throughput.csv")}
-    assert samplers == {"cosine", "analytic", "adaptive", "adaptive_warp"}
+    assert samplers == {"cosine", "analytic", "adaptive_exact", "adaptive_warp"}
 
 
 @pytest.mark.parametrize(

@@ -146,7 +146,7 @@ def test_draws_follow_the_reported_density(name, params, theta, phi, mode):
 )  # fmt: skip
 def test_the_exact_modes_weight_is_the_albedo_for_every_sample(name, params, theta, phi):
     brdf = make_brdf(name, params)
-    sampler = make_sampler("adaptive", brdf)
+    sampler = make_sampler("adaptive_exact", brdf)
     wo = _wo(theta, phi)
     drawn = sampler.sample(wo, 20_000, seed=3)
     weight = (drawn.f @ LUMINANCE) * drawn.wi[:, 2] / drawn.pdf
@@ -167,7 +167,7 @@ def test_bounds_hold_and_acceptance_meets_n_max_over_whole_cells(name, params, n
     the horizon (those trees fill their capacity before the envelope reaches n_max: measured 0.47 at
     89.9 degrees for n_max = 2)."""
     brdf = make_brdf(name, params)
-    sampler = make_sampler("adaptive", brdf, n_max=n_max)
+    sampler = make_sampler("adaptive_exact", brdf, n_max=n_max)
     u = rng.random(4000)
     phi = rng.random(4000) * 2.0 * np.pi
     cos_t = 1.0 - u * (1.0 - math.cos(math.radians(89.8)))
@@ -188,7 +188,7 @@ def test_bounds_hold_and_acceptance_meets_n_max_over_whole_cells(name, params, n
 
 def test_the_normalizer_is_interpolated_to_within_3e_4_between_nodes(rng):
     brdf = make_brdf("cook_torrance")
-    sampler = make_sampler("adaptive", brdf)
+    sampler = make_sampler("adaptive_exact", brdf)
     for theta in rng.uniform(0.0, 89.5, 6):
         wo = _wo(theta)
         assert sampler.normalizer(wo)[0] == pytest.approx(_lum_albedo(brdf, theta), rel=3e-4)
@@ -207,10 +207,10 @@ def test_the_measured_materials_normalizer_is_within_1_5e_4_up_to_the_horizon(bu
 
 
 def test_the_issues_failing_check_passes_at_every_azimuth():
-    """``check --model ashikhmin_shirley --sampler adaptive --theta 89`` printed FAIL at its default
+    """``check --model ashikhmin_shirley --sampler adaptive_exact --theta 89`` printed FAIL at its default
     phi_o = 17 degrees (acceptance 0.327 < 1/n_max)."""
     brdf = make_brdf("ashikhmin_shirley")
-    sampler = make_sampler("adaptive", brdf)
+    sampler = make_sampler("adaptive_exact", brdf)
     wo = np.array([_wo(89.0, phi) for phi in (0.0, 17.0, 45.0, 90.0, 163.0, 250.0, 333.0)])
     assert np.all(sampler.acceptance(wo) >= 0.5)
 
@@ -232,8 +232,8 @@ def test_a_draw_returns_f_and_the_pdf_that_pdf_reports(mode, rng):
 def test_draws_on_threads_are_the_draws_of_one_thread():
     brdf = make_brdf("phong")
     wo = np.repeat(_wo(40.0, 20.0)[None, :], 40_000, axis=0)
-    one = make_sampler("adaptive", brdf).sample_each(wo, seed=9)
-    many = make_sampler("adaptive", brdf, threads=True).sample_each(wo, seed=9)
+    one = make_sampler("adaptive_exact", brdf).sample_each(wo, seed=9)
+    many = make_sampler("adaptive_exact", brdf, threads=True).sample_each(wo, seed=9)
     np.testing.assert_array_equal(one.wi, many.wi)
     np.testing.assert_array_equal(one.pdf, many.pdf)
 
@@ -306,10 +306,10 @@ def test_a_lambertian_material_keeps_the_initial_layout_and_a_glossy_one_asks_fo
     from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
     from core.sampling.adaptive.maps import ORTHOGRAPHIC as ORTHO
 
-    flat = make_sampler("adaptive", make_brdf("lambert")).table
+    flat = make_sampler("adaptive_exact", make_brdf("lambert")).table
     assert len(flat.thetas) == len(INITIAL_THETAS_DEG)
     assert np.all(flat.projection == ORTHO)  # pi f is flat on the seed's disk: one level of leaves
-    glossy = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.1})).table
+    glossy = make_sampler("adaptive_exact", make_brdf("ggx", {"alpha": 0.1})).table
     assert len(glossy.thetas) > len(INITIAL_THETAS_DEG)
     assert np.all(glossy.projection != ORTHO)
 
@@ -319,21 +319,21 @@ def test_a_coloured_lambertian_material_has_a_flat_table_drawn_as_the_cosine_den
     then draw the cosine density, and say so to a renderer; a glossy material has no such equivalent."""
     brdf = make_brdf("lambert", {"kd": [0.55, 0.55, 0.2]})
     for mode in ("exact", "warp"):
-        sampler = make_sampler("adaptive", brdf, mode=mode, cache=False)
+        sampler = make_sampler(f"adaptive_{mode}", brdf, cache=False)
         assert sampler.table.flat == 1
         assert sampler.compiled_equivalent() == "cosine"
         wo = np.tile(degrees_to_dir(40.0, 10.0), (2000, 1))
         drawn = sampler.sample_each(wo, seed=3)
         np.testing.assert_allclose(drawn.pdf, drawn.wi[:, 2] / math.pi, rtol=1e-12)
         np.testing.assert_allclose(drawn.f, np.tile([0.55, 0.55, 0.2], (2000, 1)) / math.pi, rtol=1e-12)
-    assert make_sampler("adaptive", make_brdf("phong"), cache=False).compiled_equivalent() is None
+    assert make_sampler("adaptive_exact", make_brdf("phong"), cache=False).compiled_equivalent() is None
 
 
 @pytest.mark.parametrize("mode", ["exact", "warp"])
 def test_in_place_draws_and_masked_densities_equal_the_batch_interface(mode):
     """``sample_into`` writes ``sample_each``'s draws into views of a caller's buffers, and ``eval_pdf_where``
     writes ``eval_pdf`` at the masked rows only, leaving the others untouched."""
-    sampler = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.2}), mode=mode)
+    sampler = make_sampler(f"adaptive_{mode}", make_brdf("ggx", {"alpha": 0.2}))
     rng = np.random.default_rng(5)
     n = 3000
     wo = rng.normal(size=(n, 3))
@@ -362,7 +362,7 @@ def test_a_progressive_sampler_starts_coarse_and_swaps_in_the_full_table_when_as
     from core.sampling.adaptive.layout import INITIAL_THETAS_DEG
 
     brdf = make_brdf("ggx", {"alpha": 0.1})
-    sampler = make_sampler("adaptive", brdf, progressive=True)
+    sampler = make_sampler("adaptive_exact", brdf, progressive=True)
     wo = np.repeat(_wo(50.0)[None, :], 2000, axis=0)
     assert len(sampler.table.thetas) == len(INITIAL_THETAS_DEG)
     coarse = sampler.sample_each(wo, seed=1)
@@ -529,9 +529,9 @@ def test_background_builds_can_be_dropped_but_the_kept_one():
     refresh."""
     from core.sampling.adaptive import sampler as module
 
-    running = make_sampler("adaptive", make_brdf("ward", {"sx": 0.05, "sy": 0.25}), progressive=True)
-    dropped = make_sampler("adaptive", make_brdf("phong", {"n": 31.0}), progressive=True)
-    kept = make_sampler("adaptive", make_brdf("phong", {"n": 47.0}), progressive=True)
+    running = make_sampler("adaptive_exact", make_brdf("ward", {"sx": 0.05, "sy": 0.25}), progressive=True)
+    dropped = make_sampler("adaptive_exact", make_brdf("phong", {"n": 31.0}), progressive=True)
+    kept = make_sampler("adaptive_exact", make_brdf("phong", {"n": 47.0}), progressive=True)
     running.preload()
     running.refresh()
     stopping = module._BUILDING[running.key]
@@ -586,7 +586,7 @@ def test_background_builds_run_at_the_niceness_asked_for(monkeypatch):
         raise module.BuildCancelled  # (no table wanted: nothing is stored)
 
     before = os.getpriority(os.PRIO_PROCESS, 0)
-    sampler = make_sampler("adaptive", make_brdf("phong", {"n": 37.0}), progressive=True)
+    sampler = make_sampler("adaptive_exact", make_brdf("phong", {"n": 37.0}), progressive=True)
     sampler.preload()  # the coarse table, on this thread
     monkeypatch.setattr(module, "build_table", recording)
     monkeypatch.setattr(module, "_BUILDER_NICENESS", before + 3)
@@ -604,7 +604,7 @@ def test_a_failed_background_build_keeps_the_coarse_table_and_is_not_queued_agai
     on its coarse table (still exact), and is not tried again at every later refresh (a renderer's pass)."""
     from core.sampling.adaptive import sampler as module
 
-    sampler = make_sampler("adaptive", make_brdf("phong", {"n": 53.0}), progressive=True)
+    sampler = make_sampler("adaptive_exact", make_brdf("phong", {"n": 53.0}), progressive=True)
     sampler.preload()
     real = module.build_table
 
@@ -628,8 +628,8 @@ def test_a_flat_lobes_bounds_do_not_depend_on_its_scale():
     bound alike."""
     from core.sampling.adaptive.inspect import leaf_probabilities
 
-    a = make_sampler("adaptive", make_brdf("lambert", {"kd": 0.5}), cache=False).table
-    b = make_sampler("adaptive", make_brdf("lambert", {"kd": 0.25}), cache=False).table
+    a = make_sampler("adaptive_exact", make_brdf("lambert", {"kd": 0.5}), cache=False).table
+    b = make_sampler("adaptive_exact", make_brdf("lambert", {"kd": 0.25}), cache=False).table
     np.testing.assert_array_equal(a.total, b.total)
     assert np.ptp(a.total) <= 1e-12 * a.total[0]
     for t in range(len(a.total)):

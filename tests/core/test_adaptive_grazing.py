@@ -72,7 +72,7 @@ def test_the_rings_pdf_integrates_to_1_at_89_degrees(tmp_path):
     from core.chi2 import integrate_pdf, sampler_functions
 
     brdf = _ring(tmp_path)
-    sampler = make_sampler("adaptive", brdf, n_max=2.0, cache=False, threads=True)
+    sampler = make_sampler("adaptive_exact", brdf, n_max=2.0, cache=False, threads=True)
     wo = degrees_to_dir(89.0, 17.0)
     assert abs(sampler.normalizer(wo[None])[0] / _reference(brdf, wo) - 1.0) < 2e-4
     _, pdf = sampler_functions(sampler, wo)
@@ -89,7 +89,7 @@ def test_the_rings_exact_trees_reach_the_acceptance_on_the_rim_disk(tmp_path):
     from core.sampling.adaptive.inspect import from_tree_disk, to_tree_disk, tree_view
 
     brdf = _ring(tmp_path)
-    sampler = make_sampler("adaptive", brdf, n_max=2.0, cache=False, threads=True)
+    sampler = make_sampler("adaptive_exact", brdf, n_max=2.0, cache=False, threads=True)
     for theta in (85.0, 88.0, 89.0, 89.5):
         wo = degrees_to_dir(theta, 17.0)
         _, trials = sampler.sample_with_trials(np.repeat(wo[None], 20_000, axis=0), seed=5)

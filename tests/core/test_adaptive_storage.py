@@ -88,14 +88,14 @@ def test_the_stored_corners_density_times_the_widening_bounds_the_fitted_one(rng
 def test_the_issues_anisotropic_exact_tables_fit_in_1_mb(name, params):
     """The issue's target for both anisotropic cases (measured: 0.78 and 0.56 MB; 1.32 and 0.93 MB in the
     previous format)."""
-    info = make_sampler("adaptive", make_brdf(name, params)).info()
+    info = make_sampler("adaptive_exact", make_brdf(name, params)).info()
     assert info["memory_bytes"] <= 1_000_000
 
 
 def test_a_capacity_whose_leaves_a_table_cannot_index_is_refused():
     """A tree's leaves are indexed in 16 bits (``guide``): at most 2^16 nodes, 49 153 leaves."""
     with pytest.raises(ParameterError, match="capacity"):
-        make_sampler("adaptive", make_brdf("phong"), capacity=(1 << 16) + 1)
+        make_sampler("adaptive_exact", make_brdf("phong"), capacity=(1 << 16) + 1)
     with pytest.raises(ValueError, match="at most 65536"):
         _leaf_cdf(np.ones((1 << 16) + 1), True)
 
@@ -113,7 +113,7 @@ def _leaf_counts(table) -> np.ndarray:
 def test_a_rejection_free_tables_node_masses_are_its_leaves_counts(name, params):
     """Every node's mass is the sum of its leaves' counts: a leaf's own, a node's four children's, a root's
     ``2^31``; an exact table keeps none."""
-    table = make_sampler("adaptive", make_brdf(name, params), mode="warp", cache=False).table
+    table = make_sampler("adaptive_warp", make_brdf(name, params), cache=False).table
     child, mass = table.child.astype(np.int64), table.node_mass
     assert mass.shape == child.shape and np.all(mass == np.rint(mass))
     leaf = child < 0
@@ -123,7 +123,7 @@ def test_a_rejection_free_tables_node_masses_are_its_leaves_counts(name, params)
         mass[~leaf], mass[first] + mass[first + 1] + mass[first + 2] + mass[first + 3]
     )
     np.testing.assert_array_equal(mass[table.root], np.full(len(table.root), float(CDF_ONE)))
-    exact = make_sampler("adaptive", make_brdf(name, params), mode="exact", cache=False).table
+    exact = make_sampler("adaptive_exact", make_brdf(name, params), cache=False).table
     assert exact.node_mass.shape == (0,)
 
 
@@ -132,7 +132,7 @@ def test_the_descent_maps_a_rectangle_of_the_square_onto_each_leaf_with_its_prob
     are those of an axis-aligned rectangle of the unit square, of area the leaf's probability, and what is
     left of the point is its place in that rectangle (affine in each number; exact to the rounding). Checked
     on a 512 x 512 grid of points over every tree of a glossy table."""
-    table = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.1}), mode="warp", cache=False).table
+    table = make_sampler("adaptive_warp", make_brdf("ggx", {"alpha": 0.1}), cache=False).table
     counts = _leaf_counts(table)
     k = 512
     grid = (np.arange(k) + 0.5) / k

@@ -454,7 +454,7 @@ def test_the_rejection_free_draws_of_a_measured_table_carry_its_values(lobe_file
     every draw's ``f`` and every density's ``f`` are the BRDF's own values at those directions, bit for bit,
     and the rows a mask skips are left alone."""
     brdf = measured_brdf(lobe_file)
-    sampler = make_sampler("adaptive", brdf, mode="warp")
+    sampler = make_sampler("adaptive_warp", brdf)
     n = 500
     wo = np.ascontiguousarray(_any_pairs(rng, n)[1])
     wo[:, 2] = np.abs(wo[:, 2]) + 0.05

@@ -2,7 +2,7 @@
 
 Every name of ``sampler_names()`` x a spread of materials x outgoing directions (``CASES``; ``uniform`` and
 ``cosine`` ignore the BRDF and ``wo``, so they run on one material only), and the two adaptive modes again
-drawing from Mitsuba's own sample points (``adaptive+points``, ``adaptive_warp+points``: the renderer's path
+drawing from Mitsuba's own sample points (``adaptive_exact+points``, ``adaptive_warp+points``: the renderer's path
 at a path's first two bounces, where the rejection-free mode descends its tree by the points). Run with
 ``pytest -m slow -s tests/core/test_mitsuba_chi2.py`` to see the table of p-values and timings.
 
@@ -95,7 +95,7 @@ MAX_DEPTH = 4
 
 ISO_VIEWS = ((10.0, 0.0), (45.0, 0.0), (85.0, 0.0))
 ANISO_VIEWS = ISO_VIEWS + ((10.0, 35.0), (45.0, 35.0), (85.0, 35.0))
-PLACED = ("adaptive", "adaptive_warp")
+PLACED = ("adaptive_exact", "adaptive_warp")
 """Samplers also tested drawing from Mitsuba's own sample points (the adapter's ``placed`` path)."""
 PLACED_SUFFIX = "+points"
 BRDF_INDEPENDENT = {"uniform", "cosine"}

@@ -62,7 +62,7 @@ def test_example_sampler_draws_its_density():
     assert_pdf_integrates_to_one(brdf)
 
 
-@pytest.mark.parametrize("sampler", ["analytic", "adaptive", "adaptive_warp"])
+@pytest.mark.parametrize("sampler", ["analytic", "adaptive_exact", "adaptive_warp"])
 def test_file_model_samplers_pass_chi2(sampler):
     """Significance 0.01 shared among the 3 cases (Sidak), fixed seeds."""
     brdf = make_brdf(str(EXAMPLE), {"n": 40.0})
@@ -300,7 +300,7 @@ wi = np.array([[0.3, 0.1, 0.948]]); wo = np.array([[-0.2, 0.4, 0.894]])
 wi /= np.linalg.norm(wi); wo /= np.linalg.norm(wo)
 with event.install_listener("numba:compile", Listener()):
     eval_batch(brdf.model, wi, wo, brdf.params)
-    for strategy in ("adaptive", "adaptive_warp"):
+    for strategy in ("adaptive_exact", "adaptive_warp"):
         sampler = make_sampler(strategy, brdf, cache=False)
         sampler.sample(wo[0], 64, 1)
         sampler.pdf(wo, wi)

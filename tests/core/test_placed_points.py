@@ -18,11 +18,11 @@ from core.sampling import make_sampler
 pytestmark = pytest.mark.usefixtures("private_tables")
 
 CASES = [
-    ("adaptive", {"mode": "exact"}, "phong", {}, 40.0),
-    ("adaptive", {"mode": "warp"}, "ggx", {"alpha": 0.2}, 60.0),
-    ("adaptive", {"mode": "warp"}, "lambert", {}, 30.0),  # a flat table: the cosine density's own warp
+    ("adaptive_exact", {}, "phong", {}, 40.0),
+    ("adaptive_warp", {}, "ggx", {"alpha": 0.2}, 60.0),
+    ("adaptive_warp", {}, "lambert", {}, 30.0),  # a flat table: the cosine density's own warp
     # half-vector trees in a frame turned with wo
-    ("adaptive", {"mode": "warp"}, "ward", {"sx": 0.05, "sy": 0.25}, 70.0),
+    ("adaptive_warp", {}, "ward", {"sx": 0.05, "sy": 0.25}, 70.0),
     ("uniform_cdf", {}, "phong", {}, 40.0),
     ("factored", {}, "cook_torrance", {"m": 0.2}, 30.0),
     ("analytic", {}, "ggx", {"alpha": 0.2}, 60.0),
@@ -58,7 +58,7 @@ def test_draws_from_placed_points_follow_the_reported_density(strategy, options,
     np.testing.assert_allclose(p[ok], pdf(wi[ok]), rtol=1e-6)
 
 
-@pytest.mark.parametrize(("strategy", "options"), [("adaptive", {"mode": "warp"}), ("uniform_cdf", {})])
+@pytest.mark.parametrize(("strategy", "options"), [("adaptive_warp", {}), ("uniform_cdf", {})])
 def test_placed_points_decide_the_draws_and_keep_their_stratification(strategy, options):
     """The same points give the same draws whatever the seed (a warp reads nothing else), and a stratified
     set of points (one in each cell of a 32 x 32 grid) gives draws whose estimates of smooth integrals err
@@ -86,7 +86,7 @@ def test_placed_points_decide_the_draws_and_keep_their_stratification(strategy, 
 
 
 def test_points_of_the_wrong_shape_are_refused():
-    sampler = make_sampler("adaptive", make_brdf("phong"), mode="warp")
+    sampler = make_sampler("adaptive_warp", make_brdf("phong"))
     wo = np.tile(degrees_to_dir(30.0, 0.0), (10, 1))
     wi, pdf, f = np.empty((10, 3)), np.empty(10), np.empty((10, 3))
     for bad in (np.zeros((9, 2)), np.zeros((10, 3)), np.zeros((10, 1)), np.zeros(10)):
@@ -99,7 +99,7 @@ def test_points_on_the_edges_of_the_square_give_finite_draws():
     edge (the exact mode's leaves store them relative to the largest, so some are 0): every draw finite,
     with a finite positive density."""
     for mode in ("exact", "warp"):
-        sampler = make_sampler("adaptive", make_brdf("ggx", {"alpha": 0.05}), mode=mode)
+        sampler = make_sampler(f"adaptive_{mode}", make_brdf("ggx", {"alpha": 0.05}))
         edge = np.array([0.0, 1e-300, 0.5, 1.0 - 2.0**-53])
         points = np.stack(np.meshgrid(edge, edge, indexing="ij"), -1).reshape(-1, 2)
         for theta in (0.0, 45.0, 89.9):
@@ -107,7 +107,7 @@ def test_points_on_the_edges_of_the_square_give_finite_draws():
             assert np.all(np.isfinite(wi)) and np.all(np.isfinite(pdf)) and np.all(pdf >= 0.0)
 
 
-@pytest.mark.parametrize("strategy", ["adaptive", "uniform_cdf", "factored"])
+@pytest.mark.parametrize("strategy", ["adaptive_exact", "uniform_cdf", "factored"])
 @pytest.mark.parametrize("bad", [np.nan, -0.25, 1.0, np.inf])
 def test_points_outside_the_unit_square_are_refused(strategy, bad):
     """NaN, negative, 1 or infinite: a clear error naming the range, and the caller's arrays untouched."""

@@ -34,7 +34,7 @@ from core.model import make_brdf
 from core.sampling import make_sampler, sampler_names
 from core.sampling.ris import ris_sample
 
-ADAPTIVE = {"adaptive", "adaptive_warp"}
+ADAPTIVE = {"adaptive_exact", "adaptive_warp"}
 """Left out here while their package is reworked (issue 15); ``test_mitsuba_chi2.py`` covers them."""
 N_DRAWS = 400_000
 SEED = 15

@@ -4,16 +4,17 @@ unknown keys, wrong types and out-of-range values are errors naming the option a
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import fields
 
 import pytest
 
 from core.budget import BudgetError
-from core.errors import ParameterError
+from core.errors import FormerSamplerName, ParameterError
 from core.model import make_brdf
 from core.sampling import make_sampler, sampler_names
 from core.sampling.adaptive.records import TableOptions
-from core.sampling.base import check_sampler_options, sampler_option_set
+from core.sampling.base import check_sampler_options, current_sampler, sampler_option_set
 
 BAD_VALUES = [float("nan"), float("inf"), -1e308, 1e308, "x", None, [], {}, 2.5]
 
@@ -67,7 +68,8 @@ def test_basic_strategies_take_no_options():
 
 def test_values_are_normalized():
     out = check_sampler_options(
-        "adaptive", {"n_max": "3", "rounds": "4", "threads": "true", "progressive": 0, "cache": "/tmp/x"}
+        "adaptive_exact",
+        {"n_max": "3", "rounds": "4", "threads": "true", "progressive": 0, "cache": "/tmp/x"},
     )
     assert out == {"n_max": 3.0, "rounds": 4, "threads": True, "progressive": False, "cache": "/tmp/x"}
     assert isinstance(out["rounds"], int) and math.isclose(out["n_max"], 3.0)
@@ -76,9 +78,9 @@ def test_values_are_normalized():
 def test_adaptive_declaration_matches_its_table_options():
     """Every TableOptions field a user may set is declared, and nothing else (the bounds follow the mode)."""
     table = {f.name for f in fields(TableOptions)} - {"bounds"}
-    for name in ("adaptive", "adaptive_warp"):
+    for name in ("adaptive_exact", "adaptive_warp"):
         declared = set(sampler_option_set(name))
-        assert declared - table == {"mode", "cache", "threads", "progressive"}
+        assert declared - table == {"cache", "threads", "progressive"}
         assert table <= declared
 
 
@@ -91,7 +93,7 @@ def test_declared_extremes_are_accepted_by_the_strategies():
     small = {"n_theta_o": 1, "n_phi_o": 1, "n_theta_p": 2, "n_phi_p": 2, "terms_j": 1, "terms_k": 1}
     make_sampler("factored", brdf, **small, reparam=True, defensive=0.5)
     for n_max in (1.0 + 1e-9, 1000.0):
-        assert make_sampler("adaptive", brdf, n_max=n_max, cache=False).n_max == n_max
+        assert make_sampler("adaptive_exact", brdf, n_max=n_max, cache=False).n_max == n_max
 
 
 def test_tables_beyond_the_memory_are_refused_before_they_are_built(monkeypatch):
@@ -100,3 +102,37 @@ def test_tables_beyond_the_memory_are_refused_before_they_are_built(monkeypatch)
         make_sampler("uniform_cdf", make_brdf("phong"))
     with pytest.raises(BudgetError, match="factored"):
         make_sampler("factored", make_brdf("phong"))
+
+
+def test_the_former_name_adaptive_is_the_exact_sampler_with_a_notice_naming_adaptive_exact():
+    brdf = make_brdf("phong")
+    with pytest.warns(FormerSamplerName, match="'adaptive' is a former name of the sampler 'adaptive_exact'"):
+        sampler = make_sampler("adaptive", brdf, n_max=3.0, cache=False)
+    assert sampler.name == "adaptive_exact" and sampler.mode == "exact" and sampler.n_max == 3.0
+    with pytest.warns(
+        FormerSamplerName, match="with mode='warp' is a former name of the sampler 'adaptive_warp'"
+    ):
+        warp = make_sampler("adaptive", brdf, mode="warp", cache=False)
+    assert warp.name == "adaptive_warp" and warp.mode == "warp"
+    with pytest.warns(FormerSamplerName, match="'adaptive_exact'"):
+        assert current_sampler("adaptive", {"mode": "exact", "n_max": 2}) == ("adaptive_exact", {"n_max": 2})
+    with pytest.warns(FormerSamplerName, match="the sampler 'adaptive_warp' takes no mode='warp'"):
+        assert make_sampler("adaptive_warp", brdf, mode="warp", cache=False).mode == "warp"
+    with pytest.raises(
+        ParameterError, match="option 'mode' of the sampler 'adaptive' must be one of exact, warp"
+    ):
+        current_sampler("adaptive", {"mode": "fast"})
+    with pytest.raises(ParameterError, match="'adaptive_exact'"):
+        current_sampler("adaptive_warp", {"mode": "exact"})
+
+
+def test_the_current_names_give_no_notice_and_take_no_mode():
+    brdf = make_brdf("phong")
+    assert "adaptive" not in sampler_names() and {"adaptive_exact", "adaptive_warp"} <= set(sampler_names())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        assert make_sampler("adaptive_exact", brdf, cache=False).mode == "exact"
+        assert make_sampler("adaptive_warp", brdf, cache=False).mode == "warp"
+        assert current_sampler("cosine", {}) == ("cosine", {})
+    with pytest.raises(ParameterError, match="the sampler 'adaptive_exact' has no option 'mode'"):
+        make_sampler("adaptive_exact", brdf, mode="exact")

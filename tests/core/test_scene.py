@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from core.errors import FormerSamplerName
 from core.scene import Scene, SceneError, load_scene, save_scene, scene_digest, scene_from_dict
 
 
@@ -126,14 +127,14 @@ def test_transform_matrix_rotates_then_translates() -> None:
             "render.sampler_options: the sampler 'cosine' takes no options, got 'n_max'",
         ),
         (
-            lambda d: d["render"].update(sampler="adaptive", sampler_options={"m_theta": 0}),
-            "render.sampler_options: the sampler 'adaptive' has no option 'm_theta'; its options: ",
+            lambda d: d["render"].update(sampler="adaptive_exact", sampler_options={"m_theta": 0}),
+            "render.sampler_options: the sampler 'adaptive_exact' has no option 'm_theta'; its options: ",
         ),
         (
             lambda d: d["render"].update(
-                sampler="adaptive", sampler_options={"min_spacing_deg": float("nan")}
+                sampler="adaptive_exact", sampler_options={"min_spacing_deg": float("nan")}
             ),
-            "option 'min_spacing_deg' of the sampler 'adaptive' must be a number in [0.001, 10], got nan",
+            "option 'min_spacing_deg' of the sampler 'adaptive_exact' must be a number in [0.001, 10], got nan",
         ),
         (
             lambda d: d["render"].update(sampler="adaptive_warp", sampler_options={"cache": 5}),
@@ -300,3 +301,19 @@ def test_parse_items_name_the_field(kind: str, data: dict, expected: str) -> Non
     with pytest.raises(SceneError) as info:
         parse(data)
     assert str(info.value).startswith(expected)
+
+
+def test_a_scene_naming_the_former_sampler_adaptive_loads_as_adaptive_exact_with_a_notice(
+    tmp_path: Path,
+) -> None:
+    data = _base(tmp_path)
+    data["render"].update(sampler="adaptive", sampler_options={"n_max": 3})
+    with pytest.warns(FormerSamplerName, match="'adaptive' is a former name of the sampler 'adaptive_exact'"):
+        scene = load_scene(_write(tmp_path, data))
+    assert scene.render.sampler == "adaptive_exact" and scene.render.sampler_options == {"n_max": 3}
+    data["render"].update(sampler="adaptive", sampler_options={"mode": "warp"})
+    with pytest.warns(
+        FormerSamplerName, match="'adaptive' with mode='warp' is a former name of the sampler 'adaptive_warp'"
+    ):
+        scene = load_scene(_write(tmp_path, data))
+    assert scene.render.sampler == "adaptive_warp" and scene.render.sampler_options == {}

@@ -118,13 +118,13 @@ def test_quick_study_runs_end_to_end(tmp_path, capsys):
     """`brdf-studio bench samplers --quick` (the CI smoke run) writes its table, CSV and plots."""
     assert main(["bench", "samplers", "--quick", "--models", "lambert", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "| lambert | adaptive |" in out and "| lambert | factored |" in out
+    assert "| lambert | adaptive_exact |" in out and "| lambert | factored |" in out
     with open(tmp_path / "study.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert {r["sampler"] for r in rows} >= {
         "uniform",
         "cosine",
-        "adaptive",
+        "adaptive_exact",
         "uniform_cdf",
         "compress_cdf",
         "factored",

@@ -230,7 +230,7 @@ def test_a_client_preparing_the_same_scene_again_reuses_its_tables(tmp_path, mon
     assert job._client_tables(key, scene, "adaptive_warp", {"n_max": 4}, {}, None) == first
     assert len(made) == 1
     job._client_tables(key, scene, "adaptive_warp", {"n_max": 8}, {}, None)  # other options
-    job._client_tables(key, scene, "adaptive", {"n_max": 4}, {}, None)  # another strategy
+    job._client_tables(key, scene, "adaptive_exact", {"n_max": 4}, {}, None)  # another strategy
     (tmp_path / "floor.obj").write_text((tmp_path / "floor.obj").read_text() + "# edited\n")
     job._client_tables(bundle_scene(scene)[0].key, scene, "adaptive_warp", {"n_max": 4}, {}, None)
     assert len(made) == 4

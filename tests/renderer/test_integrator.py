@@ -84,8 +84,8 @@ ALBEDO_CASES = [
     ("ggx", {}, "analytic"),
     ("ward", {}, "analytic"),
     ("phong", {}, "analytic"),
-    ("ggx", {}, "adaptive"),
-    ("phong", {"n": 1000}, "adaptive"),
+    ("ggx", {}, "adaptive_exact"),
+    ("phong", {"n": 1000}, "adaptive_exact"),
 ]
 
 
@@ -102,7 +102,7 @@ def test_plane_renders_its_albedo(tmp_path: Path, model: str, params: dict, samp
     from core.analysis import albedo
     from core.model import make_brdf
 
-    opts = {"cache": str(tmp_path / "tables")} if sampler == "adaptive" else {}
+    opts = {"cache": str(tmp_path / "tables")} if sampler == "adaptive_exact" else {}
     job = prepare(_plane_scene(tmp_path, model, params, sampler, 60.0), sampler_options=opts)
     expected = np.array(albedo(make_brdf(model, params), 60.0).value)
     means = _pass_means(job, 24)
@@ -156,12 +156,12 @@ def test_strategies_converge_to_the_same_image(tmp_path: Path) -> None:
     """uniform, cosine, analytic and both modes of the adaptive sampler estimate the same image: 4x4-pixel
     blocks agree within a Bonferroni-corrected two-sided z-test at alpha = 0.01 (16 blocks x 3 channels x
     the number of pairs)."""
-    others = ["uniform", "analytic", "adaptive", "adaptive_warp"]
+    others = ["uniform", "analytic", "adaptive_exact", "adaptive_warp"]
     passes = 24
     block_means = {}
     for s in ("cosine", *others):
         # adaptive: the initial layout only (rounds=1) keeps the build short; exactness does not depend on it
-        opts = {"rounds": 1, "cache": str(tmp_path / "tables")} if s.startswith("adaptive") else {}
+        opts = {"rounds": 1, "cache": str(tmp_path / "tables")} if s.startswith("adaptive_exact") else {}
         job = prepare(_mixed_scene(tmp_path, s), sampler_options=opts)
         per = []
         for k in range(passes):

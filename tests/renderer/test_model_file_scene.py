@@ -23,7 +23,7 @@ SHADER = ROOT / "tests" / "app" / "fixtures" / "cli_plastic.brdf"
 PYTHON = ROOT / "resources" / "models" / "blinn_phong.py"
 
 SMALL_TABLES: dict[str, dict] = {
-    "adaptive": {"cache": False, "max_thetas": 7, "phi_count": 2, "capacity": 256, "warp_tol": 1e-2},
+    "adaptive_exact": {"cache": False, "max_thetas": 7, "phi_count": 2, "capacity": 256, "warp_tol": 1e-2},
     "adaptive_warp": {"cache": False, "max_thetas": 7, "phi_count": 2, "capacity": 256, "warp_tol": 1e-2},
     "uniform_cdf": {"n_theta_o": 4, "n_phi_o": 1, "n_theta": 16, "n_phi": 32},
     "compress_cdf": {"n_theta_o": 4, "n_phi_o": 1, "n_theta": 16, "n_phi": 32},

@@ -125,7 +125,7 @@ def test_kernel_loading_stores_no_table_and_stops_when_asked(tmp_path: Path, mon
     assert list(load_kernels(stop=lambda: True)) == []
     # a render that arrives during a step waits for one material's preparation, not for the whole step
     asked = []
-    assert list(load_kernels(("adaptive",), stop=lambda: asked.append(1) or len(asked) > 1)) == []
+    assert list(load_kernels(("adaptive_exact",), stop=lambda: asked.append(1) or len(asked) > 1)) == []
     assert len(asked) == 2  # before the step, then before its first material: stopped there
 
 

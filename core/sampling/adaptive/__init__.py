@@ -8,7 +8,7 @@
 ``layout``  where the nodes are, their cells, the symmetries, the normalizer between nodes
 ``table``   a material's trees made at once (threads, layout refinement), packed, stored on disk
 ``draw``    the compiled draws and densities of both modes
-``sampler`` the :class:`~core.sampling.base.Sampler`: ``adaptive`` (exact) and ``adaptive_warp``
+``sampler`` the :class:`~core.sampling.base.Sampler`: ``adaptive_exact`` and ``adaptive_warp``
 ==========  ===================================================================================================
 
 Design, proofs and measurements: ``docs/adaptive.md``.

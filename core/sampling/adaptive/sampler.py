@@ -1,10 +1,12 @@
-"""``adaptive`` and ``adaptive_warp``: the adaptive quadtree sampler behind the common sampler interface.
+"""``adaptive_exact`` and ``adaptive_warp``: the adaptive quadtree sampler behind the common sampler interface.
 
-``make_sampler("adaptive", brdf, n_max=2.0)`` is the seed's exact mode: the density of its samples is
+``make_sampler("adaptive_exact", brdf, n_max=2.0)`` is the seed's exact mode: the density of its samples is
 exactly ``f cos / I(wo)`` (luminance), so ``f cos / pdf`` is the same for every sample.
 ``make_sampler("adaptive_warp", brdf)`` is the rejection-free mode of the same trees: one evaluation of ``f``
 per sample, a density that approximates ``f cos / I`` and is exact for its own samples. Both draw in one
-compiled loop per batch (:mod:`core.sampling.adaptive.draw`) and return ``(wi, pdf, f)``.
+compiled loop per batch (:mod:`core.sampling.adaptive.draw`) and return ``(wi, pdf, f)``. Each name takes the
+same options (no ``mode``: the name is the mode). ``adaptive``, the former name of ``adaptive_exact``, is
+accepted with a notice, and with ``mode="warp"`` means ``adaptive_warp`` (:func:`~core.sampling.base.current_sampler`).
 
 A material's table (every node's tree) is built once, on first use, in well under a second for the
 isotropic models (:mod:`core.sampling.adaptive.table`), shared by every sampler of the same BRDF and options
@@ -57,6 +59,7 @@ from core.sampling.base import (
     check_buffers,
     check_direction,
     check_points,
+    register_former_name,
     register_sampler,
 )
 from core.threads import thread_budget
@@ -156,7 +159,7 @@ class AdaptiveSampler(Sampler):
     **options : further :class:`~core.sampling.adaptive.table.TableOptions`
     """
 
-    name = "adaptive"
+    name = "adaptive_exact"
 
     def __init__(self, brdf: BRDF, n_max: Any = 2.0, mode: str = "exact", cache: Any = True,
                  threads: bool = False, progressive: bool = False, **options: Any):  # fmt: skip
@@ -166,7 +169,7 @@ class AdaptiveSampler(Sampler):
                 f"the adaptive sampler's mode must be one of {', '.join(MODES)}, got {mode!r}"
             )
         self.mode = mode
-        self.name = "adaptive" if mode == "exact" else "adaptive_warp"
+        self.name = "adaptive_exact" if mode == "exact" else "adaptive_warp"
         self.options = table_options(n_max, **options)
         if mode == "warp":  # its own tables, without the exact mode's bounds (see TableOptions.bounds)
             self.options = replace(self.options, bounds=False)
@@ -516,24 +519,50 @@ def _pool() -> ThreadPoolExecutor:
 
 
 def _exact(brdf: BRDF, **options: Any) -> AdaptiveSampler:
-    return AdaptiveSampler(brdf, **{"mode": "exact", **options})
+    return AdaptiveSampler(brdf, mode="exact", **options)
 
 
 def _warp(brdf: BRDF, **options: Any) -> AdaptiveSampler:
-    if options.pop("mode", "warp") != "warp":
-        raise ParameterError(
-            "the sampler 'adaptive_warp' is the adaptive sampler's warp mode; use 'adaptive'"
-        )
     return AdaptiveSampler(brdf, mode="warp", **options)
 
 
-def _declared_options(modes: tuple[str, ...]) -> tuple[SamplerOption, ...]:
+_MODE_NAMES = {"exact": "adaptive_exact", "warp": "adaptive_warp"}
+
+
+def _former_mode(options: dict[str, Any], default: str) -> tuple[str, dict[str, Any]]:
+    """The current name and options for the former option ``mode`` (``default`` when it is not given)."""
+    rest = {k: v for k, v in options.items() if k != "mode"}
+    mode = options.get("mode", default)
+    if mode not in _MODE_NAMES:
+        raise ParameterError(
+            f"option 'mode' of the sampler 'adaptive' must be one of {', '.join(MODES)}, got {mode!r}"
+        )
+    return _MODE_NAMES[mode], rest
+
+
+def _former_adaptive(options: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """``adaptive``: ``adaptive_exact``, or ``adaptive_warp`` with ``mode="warp"``."""
+    return _former_mode(options, "exact")
+
+
+def _former_warp(options: dict[str, Any]) -> tuple[str, dict[str, Any]] | None:
+    """``adaptive_warp`` with ``mode="warp"``: ``adaptive_warp`` without it (current without ``mode``)."""
+    if "mode" not in options:
+        return None
+    if options["mode"] != "warp":
+        raise ParameterError(
+            f"the sampler 'adaptive_warp' takes no mode, got mode={options['mode']!r}; the exact mode is "
+            "the sampler 'adaptive_exact'"
+        )
+    return _former_mode(options, "warp")
+
+
+def _declared_options() -> tuple[SamplerOption, ...]:
     """The options both modes take (``make_sampler`` checks them against this declaration first)."""
     return (
         SamplerOption(
             "n_max", "float", 1.0, 1000.0, lo_open=True, doc="mean trials per sample of the envelope"
         ),
-        SamplerOption("mode", "choice", choices=modes, doc="exact (rejection) or warp (rejection-free)"),
         SamplerOption("cache", "cache", doc="the table cache: true (default folder), false, or a folder"),
         SamplerOption("threads", "bool", doc="draw large batches on two threads"),
         SamplerOption(
@@ -557,5 +586,7 @@ def _table_bytes(brdf: BRDF, options: dict[str, Any]) -> float:
     return thread_budget() * capacity * 800.0 + trees * capacity * 64.0
 
 
-register_sampler("adaptive", _exact, _declared_options(MODES), _table_bytes)
-register_sampler("adaptive_warp", _warp, _declared_options(("warp",)), _table_bytes)
+register_sampler("adaptive_exact", _exact, _declared_options(), _table_bytes)
+register_sampler("adaptive_warp", _warp, _declared_options(), _table_bytes)
+register_former_name("adaptive", _former_adaptive)
+register_former_name("adaptive_warp", _former_warp)
