@@ -22,8 +22,8 @@ from app.evented import Event, EventedModel, Items
 from app.model_library import fit_params
 from app.objects import PartLister, SceneObject, mesh_parts, scene_objects, unique_name
 from app.view_state import ViewState
+from core.brdf import BRDF, get_model
 from core.errors import BrdfStudioError, ParameterError
-from core.model import BRDF, get_model
 from core.scene import (
     Camera,
     ConstantEnvironment,

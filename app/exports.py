@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.brdf import BRDF, luminance
 from core.errors import OutputError
 from core.io import atomic_write_bytes
-from core.model import BRDF, luminance
 from core.sampling import make_sampler
 
 COLUMNS = ("x", "y", "z", "pdf", "weight")

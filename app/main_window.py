@@ -39,8 +39,8 @@ from app.views.explore import ExplorePanel
 from app.views.quadtree import SamplingView
 from app.views.render import RenderPanel
 from app.views.viewport import SceneViewport
+from core.brdf import all_models
 from core.errors import BrdfStudioError
-from core.model import all_models
 from core.scene import Camera, ConstantEnvironment, Scene, validate_scene
 
 APP_NAME = "BRDF Studio"

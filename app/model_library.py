@@ -28,8 +28,8 @@ from typing import Any
 
 from app import settings
 from app.evented import Event
+from core.brdf import Model, ParamValue
 from core.errors import BrdfStudioError
-from core.model import Model, ParamValue
 from core.model_files import (
     ModelFileError,
     is_model_file,

@@ -21,8 +21,8 @@ from typing import Any
 
 from app.document import PartLister, mesh_parts, unique_name
 from app.model_library import FALLBACK_MODEL, fit_params
+from core.brdf import get_model
 from core.errors import BrdfStudioError
-from core.model import get_model
 from core.model_files import is_model_file
 from core.scene import Scene, SceneError, kept_groups, load_scene, save_scene, scene_from_dict, validate_scene
 

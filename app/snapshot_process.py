@@ -146,7 +146,7 @@ def _brdf(spec: Spec) -> Any:
 
             hit = load_model_file(model, text).bind(dict(params))
         else:
-            from core.model import get_model
+            from core.brdf import get_model
 
             hit = get_model(model).bind(dict(params))
         if len(_BRDFS) >= _KEEP:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from core.model import BRDF, luminance
+from core.brdf import BRDF, luminance
 
 if TYPE_CHECKING:
     from collections.abc import Callable

@@ -58,10 +58,10 @@ from typing import Any
 import numpy as np
 
 from core.analysis import albedo
+from core.brdf import BRDF, LUMINANCE, all_models, make_brdf
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.merl import measured_brdf
-from core.model import BRDF, LUMINANCE, all_models, make_brdf
 from core.sampling import SampleBatch, Sampler, applicable_samplers, make_sampler
 from core.sampling.adaptive import AdaptiveSampler, AdaptiveTable, TableOptions, clear_memory_cache
 from core.sampling.adaptive.records import TableReport, table_options

@@ -164,7 +164,7 @@ class ScreenClock:
 
 
 def latency_part(events, window, models: list[str], edits: int, fresh: bool) -> list[dict]:
-    from core.model import get_model
+    from core.brdf import get_model
 
     doc = window.document
     clock = ScreenClock(window)

@@ -3,7 +3,7 @@
     .venv/bin/python bench/bounds.py [--trials 1e7] [--models phong,lafortune] [--out results/bench]
                                      [model files (.brdf, .py) ...]
 
-For every built-in model (:func:`core.model.all_models`, at its default parameters) and every model file
+For every built-in model (:func:`core.brdf.all_models`, at its default parameters) and every model file
 given as an argument, the exact mode's table is built (no disk cache, in-memory tables cleared, all cores:
 the build a render gets; its seconds reported, after a small table's build has compiled what it calls), then at each ``theta_o`` of ``THETAS`` and ``phi_o`` of
 ``PHIS`` samples are drawn from one fixed ``wo`` until at least ``--trials`` trials have been made. Each row
@@ -32,8 +32,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from core.brdf import BRDF, all_models, make_brdf  # noqa: E402
 from core.geometry import degrees_to_dir  # noqa: E402
-from core.model import BRDF, all_models, make_brdf  # noqa: E402
 from core.sampling import make_sampler  # noqa: E402
 from core.sampling.adaptive import clear_memory_cache  # noqa: E402
 

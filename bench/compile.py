@@ -2,7 +2,7 @@
 
     .venv/bin/python bench/compile.py [--skip-setup] [--out results/bench]
 
-Setup first, as ``make setup`` runs it (``python -m core.warmup``, then ``python -m renderer.warmup``; each
+Setup first, as ``make setup`` runs it (``python -m core.warmup``, then ``python -m renderer.tracer_warmup``; each
 compiles what is missing from numba's disk cache and loads the rest; ``--skip-setup`` when it has just run).
 Then each case runs in a new Python process (this script with ``--case NAME``) that listens to numba's
 ``numba:compile`` event, which fires only when a function is really compiled (a function loaded from the disk
@@ -99,7 +99,7 @@ def _function_name(data: Any) -> str:
 
 # ------------------------------------------------------------------------------------------ the cases
 def _adaptive(model: str, params: dict[str, Any]) -> None:
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling import make_sampler
     from core.sampling.adaptive import AdaptiveSampler
 
@@ -170,7 +170,7 @@ class Measurement:
 def setup() -> float:
     """Run the setup's warm-ups (what ``make setup`` runs) and return their seconds."""
     t0 = time.perf_counter()
-    for module in ("core.warmup", "renderer.warmup"):
+    for module in ("core.warmup", "renderer.tracer_warmup"):
         done = subprocess.run([sys.executable, "-m", module], cwd=ROOT, capture_output=True, text=True)
         if done.returncode != 0:
             raise SystemExit(f"python -m {module} failed:\n{done.stderr}")

@@ -20,9 +20,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.brdf import get_model, make_brdf  # noqa: E402
 from core.fit import fit, parameter_errors  # noqa: E402
 from core.measured import load_measured, write_measured  # noqa: E402
-from core.model import get_model, make_brdf  # noqa: E402
 
 TARGET = 0.02
 

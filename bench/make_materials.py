@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.brdf import make_brdf  # noqa: E402
 from core.measured import load_measured, write_measured  # noqa: E402
-from core.model import make_brdf  # noqa: E402
 
 MATERIALS: list[tuple[str, str, dict]] = [
     # (file name, model, parameters)

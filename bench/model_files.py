@@ -36,9 +36,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from core.brdf import get_model, make_brdf  # noqa: E402
 from core.io import write_csv_rows  # noqa: E402
 from core.kernels import eval_batch  # noqa: E402
-from core.model import get_model, make_brdf  # noqa: E402
 from core.sampling import make_sampler  # noqa: E402
 from core.sampling.adaptive.sampler import clear_memory_cache  # noqa: E402
 

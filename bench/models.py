@@ -27,10 +27,10 @@ import numba
 import numpy as np
 
 from core.analysis import albedo
+from core.brdf import BRDF, all_models
 from core.geometry import spherical_to_dir
 from core.io import write_csv_rows
 from core.kernels import eval_batch
-from core.model import BRDF, all_models
 
 THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
 

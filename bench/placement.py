@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.brdf import make_brdf
 from core.geometry import degrees_to_dir
 from core.io import write_csv_rows
-from core.model import make_brdf
 from core.sampling import make_sampler
 
 CASES = [

@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.brdf import LUMINANCE, make_brdf  # noqa: E402
 from core.geometry import degrees_to_dir  # noqa: E402
 from core.io import write_csv_rows  # noqa: E402
-from core.model import LUMINANCE, make_brdf  # noqa: E402
 from core.rgl.export import eval_table, node_pairs, tabulate  # noqa: E402
 from core.rgl.material import kernel_vector, rgl_brdf, write_bsdf  # noqa: E402
 from core.sampling import make_sampler  # noqa: E402

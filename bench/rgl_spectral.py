@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from core.model import make_brdf  # noqa: E402
+from core.brdf import make_brdf  # noqa: E402
 from core.rgl.export import tabulate  # noqa: E402
 from core.rgl.material import read_bsdf, write_bsdf  # noqa: E402
 from core.rgl.spectral import rgb_weights  # noqa: E402

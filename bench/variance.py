@@ -34,8 +34,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from core.brdf import LUMINANCE, all_models  # noqa: E402
 from core.geometry import degrees_to_dir  # noqa: E402
-from core.model import LUMINANCE, all_models  # noqa: E402
 from core.sampling import applicable_samplers, make_sampler  # noqa: E402
 
 THETAS = (30.0, 60.0, 80.0)

@@ -38,9 +38,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from core.brdf import BRDF
 from core.errors import BrdfStudioError, ParameterError
 from core.geometry import degrees_to_dir, spherical_to_dir
-from core.model import BRDF
 
 # 15-point Gauss-Kronrod rule on [-1, 1] (nodes >= 0; the 7-point Gauss rule uses the odd-indexed ones).
 _XGK = np.array(

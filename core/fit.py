@@ -38,8 +38,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from core.brdf import BRDF, Model, ParamValue, get_model
 from core.errors import ParameterError
-from core.model import BRDF, Model, ParamValue, get_model
 
 Metric = Literal["log", "cbrt"]
 METRICS: tuple[str, ...] = ("log", "cbrt")

@@ -5,7 +5,7 @@ Every loop is an ordinary ``@njit(nogil=True, cache=True)`` function taking the 
 (``python -m core.warmup`` does it at setup) and is loaded from disk afterwards. The id is the same on every
 iteration of a loop, so the inlined switch costs little next to the kernel (see :mod:`core.dispatch`).
 
-The Python wrappers take a :class:`core.model.Model` or its id, and make every array C-contiguous float64:
+The Python wrappers take a :class:`core.brdf.Model` or its id, and make every array C-contiguous float64:
 one signature per loop, the one the warm-up compiles.
 """
 
@@ -21,7 +21,7 @@ from core.jit import kernel
 from core.merl import MERL_BLOCK, eval_merl_rows
 
 if TYPE_CHECKING:
-    from core.model import Model
+    from core.brdf import Model
 
 
 class DirectionSamples(NamedTuple):
@@ -34,7 +34,7 @@ class DirectionSamples(NamedTuple):
 
 
 def model_index(model_or_id: Model | int) -> int:
-    """The dispatch id of a :class:`core.model.Model`, or the id itself."""
+    """The dispatch id of a :class:`core.brdf.Model`, or the id itself."""
     if isinstance(model_or_id, int | np.integer):
         return int(model_or_id)
     return model_or_id.id

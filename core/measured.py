@@ -1,6 +1,6 @@
 """Measured BRDF files, by suffix: the one place that knows every format (as trimesh's exchange keeps a dict of
 loaders). MERL ``.binary`` (:mod:`core.merl`) and RGL ``.bsdf`` (:mod:`core.rgl.material`); each reader gives a
-:class:`core.model.BRDF` whose kernels the dispatch reaches like an analytic model's, and each writer exports
+:class:`core.brdf.BRDF` whose kernels the dispatch reaches like an analytic model's, and each writer exports
 any BRDF into its format.
 """
 
@@ -13,8 +13,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from core.brdf import BRDF, Model
 from core.errors import FileFormatError
-from core.model import BRDF, Model
 
 
 class FileBRDF(BRDF):

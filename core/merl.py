@@ -10,7 +10,7 @@ separate R, G, B planes. A cell is indexed by the Rusinkiewicz half/difference a
 multiplied by the channel scales ``1/1500, 1.15/1500, 1.66/1500`` to give ``f_r``; negative values mark
 missing measurements.
 
-A measured BRDF is a :class:`core.model.BRDF` like any other: its kernel ``eval_merl(wi, wo, p)`` has the model
+A measured BRDF is a :class:`core.brdf.BRDF` like any other: its kernel ``eval_merl(wi, wo, p)`` has the model
 kernel signature, and ``p`` is the whole scaled table (missing cells kept negative, RGB interleaved), so every batch driver and
 sampler takes it unchanged. Make one with :func:`measured_brdf`.
 
@@ -44,12 +44,12 @@ import numpy as np
 from numba import njit
 
 from core import dispatch  # the module: it imports this one (circular, resolved when _tabulate compiles)
+from core.brdf import BRDF, Model, Traits
 from core.errors import FileFormatError
 from core.fastmath import atan2
 from core.io import atomic_write, check_input_file
 from core.jit import kernel
 from core.measured import FileBRDF
-from core.model import BRDF, Model, Traits
 
 N_THETA_H = 90
 N_THETA_D = 90
@@ -543,8 +543,8 @@ def write_merl(path: str | os.PathLike[str], source: BRDF | MerlTable | np.ndarr
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m core.merl --export MODEL [k=v ...] --out FILE``: write a synthetic MERL file."""
+    from core.brdf import make_brdf
     from core.errors import BrdfStudioError
-    from core.model import make_brdf
 
     parser = argparse.ArgumentParser(prog="python -m core.merl", description=main.__doc__)
     parser.add_argument("--export", metavar="MODEL", required=True, help="registered model to tabulate")

@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
+from core.brdf import BRDF, LUMINANCE, all_models
 from core.geometry import degrees_to_dir
 from core.io import atomic_write_text
-from core.lighting import CapLight, Furnace, LatLongEnvironment
-from core.model import BRDF, LUMINANCE, all_models
 from core.sampling import Sampler, make_sampler
 from core.sampling.base import current_sampler
 from core.sampling.ris import ris_sample
+from core.study_lights import CapLight, Furnace, LatLongEnvironment
 
 DEFAULT_SAMPLERS = (
     "uniform",

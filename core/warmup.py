@@ -9,7 +9,7 @@ app's first edit.
 Each entry of :data:`WARM_UPS` is a :class:`WarmUp`, a label and a function that calls one group of kernels
 on tiny inputs through the same public functions the program uses, so that the argument types (and the
 compiled signatures) are the program's. Another package adds its groups by appending to the list (the
-renderer's, which ``core`` cannot import, are in :mod:`renderer.warmup`).
+renderer's, which ``core`` cannot import, are in :mod:`renderer.tracer_warmup`).
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ def _directions() -> tuple[np.ndarray, np.ndarray]:
 
 def _model_batches() -> int:
     """The batch drivers of :mod:`core.kernels` (one loop for all models), for every model id."""
+    from core.brdf import all_models
     from core.kernels import eval_batch, eval_into, pdf_batch, sample_batch
-    from core.model import all_models
 
     wi, wo = _directions()
     u = np.full((2, 3), 0.5)
@@ -59,8 +59,8 @@ def _model_batches() -> int:
 
 def _measured() -> None:
     """The MERL writer's loop (:func:`core.merl.tabulate`) and the measured lookups (in the switch above)."""
+    from core.brdf import make_brdf
     from core.merl import MeasuredBRDF, tabulate
-    from core.model import make_brdf
 
     table = tabulate(make_brdf("lambert"), subcells=1)
     wi, wo = _directions()
@@ -71,7 +71,7 @@ def _measured() -> None:
 def _rgl() -> None:
     """RGL ``.bsdf`` materials: the exporter's loops (:func:`core.rgl.export.tabulate`, small tables) and the
     ``rgl_warp`` sampler's draws and densities (the lookups are in the switch above)."""
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.rgl.export import ExportOptions, tabulate
     from core.rgl.material import RGLBRDF
     from core.sampling import make_sampler
@@ -88,7 +88,7 @@ def _rgl() -> None:
 
 def _basic_samplers() -> None:
     """``uniform``, ``cosine`` and ``analytic`` (sample, ``f`` and pdf)."""
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling import make_sampler
 
     _, wo = _directions()
@@ -101,7 +101,7 @@ def _basic_samplers() -> None:
 
 def _tabulated_samplers() -> None:
     """``uniform_cdf``, ``compress_cdf`` and ``factored`` on tiny tables (isotropic and anisotropic)."""
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling import make_sampler
 
     _, wo = _directions()
@@ -121,8 +121,8 @@ def _tabulated_samplers() -> None:
 def _adaptive_sampler() -> None:
     """The adaptive sampler: the construction (a small table of an isotropic and an anisotropic material,
     not stored), and both modes' draws, densities, normalizer and acceptance (serial and threaded)."""
+    from core.brdf import make_brdf
     from core.geometry import degrees_to_dir
-    from core.model import make_brdf
     from core.sampling.adaptive import AdaptiveSampler, clear_memory_cache
     from core.sampling.adaptive import sampler as adaptive
 
@@ -180,7 +180,7 @@ def run(warm_ups: Sequence[WarmUp], out: TextIO = sys.stdout) -> float:
     return total
 
 
-WARM_UP_MODULES = ("core.warmup", "renderer.warmup")
+WARM_UP_MODULES = ("core.warmup", "renderer.tracer_warmup")
 """Every warm-up of the distribution, by module: what ``brdf-studio setup`` and the wheel's build run, each in
 its own process (:func:`run_in_processes`; ``core`` names the renderer's module, it never imports it)."""
 

@@ -15,8 +15,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.brdf import LUMINANCE
 from core.fastmath import acos_estimate, atan2_estimate, sincos_small
-from core.model import LUMINANCE
 from core.sampling.distributions import fill_guide, remainder, uniform_sphere, walk_upper_bound
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from core.model import LUMINANCE
+from core.brdf import LUMINANCE
 from renderer.qmc import key
 from renderer.stages.camera import camera_rays
 from renderer.stages.records import Estimator, Lights, PassKeys, PinholeCamera, Triangles

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from core.model import LUMINANCE
+from core.brdf import LUMINANCE
 from renderer.stages.continuation import add_rows, bsdf_step
 from renderer.stages.surface import tangent_frames
 from renderer.wavefront import Buffers

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from core.brdf import BRDF, LUMINANCE, make_brdf
 from core.errors import BrdfStudioError, UnknownNameError
-from core.model import BRDF, LUMINANCE, make_brdf
 from core.sampling import Sampler, make_sampler
 from core.sampling.base import current_sampler, current_sampler_name
 from core.scene import Material, QuadLight, Scene, kept_groups

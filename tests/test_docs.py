@@ -106,7 +106,15 @@ def test_mkdocs_build_strict(tmp_path):
     if mkdocs is None:
         pytest.fail("mkdocs is not installed: pip install -e '.[docs]' (the test extra includes it)")
     done = subprocess.run(
-        [mkdocs, "build", "--strict", "--config-file", ".ci/mkdocs.yml", "--site-dir", str(tmp_path / "site")],
+        [
+            mkdocs,
+            "build",
+            "--strict",
+            "--config-file",
+            ".ci/mkdocs.yml",
+            "--site-dir",
+            str(tmp_path / "site"),
+        ],
         cwd=ROOT,
         capture_output=True,
         text=True,

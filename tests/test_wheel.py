@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 _LOAD = """
 import numpy as np
 from core.kernels import _eval_serial, eval_batch
-from core.model import make_brdf
+from core.brdf import make_brdf
 m = make_brdf("ggx")
 eval_batch(m.model, np.array([[0.0, 0.6, 0.8]]), np.array([[0.6, 0.0, 0.8]]), m.params)
 s = _eval_serial.stats

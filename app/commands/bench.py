@@ -8,8 +8,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from app.commands._args import add_list, theta, whole
+from core.brdf import get_model
 from core.errors import ParameterError, UnknownNameError
-from core.model import get_model
 from core.sampling import sampler_names
 from core.sampling.base import current_sampler_name
 from core.study import DEFAULT_SAMPLERS, StudyConfig, default_lights, materials, study_material, write_results

@@ -17,10 +17,10 @@ import numpy as np
 from app.commands import _args
 from app.commands._args import add_list, azimuth, name, number, seed, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
+from core.brdf import LUMINANCE, all_models
 from core.budget import check_memory, largest_within, round_down
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.model import LUMINANCE, all_models
 from core.sampling import applicable_samplers, make_sampler
 from core.sampling.base import check_sampler_options, current_sampler_name
 

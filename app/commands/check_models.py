@@ -100,7 +100,7 @@ def sampler_check(path: Path, samples: int = DEFAULT_SAMPLES, n_tests: int = SAM
     (alpha = 0.01 Sidak-corrected over ``n_tests``: the caller's whole run), the pdf's integral, the acceptance
     and the leaf bounds. Called for each file that opens and agrees with Mesa."""
     from app.commands.check import validate
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling import make_sampler
 
     brdf = make_brdf(str(path), {})

@@ -11,8 +11,8 @@ import time
 
 from app.commands._args import add_list
 from core.analysis import albedo_table, energy_report, nonnegativity_report, reciprocity_report
+from core.brdf import BRDF, all_models, make_brdf
 from core.errors import BrdfStudioError
-from core.model import BRDF, all_models, make_brdf
 
 THETAS_DEG = (0.0, 30.0, 60.0, 80.0)
 

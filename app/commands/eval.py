@@ -20,9 +20,9 @@ from pathlib import Path
 from typing import Any
 
 from app.commands._args import add_list, name
+from core.brdf import BRDF, Model, get_model, parse_assignments
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.model import BRDF, Model, get_model, parse_assignments
 from core.model_files.declarations import param_location
 
 

@@ -11,7 +11,7 @@ import argparse
 import json
 
 from app.commands.eval import model_from_arg
-from core.model import Model, Traits, all_models
+from core.brdf import Model, Traits, all_models
 
 
 def add_parser(sub: argparse._SubParsersAction) -> list[str]:

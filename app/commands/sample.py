@@ -17,11 +17,11 @@ import numpy as np
 
 from app.commands._args import azimuth, check_output, name, number, seed, theta, whole
 from app.commands.eval import add_brdf_arguments, brdf_from_args
+from core.brdf import LUMINANCE
 from core.budget import BudgetError, format_bytes, round_down
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
 from core.io import atomic_write
-from core.model import LUMINANCE
 from core.sampling import make_sampler
 
 FORMATS = (".csv", ".npy", ".ply")

@@ -4,7 +4,7 @@ numba compiles a kernel the first time a process calls it and keeps it in its di
 (``$BRDF_STUDIO_NUMBA_CACHE``, default ``~/.cache/brdf-studio/numba``): after ``pip install`` the first
 render, the first sampler check or the app's first draw would otherwise compile for minutes. This command
 runs the warm-ups of :mod:`core.warmup` (the models, the samplers, the adaptive sampler's construction) and
-:mod:`renderer.warmup` (the path tracer's kernels, through a tiny render of the demo scene) in two processes
+:mod:`renderer.tracer_warmup` (the path tracer's kernels, through a tiny render of the demo scene) in two processes
 at once, one line per group with its seconds, prefixed by the package. What is in the cache already only
 loads (seconds); ``make setup`` runs the same.
 """

@@ -24,8 +24,8 @@ from app.editors.model_file import ModelFilePanel
 from app.editors.params import ParamEditor
 from app.editors.rows import EmissionRow
 from app.model_library import ModelLibrary
+from core.brdf import Model, all_models, get_model
 from core.errors import BrdfStudioError
-from core.model import Model, all_models, get_model
 from core.model_files import is_model_file
 
 INFO_THETAS_DEG = (0.0, 30.0, 60.0, 80.0)

@@ -20,7 +20,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from core.model import Model, Param, ParamValue
+from core.brdf import Model, Param, ParamValue
 
 SLIDER_STEPS = 1000
 

@@ -21,7 +21,7 @@ from PySide6.QtWidgets import (
 )
 
 from app.editors.params import FloatRow
-from core.model import Param
+from core.brdf import Param
 
 COORDINATE_LIMIT = 1e6
 """Spin-box range of positions and edges (scene units); the schema itself only asks for finite numbers."""

@@ -28,7 +28,7 @@ from PySide6.QtWidgets import QFormLayout, QLabel, QWidget
 
 from app.editors.params import FloatRow
 from app.editors.rows import CheckRow, EmissionRow, NumberOrVec3Row, Vec3Row
-from core.model import Param
+from core.brdf import Param
 
 
 @dataclass(frozen=True)

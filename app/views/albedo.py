@@ -6,7 +6,7 @@ import numpy as np
 from PySide6.QtWidgets import QWidget
 
 from app.views.figure import FigureView
-from core.model import luminance
+from core.brdf import luminance
 
 ALBEDO_THETAS_DEG = np.array([0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0, 89.0])
 """Includes the angles the material editor quotes (0, 30, 60, 80)."""

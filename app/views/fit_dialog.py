@@ -35,10 +35,10 @@ from PySide6.QtWidgets import (
 )
 
 from app.views.lobe import LobeView
+from core.brdf import all_models
 from core.errors import BrdfStudioError
 from core.fit import METRICS, FitResult, error_map, fit, incidence_plane
 from core.measured import load_measured
-from core.model import all_models
 
 THETA_O_DEG = 30.0
 """Outgoing polar angle of the lobes and of the incidence-plane slice."""

@@ -26,7 +26,7 @@ from vtkmodules import vtkRenderingFreeType  # noqa: F401 (the text renderer mea
 from vtkmodules.vtkRenderingCore import vtkTextProperty, vtkTextRenderer
 
 from app.view_data import grid_normals, grid_quads, hemisphere_grid, lobe
-from core.model import BRDF
+from core.brdf import BRDF
 
 BAR_TITLE = "f cos (1/sr)"
 BAR_LABELS = 5

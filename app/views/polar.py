@@ -9,7 +9,7 @@ from PySide6.QtWidgets import QWidget
 
 from app.view_data import incidence_plane
 from app.views.figure import FigureView
-from core.model import BRDF, luminance
+from core.brdf import BRDF, luminance
 
 RINGS = (0.25, 0.5, 0.75, 1.0)
 """The radial grid, as fractions of the radial limit."""

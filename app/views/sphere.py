@@ -8,7 +8,7 @@ from PySide6.QtGui import QColor, QImage, QMouseEvent, QPainter, QPaintEvent, QP
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
 from app.view_data import light_from_disk, lit_sphere, to_srgb8
-from core.model import BRDF
+from core.brdf import BRDF
 
 
 class SphereView(QWidget):

@@ -19,8 +19,8 @@ from pyvistaqt import QtInteractor
 from app.document import Document
 from app.meshes import part
 from app.views.handles import DragHandles
+from core.brdf import BRDF
 from core.errors import BrdfStudioError
-from core.model import BRDF
 from core.scene import Camera, QuadLight, Transform
 
 SELECTED_EDGE = "#ffb300"

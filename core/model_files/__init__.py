@@ -1,8 +1,8 @@
 """Models a user brings as files: BRDF Explorer's analytic ``.brdf`` shaders and Python model files.
 
-A path goes wherever a model name goes: :func:`core.model.get_model` hands a name that ends in ``.brdf`` or
+A path goes wherever a model name goes: :func:`core.brdf.get_model` hands a name that ends in ``.brdf`` or
 ``.py`` to :func:`load_model_file`, which compiles the file into native functions and returns a
-:class:`core.model.Model` like a built-in one. Every sampler and the renderer reach it through the same
+:class:`core.brdf.Model` like a built-in one. Every sampler and the renderer reach it through the same
 compiled switch (:mod:`core.dispatch`, the ``FILE_MODEL`` branch; :mod:`core.model_files.call` says how), so
 loading a model compiles the model and nothing else.
 
@@ -13,7 +13,7 @@ loading a model compiles the model and nothing else.
   its code: the app asks before it loads one a project names.
 
 A loaded model is kept by path and content: loading the same text again returns the same model, and an edited
-file (another content digest) is compiled anew, so a cache keyed by :meth:`core.model.BRDF.key` misses after
+file (another content digest) is compiled anew, so a cache keyed by :meth:`core.brdf.BRDF.key` misses after
 an edit. Traits (isotropic, reciprocal, mirror-symmetric) of a shader are measured at load
 (:func:`core.model_files.probe.measured_traits`); the values a shader takes are probed for NaN, infinities and
 negatives (:func:`core.model_files.probe.bad_values`), which the host takes as 0 and reports.
@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 from core.errors import FileFormatError
 
 if TYPE_CHECKING:
-    from core.model import Model
+    from core.brdf import Model
 
 SUFFIXES = (".brdf", ".py")
 """File suffixes of model files (lower case)."""

@@ -17,8 +17,8 @@ them: LLVM for shaders (:mod:`core.glsl`), numba's ``cfunc`` for Python files:
     the density of ``sample``.
 
 An address is a process's own: a parameter row holds it only in the process that loaded the model. A row is
-therefore never sent to another process; a model file's :class:`core.model.Model` and
-:class:`core.model.BRDF` pickle as the file's text and the parameter values, and load again on arrival.
+therefore never sent to another process; a model file's :class:`core.brdf.Model` and
+:class:`core.brdf.BRDF` pickle as the file's text and the parameter values, and load again on arrival.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from core.model import Param, Traits
+from core.brdf import Param, Traits
 from core.model_files.call import eval_raw_rows
 
 RTOL = 1e-8

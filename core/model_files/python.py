@@ -4,15 +4,15 @@ The file (format: ``docs/model-files.md``; an example: ``resources/models/``) is
 declares:
 
 ``PARAMS``
-    a sequence of :class:`core.model.Param`; the kernel row holds them in this order (a color takes three
-    slots; :func:`core.model.param_offsets` gives each named parameter's offset).
+    a sequence of :class:`core.brdf.Param`; the kernel row holds them in this order (a color takes three
+    slots; :func:`core.brdf.param_offsets` gives each named parameter's offset).
 ``eval(wi, wo, p) -> (r, g, b)``
     numba-compilable (plain or ``@numba.njit``), in the local frame, as the built-in kernels
-    (:mod:`core.model`).
+    (:mod:`core.brdf`).
 ``sample(wo, p, u1, u2, u3) -> (x, y, z, pdf)`` and ``pdf(wo, wi, p) -> float``
     optional, both or neither: an analytic sampler and its density per unit solid angle.
 ``LABEL``, ``CITATION``, ``TRAITS``
-    optional: a display name, a reference, and :class:`core.model.Traits` (measured when absent).
+    optional: a display name, a reference, and :class:`core.brdf.Traits` (measured when absent).
 
 Each kernel is wrapped in a numba ``cfunc`` with the native signature of :mod:`core.model_files.call`.
 """
@@ -34,8 +34,8 @@ from numba import carray, cfunc, njit
 from numba import types as nt
 from numba.core.registry import CPUDispatcher
 
+from core.brdf import Model, Param, Traits
 from core.errors import ParameterError
-from core.model import Model, Param, Traits
 from core.model_files import ModelFileError, ModelSource
 from core.model_files.call import (
     EVAL_ADDRESS,
@@ -198,10 +198,10 @@ def _params(module: types.ModuleType, path: str) -> tuple[Param, ...]:
     try:
         params = tuple(params)
     except TypeError:
-        raise ModelFileError(f"{path}: PARAMS must be a sequence of core.model.Param") from None
+        raise ModelFileError(f"{path}: PARAMS must be a sequence of core.brdf.Param") from None
     for i, p in enumerate(params):
         if not isinstance(p, Param):
-            raise ModelFileError(f"{path}: PARAMS[{i}] is a {type(p).__name__}, not a core.model.Param")
+            raise ModelFileError(f"{path}: PARAMS[{i}] is a {type(p).__name__}, not a core.brdf.Param")
     return params
 
 
@@ -248,7 +248,7 @@ def load(path: str, text: str, digest: str) -> Model:
 
     traits = getattr(module, "TRAITS", None)
     if traits is not None and not isinstance(traits, Traits):
-        raise ModelFileError(f"{path}: TRAITS must be core.model.Traits flags, got {type(traits).__name__}")
+        raise ModelFileError(f"{path}: TRAITS must be core.brdf.Traits flags, got {type(traits).__name__}")
     stem = Path(path).stem
     try:
         model = Model(

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from core.model import Model, Param, Traits
+from core.brdf import Model, Param, Traits
 from core.model_files import ModelFileError, ModelSource
 from core.model_files.call import EVAL_ADDRESS, HEADER, eval_file_model
 

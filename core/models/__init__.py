@@ -1,5 +1,5 @@
 """The model library. Importing this package registers every model: each public module here declares one
-model (or a family sharing kernels) and calls :func:`core.model.declare`. Modules whose name starts with an
+model (or a family sharing kernels) and calls :func:`core.brdf.declare`. Modules whose name starts with an
 underscore, and the shared ``lobes`` module, hold building blocks only. Adding a model is adding a file."""
 
 import importlib

@@ -31,8 +31,8 @@ import math
 
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models._microfacet import reflect_about, upper_half_vector
 from core.models.lobes import cosine_hemisphere, lobe_probability, luminance_at, mixture_pdf
 

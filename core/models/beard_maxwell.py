@@ -54,8 +54,8 @@ from __future__ import annotations
 
 import math
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models._fresnel import fresnel_conductor
 
 CITATION = (

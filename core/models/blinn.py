@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.geometry import half_vector
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     diffuse_plus_lobe,
     half_vector_mixture_pdf,

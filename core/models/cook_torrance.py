@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import math
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import upper_half_vector
 from core.models.lobes import (

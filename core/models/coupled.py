@@ -41,8 +41,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._kelemen_albedo import N_TABLE, albedo_tables, hemispherical_average, table_map
 from core.models._microfacet import beckmann_d, reflect_about
 from core.models.lobes import LUMA, cosine_hemisphere, cosine_hemisphere_pdf, lobe_probability, luminance3

@@ -64,8 +64,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._microfacet import (
     ggx_anisotropic_d,
     ggx_anisotropic_g1_over_cos,

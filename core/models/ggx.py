@@ -30,8 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_conductor
 from core.models._microfacet import ggx_visible_normal, reflect_about, upper_half_vector
 from core.models.lobes import (

@@ -74,8 +74,8 @@ import math
 
 import numpy as np
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_conductor
 from core.models._he_series import (
     direction_k,

@@ -27,9 +27,9 @@ import math
 
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.geometry import normalize
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,

@@ -6,8 +6,8 @@
 
 from __future__ import annotations
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
 
 CITATION = "J. H. Lambert, Photometria, 1760."

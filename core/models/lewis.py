@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.geometry import mirror
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     cosine_lobe_mixture_pdf,
     cosine_lobe_mixture_sample,

@@ -28,8 +28,8 @@ its own; the generic cosine-weighted sampler applies.
 
 from __future__ import annotations
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 
 CITATION = (
     "M. Minnaert, The reciprocity principle in lunar photometry, Astrophysical Journal 93:403-410, 1941."

@@ -45,8 +45,8 @@ from __future__ import annotations
 
 import math
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 
 CITATION = (
     "M. Oren and S. K. Nayar, Generalization of Lambert's reflectance model, Proc. SIGGRAPH 1994, 239-246."

@@ -61,8 +61,8 @@ import math
 
 import numpy as np
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 
 CITATION = (
     "P. Poulin and A. Fournier, A model for anisotropic reflection, Proc. SIGGRAPH 1990, "

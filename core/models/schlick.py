@@ -57,8 +57,8 @@ import math
 import numpy as np
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets, param_row_size
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets, param_row_size
 from core.models._fresnel import fresnel_schlick
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf
 

@@ -43,8 +43,8 @@ import math
 
 from numba import njit
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 
 CITATION = (
     "P. S. Strauss, A realistic lighting model for computer animators, "

@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import math
 
+from core.brdf import Param, Traits, declare, param_offsets
 from core.jit import kernel
-from core.model import Param, Traits, declare, param_offsets
 from core.models.lobes import (
     beckmann_mixture_pdf,
     beckmann_mixture_sample,

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import njit
 
-from core.model import BRDF, luminance
+from core.brdf import BRDF, luminance
 from core.rgl import lookup as L
 from core.rgl.lookup import eval_rgl
 from core.rgl.marginal import warp_sample

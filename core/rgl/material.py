@@ -24,7 +24,7 @@ came from; everything else (the warps, hence sampling) is the same. Every proble
 negative values, a warp slice with no mass — is one :class:`~core.errors.FileFormatError` naming the file and
 the field.
 
-A ``.bsdf`` material is a :class:`core.model.BRDF` like a MERL one: :func:`rgl_brdf` gives an
+A ``.bsdf`` material is a :class:`core.brdf.BRDF` like a MERL one: :func:`rgl_brdf` gives an
 :class:`RGLBRDF` whose model is :data:`RGL` (isotropic), :data:`RGL_ANISOTROPIC` (files folded into a quadrant
 of ``phi``, mirror-symmetric) or :data:`RGL_GENERAL`, all three evaluated by
 :func:`core.rgl.lookup.eval_rgl` and sampled by the file's own luminance warp (``sample_rgl``/``pdf_rgl``,
@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.brdf import BRDF, Model, Traits
 from core.errors import FileFormatError
 from core.measured import FileBRDF
-from core.model import BRDF, Model, Traits
 from core.rgl import lookup, spectral
 from core.rgl.tensor_file import read_tensor_file, write_tensor_file
 

@@ -37,9 +37,9 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
+from core.brdf import BRDF
 from core.errors import FormerSamplerName, ParameterError, UnknownNameError
 from core.kernels import DirectionSamples, eval_into
-from core.model import BRDF
 
 
 class SampleBatch(NamedTuple):
@@ -260,7 +260,7 @@ class Sampler:
 
 @dataclass(frozen=True)
 class SamplerOption:
-    """One option a strategy takes, declared with it the way a model declares its :class:`~core.model.Param`.
+    """One option a strategy takes, declared with it the way a model declares its :class:`~core.brdf.Param`.
 
     ``kind``: ``"int"`` (a whole number in ``[lo, hi]``), ``"float"`` (a finite number in ``[lo, hi]``, or
     ``(lo, hi]`` with ``lo_open``), ``"bool"``, ``"choice"`` (one of ``choices``) or ``"cache"`` (true, false

@@ -12,10 +12,10 @@ from collections.abc import Callable
 import numpy as np
 from numba import njit
 
+from core.brdf import BRDF
 from core.errors import UnknownNameError
 from core.jit import kernel
 from core.kernels import DirectionSamples, pdf_batch, sample_batch
-from core.model import BRDF
 from core.models.lobes import cosine_hemisphere, cosine_hemisphere_pdf, uniform_hemisphere
 from core.sampling.base import Sampler, register_sampler
 

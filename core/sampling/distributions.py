@@ -23,7 +23,7 @@ per-distribution objects.
 
 The compiled helpers are inlined (``inline="always"``) and allocate nothing: the renderer's per-sample
 loops call them (see :mod:`core.jit`). Users: :mod:`core.sampling.tabulated`, :mod:`core.sampling.factored`,
-:mod:`core.lighting`, :mod:`renderer.envmap` and the light selection of :mod:`renderer.kernels`
+:mod:`core.study_lights`, :mod:`renderer.envmap` and the light selection of :mod:`renderer.stages.surface`
 (docs/ARCHITECTURE.md names those that do not use it, and why).
 """
 

@@ -29,10 +29,10 @@ import numpy as np
 from numba import njit
 
 from core import fastmath
+from core.brdf import BRDF, LUMINANCE
 from core.errors import ParameterError
 from core.jit import kernel
 from core.kernels import eval_batch
-from core.model import BRDF, LUMINANCE
 from core.rng import next_u01, stream
 from core.sampling.base import (
     SampleBatch,

@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
+from core.brdf import BRDF
 from core.jit import kernel
 from core.kernels import DirectionSamples
-from core.model import BRDF
 from core.rgl.lookup import pdf_rgl, sample_rgl
 from core.sampling.base import Sampler, SamplerOption, register_sampler
 

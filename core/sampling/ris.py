@@ -15,8 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core.brdf import LUMINANCE
 from core.errors import ParameterError
-from core.model import LUMINANCE
 from core.sampling.base import Sampler
 
 

@@ -26,10 +26,10 @@ import numpy as np
 from numba import njit
 
 from core import fastmath
+from core.brdf import BRDF, LUMINANCE
 from core.errors import ParameterError
 from core.jit import kernel
 from core.kernels import eval_batch
-from core.model import BRDF, LUMINANCE
 from core.sampling.base import Sampler, SamplerOption, register_sampler
 from core.sampling.distributions import find_interval, guided_interval, interval_guides, walk_interval
 

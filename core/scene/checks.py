@@ -31,7 +31,7 @@ def model_file_path(scene: Scene, written: str) -> str:
 def validate_scene(scene: Scene, check_files: bool = True) -> None:
     """Checks beyond the field types: models and their parameters, names that refer to each other,
     samplers, and (with ``check_files``) that every referenced file exists with a known extension."""
-    from core.model import get_model
+    from core.brdf import get_model
     from core.sampling import sampler_names
     from core.sampling.base import check_sampler_options
 

@@ -189,7 +189,7 @@ def _check_scheduler(address: str, reach: float = REACH_TIMEOUT, answer: float =
 
 
 def _load_kernels(strategies: tuple[str, ...]) -> float:
-    from renderer.warmup import load_kernels
+    from renderer.tracer_warmup import load_kernels
 
     return sum(seconds for _, seconds in load_kernels(strategies))
 

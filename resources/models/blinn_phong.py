@@ -11,7 +11,7 @@ import math
 
 from numba import njit
 
-from core.model import Param, Traits, param_offsets, param_row_size
+from core.brdf import Param, Traits, param_offsets, param_row_size
 
 LABEL = "Blinn-Phong (example model file)"
 CITATION = "J. F. Blinn, Models of Light Reflection for Computer Synthesized Pictures, SIGGRAPH 1977."

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from core.brdf import make_brdf
 from core.geometry import degrees_to_dir
 from core.merl import SCALES, write_merl
-from core.model import make_brdf
 
 
 def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
@@ -190,7 +190,7 @@ def test_the_parser_does_not_import_what_only_one_command_needs():
 def test_setup_compiles_or_loads_every_group_and_says_so(capsys):
     """``brdf-studio setup`` runs every warm-up group of the models, samplers and renderer, one line each."""
     from core.warmup import WARM_UPS as CORE
-    from renderer.warmup import WARM_UPS as RENDERER
+    from renderer.tracer_warmup import WARM_UPS as RENDERER
 
     code, out, err = run_cli(capsys, "setup")
     assert code == 0, err

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from core.brdf import make_brdf
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 
 ROOT = Path(__file__).resolve().parents[2]
 SHADER = ROOT / "tests" / "app" / "fixtures" / "cli_plastic.brdf"
@@ -212,14 +212,14 @@ BAD_FILES = {
     ),
     "default outside its range (Python)": (
         "bad.py",
-        "from core.model import Param\n\nPARAMS = (\n    Param('kd', 0.5),\n    Param('n', 0.5, 1.0, 100.0),\n)\n\n"
+        "from core.brdf import Param\n\nPARAMS = (\n    Param('kd', 0.5),\n    Param('n', 0.5, 1.0, 100.0),\n)\n\n"
         "def eval(wi, wo, p):\n    return p[0], p[0], p[0]\n",
         5,
         "outside its allowed range [1, 100]",
     ),
     "Python file that raises": (
         "bad.py",
-        "from core.model import Param\n\nPARAMS = (Param('kd', 0.5),)\nscale = 1.0 / 0.0\n",
+        "from core.brdf import Param\n\nPARAMS = (Param('kd', 0.5),)\nscale = 1.0 / 0.0\n",
         4,
         "ZeroDivisionError",
     ),

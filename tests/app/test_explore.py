@@ -185,7 +185,7 @@ def test_measured_material_from_a_merl_file(window):
 def test_polar_slice_changes_scale_without_a_full_draw(window):
     """A peak 100x higher (a sharper lobe) moves the outer ring to a round limit above it, relabels the rings
     and still draws only the curves and labels; the curves are the values divided by that limit."""
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     view = window.polar_view
     wo = np.array([0.5, 0.0, np.sqrt(0.75)])
@@ -223,7 +223,7 @@ def test_polar_slice_and_sampler_view_update_by_blitting(window, qtbot):
     """A data edit that keeps the scale redraws only the curves (no full figure draw), the pixels change, and
     they reach the screen with the window's next paint rather than a synchronous repaint of their own."""
     from app.sampling_data import sampling_snapshot
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     window.tabs.setCurrentWidget(window.explore)  # the polar view on screen, whatever ran before
     wo = np.array([0.5, 0.0, np.sqrt(0.75)])
@@ -291,7 +291,7 @@ def test_a_new_status_line_repaints_itself_and_lays_nothing_out(window, qtbot):
     again, up to the window, and the whole tab was repainted twice more. The status line repaints itself only."""
     from PySide6.QtCore import QEvent, QObject
 
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     window.tabs.setCurrentWidget(window.explore)
     polar = window.polar_view

@@ -8,7 +8,7 @@ import pytest
 from PySide6.QtGui import QImage
 
 from app.document import Document
-from core.model import make_brdf
+from core.brdf import make_brdf
 from core.rgl.export import ExportOptions, tabulate
 from core.rgl.material import write_bsdf
 from core.scene import Material, Scene

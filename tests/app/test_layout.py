@@ -20,7 +20,7 @@ from PySide6.QtWidgets import QAbstractButton, QAbstractScrollArea, QGroupBox, Q
 from app.views.figure import FigureView, StatusLine
 from app.views.images import ImageView
 from app.views.sphere import SphereView
-from core.model import make_brdf
+from core.brdf import make_brdf
 from tests.app.meshes import write_obj
 
 pytestmark = pytest.mark.gui

@@ -19,7 +19,7 @@ from app import settings, snapshot_process
 from app.editors.params import BoolRow, ColorRow, FloatRow
 from app.model_library import FALLBACK_MODEL, ModelLibrary, fit_params
 from app.project import load_project, save_project
-from core.model import get_model
+from core.brdf import get_model
 from core.model_files import pin_text
 
 pytestmark = pytest.mark.gui
@@ -36,7 +36,7 @@ import math
 
 from numba import njit
 
-from core.model import Param
+from core.brdf import Param
 
 LABEL = "{label}"
 {broken}

@@ -143,3 +143,22 @@ def test_render_process_loads_kernels_while_idle_and_a_job_waits_one_step_at_mos
     assert steps[-1] == "done" and all(
         m["compile_s"] is not None for m in marks if m["step"] != "job arrived"
     )
+
+
+def test_only_the_rejection_free_mode_starts_on_a_coarse_table(scene, monkeypatch):
+    """The render's first image: ``adaptive_warp`` starts on its coarse table and swaps in the full one; the
+    exact mode builds its full table at once (its coarse layout's bounds cost more than the full table's)."""
+    import renderer.render
+
+    asked: dict[str, dict] = {}
+    real = renderer.render.prepare
+
+    def prepare(scene, sampler, sampler_options=None, **kw):
+        asked[sampler] = dict(sampler_options or {})
+        return real(scene, sampler=sampler, sampler_options=sampler_options, **kw)
+
+    monkeypatch.setattr(renderer.render, "prepare", prepare)
+    events = list(render_events(scene, ["adaptive_exact", "adaptive_warp"], "spp", 1, 8, 6))
+    assert any(e["kind"] == "done" for e in events)
+    assert asked["adaptive_warp"].get("progressive") is True
+    assert "progressive" not in asked["adaptive_exact"]

@@ -221,8 +221,8 @@ def test_a_new_material_shows_a_first_fit_at_once_then_the_full_table(window, qt
     import shutil
 
     from app.sampling_data import adaptive_sampler
+    from core.brdf import make_brdf
     from core.cache import TableCache
-    from core.model import make_brdf
 
     params = {"alpha": 0.0737}
     # a table stored by an earlier run (the app's cache is the user's) would be loaded whole: remove it

@@ -17,8 +17,8 @@ import pytest
 
 from app import snapshot_process
 from app.sampling_data import sampling_snapshot
+from core.brdf import get_model
 from core.errors import BrdfStudioError
-from core.model import get_model
 
 OPTIONS = {"n_samples": 300, "grid": 24, "seed": 3}
 

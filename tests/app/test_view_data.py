@@ -19,7 +19,7 @@ from app.view_data import (
     lobe,
     to_srgb8,
 )
-from core.model import get_model
+from core.brdf import get_model
 from core.sampling.adaptive.inspect import (
     TreeView,
     disk_to_square,
@@ -117,7 +117,7 @@ def _wo(theta_deg: float, phi_deg: float) -> np.ndarray:
 @pytest.fixture(scope="module")
 def snapshots():
     """Snapshots of both modes for every case, at directions in all four quadrants."""
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     out = {}
     for name, params in CASES:
@@ -216,7 +216,7 @@ def test_ratio_map_of_other_strategies_on_the_tree_disk():
     pixel's direction; the warp mode's density is exact for Lambert on its disk; Phong's warp density is
     close to the ideal where the lobe is."""
     from app.sampling_data import adaptive_sampler
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     lam = make_brdf("lambert", {"kd": 0.5})
     snap = sampling_snapshot(lam, 35.0, 10.0, ratio_sampler="uniform", grid=32)
@@ -234,7 +234,7 @@ def test_ratio_map_of_other_strategies_on_the_tree_disk():
 
 
 def test_beyond_the_last_node_the_exact_mode_draws_the_cosine_density():
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     snap = sampling_snapshot(make_brdf("lambert", {"kd": 0.5}), 89.95, 0.0)
     assert snap.cosine_fallback and snap.tree.normalizer == 0.0
@@ -327,7 +327,7 @@ def test_a_progressive_snapshot_shows_a_first_fit_until_the_full_table_is_made(m
     wherever f > 0). When the exact mode's coarse table is made already (a render made it), that is shown
     first instead (exact all the same)."""
     from app.sampling_data import INTERIM_WARP_TOL
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling import make_sampler
     from core.sampling.adaptive import TableOptions
 

@@ -8,8 +8,8 @@ import csv
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import make_sampler
 from tests.bench._load import bench_module
 

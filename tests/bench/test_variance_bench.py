@@ -8,8 +8,8 @@ import csv
 import numpy as np
 import pytest
 
+from core.brdf import LUMINANCE, make_brdf
 from core.geometry import degrees_to_dir
-from core.model import LUMINANCE, make_brdf
 from tests.bench._load import bench_module
 
 

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from core.model import BRDF, Model
+from core.brdf import BRDF, Model
 
 
 @njit(nogil=True)
@@ -25,7 +25,7 @@ def _eval_rows(kernel, wi, wo, p, out):
 
 
 class KernelBRDF(BRDF):
-    """A :class:`core.model.BRDF` whose ``eval`` runs its model's kernel directly (no dispatch id needed)."""
+    """A :class:`core.brdf.BRDF` whose ``eval`` runs its model's kernel directly (no dispatch id needed)."""
 
     def eval(self, wo: np.ndarray, wi: np.ndarray, threads: bool = False) -> np.ndarray:
         """``f_r`` as RGB ``(n, 3)`` for directions ``wo``, ``wi`` of shape ``(3,)`` or ``(n, 3)``."""

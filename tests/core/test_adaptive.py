@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from core.analysis import albedo
+from core.brdf import LUMINANCE, all_models, make_brdf
 from core.chi2 import chi2_test, sampler_functions, sidak_alpha
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.model import LUMINANCE, all_models, make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive import AdaptiveSampler
 from core.sampling.adaptive.inspect import disk_to_square

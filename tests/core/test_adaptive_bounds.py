@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from numba import njit
 
+from core.brdf import make_brdf
 from core.dispatch import eval_model
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive.draw import _bilinear_density, _g_scale, _leaf_box, _leaf_probability
 from core.sampling.adaptive.frames import _reflect, _to_local, _tree_frame

@@ -14,8 +14,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import LUMINANCE, make_brdf
 from core.geometry import degrees_to_dir
-from core.model import LUMINANCE, make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive.maps import EQUAL_AREA
 from core.sampling.adaptive.records import TableOptions

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.errors import ParameterError
-from core.model import make_brdf
 from core.sampling import make_sampler
 from core.sampling.adaptive.draw import _bilinear_density, _pick_leaf, descend_at
 from core.sampling.adaptive.pack import CDF_ONE, CORNER_ONE, _leaf_cdf, _leaf_corners

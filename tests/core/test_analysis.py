@@ -39,8 +39,8 @@ from core.analysis import (
     nonnegativity_report,
     reciprocity_report,
 )
+from core.brdf import Model, Param, Traits, all_models, make_brdf
 from core.errors import BrdfStudioError, ParameterError
-from core.model import Model, Param, Traits, all_models, make_brdf
 from tests.core._kernel_brdf import bind
 
 

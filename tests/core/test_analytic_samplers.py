@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.model import all_models
+from core.brdf import all_models
 from tests.core.models._checks import (
     assert_albedo_estimate_matches,
     assert_pdf_integrates_to_one,

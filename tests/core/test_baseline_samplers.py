@@ -9,15 +9,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core.brdf import LUMINANCE, make_brdf
 from core.chi2 import chi2_test, sampler_functions
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.lighting import CapLight, LatLongEnvironment
-from core.model import LUMINANCE, make_brdf
 from core.sampling import make_sampler
 from core.sampling.factored import nmf
 from core.sampling.ris import ris_sample
 from core.sampling.tabulated import douglas_peucker
+from core.study_lights import CapLight, LatLongEnvironment
 
 BASELINES = ["uniform_cdf", "compress_cdf", "factored"]
 FAST_CASES = [

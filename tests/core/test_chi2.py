@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.chi2 import (
     chi2_test,
     integrate_cells,
@@ -23,7 +24,6 @@ from core.chi2 import (
     two_sample_test,
 )
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import make_sampler
 
 N = 1_000_000

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from core import dispatch
+from core.brdf import BRDF, Model, all_models
 from core.kernels import eval_batch, pdf_batch, sample_batch
 from core.merl import MERL, MERL_NEAREST, measured_brdf
-from core.model import BRDF, Model, all_models
 from core.rgl.material import RGL, RGL_ANISOTROPIC, RGL_GENERAL
 from tests.conftest import direction_grid
 

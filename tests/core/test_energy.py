@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from core.analysis import albedo
-from core.model import Model, all_models
+from core.brdf import Model, all_models
 
 CONSERVING = [m for m in all_models() if m.energy_conserving]
 THETAS_DEG = (0.0, 30.0, 60.0, 80.0, 89.0)

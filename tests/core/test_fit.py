@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.errors import ParameterError
 from core.fit import fit, measurements, parameter_errors
 from core.measured import load_measured, write_measured
-from core.model import make_brdf
 from core.rgl.export import ExportOptions, tabulate
 from core.rgl.material import RGLBRDF
 

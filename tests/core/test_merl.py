@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from numba import njit
 
+from core.brdf import make_brdf
 from core.errors import FileFormatError
 from core.kernels import eval_batch, eval_into
 from core.merl import (
@@ -40,7 +41,6 @@ from core.merl import (
     tabulate,
     write_merl,
 )
-from core.model import make_brdf
 from core.sampling import make_sampler
 
 LOBE_N = 50.0

@@ -74,9 +74,9 @@ from typing import Any
 import numpy as np
 import pytest
 
+from core.brdf import get_model, make_brdf
 from core.chi2 import integrate_cells
 from core.geometry import degrees_to_dir
-from core.model import get_model, make_brdf
 from core.sampling import make_sampler, sampler_names
 
 mi = pytest.importorskip("mitsuba")

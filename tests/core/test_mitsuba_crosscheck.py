@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 from core.models._fresnel import fresnel_conductor
 from core.sampling import make_sampler
 

@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.brdf import Traits, get_model, make_brdf, param_offsets, param_row_size
 from core.chi2 import chi2_test, sampler_functions
 from core.dispatch import FILE_MODEL
 from core.errors import BrdfStudioError
 from core.kernels import eval_batch
-from core.model import Traits, get_model, make_brdf, param_offsets, param_row_size
 from core.model_files import ModelFileError, load_model_file
 from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
@@ -125,7 +125,7 @@ def test_a_file_model_travels_by_content(tmp_path):
 def test_traits_are_measured_when_not_declared(tmp_path):
     body = """
         import math
-        from core.model import Param
+        from core.brdf import Param
         PARAMS = (Param("a", 0.3, 0.0, 1.0),)
 
         def eval(wi, wo, p):
@@ -140,7 +140,7 @@ def test_traits_are_measured_when_not_declared(tmp_path):
 
 def test_bad_values_are_reported_and_taken_as_zero(tmp_path):
     body = """
-        from core.model import Param
+        from core.brdf import Param
         PARAMS = (Param("a", 0.5, 0.0, 1.0),)
 
         def eval(wi, wo, p):
@@ -158,7 +158,7 @@ def test_bad_values_are_reported_and_taken_as_zero(tmp_path):
 
 def test_zero_below_the_horizon_whatever_the_file_returns(tmp_path):
     body = """
-        from core.model import Param
+        from core.brdf import Param
         PARAMS = (Param("a", 0.5, 0.0, 1.0),)
 
         def eval(wi, wo, p):
@@ -178,7 +178,7 @@ def test_named_offsets_in_a_model_file():
 
 def test_a_wrong_offset_name_in_a_model_file_names_its_line(tmp_path):
     body = """
-        from core.model import Param, param_offsets
+        from core.brdf import Param, param_offsets
         PARAMS = (Param("a", 0.5, 0.0, 1.0),)
         (B,) = param_offsets(PARAMS, "b")
 
@@ -192,23 +192,23 @@ def test_a_wrong_offset_name_in_a_model_file_names_its_line(tmp_path):
 @pytest.mark.parametrize(
     ("body", "line", "words"),
     [
-        ("from core.model import Param\nPARAMS = (Param('a', 0.5),)\nraise ValueError('boom')\n", 3, "boom"),
+        ("from core.brdf import Param\nPARAMS = (Param('a', 0.5),)\nraise ValueError('boom')\n", 3, "boom"),
         ("def eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n", None, "no PARAMS"),
-        ("from core.model import Param\nPARAMS = (Param('a', 0.5),)\n", None, "no 'eval"),
-        ("PARAMS = (1,)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n", None, "not a core.model.Param"),
+        ("from core.brdf import Param\nPARAMS = (Param('a', 0.5),)\n", None, "no 'eval"),
+        ("PARAMS = (1,)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n", None, "not a core.brdf.Param"),
         (
-            "from core.model import Param\nPARAMS = (Param('a', 2.0),)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n",
+            "from core.brdf import Param\nPARAMS = (Param('a', 2.0),)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n",
             None,
             "outside its allowed range",
         ),
         (
-            "from core.model import Param\nPARAMS = (Param('a', 0.5),)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n"
+            "from core.brdf import Param\nPARAMS = (Param('a', 0.5),)\ndef eval(wi, wo, p):\n    return 1.0, 1.0, 1.0\n"
             "def sample(wo, p, u1, u2, u3):\n    return 0.0, 0.0, 1.0, 1.0\n",
             None,
             "both 'sample' and 'pdf'",
         ),
         (
-            "from core.model import Param\nPARAMS = (Param('a', 0.5),)\ndef eval(wi, wo, p):\n    return {'no': 1}\n",
+            "from core.brdf import Param\nPARAMS = (Param('a', 0.5),)\ndef eval(wi, wo, p):\n    return {'no': 1}\n",
             3,
             "does not compile",
         ),
@@ -283,7 +283,7 @@ import json, sys
 import numpy as np
 from numba.core import event
 from core.kernels import eval_batch
-from core.model import make_brdf
+from core.brdf import make_brdf
 from core.sampling import make_sampler
 
 compiled = []

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import all_models
 from core.errors import ParameterError
-from core.model import all_models
 from tests.conftest import all_pairs, direction_grid
 
 MODELS = all_models()

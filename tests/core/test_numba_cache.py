@@ -79,7 +79,7 @@ def test_numba_caches_our_functions_with_the_closure_locator():
 
 
 def test_stored_tables_are_keyed_by_the_model_file_and_the_sampler_package(monkeypatch):
-    from core.model import make_brdf
+    from core.brdf import make_brdf
     from core.sampling.adaptive import store
     from core.sampling.adaptive.records import TableOptions
     from core.sampling.adaptive.store import table_cache_key

@@ -1,4 +1,4 @@
-"""Named kernel-row offsets (core.model.param_offsets): for every built-in model they tile the parameter part
+"""Named kernel-row offsets (core.brdf.param_offsets): for every built-in model they tile the parameter part
 of its kernel row, the module's kernels take them from the registered declaration, and a wrong name fails
 with a message that names the declared parameters."""
 
@@ -9,8 +9,8 @@ import sys
 import numpy as np
 import pytest
 
+from core.brdf import Param, all_models, param_offsets, param_row_size
 from core.errors import ParameterError
-from core.model import Param, all_models, param_offsets, param_row_size
 
 MODELS = all_models()
 IDS = [m.name for m in MODELS]

@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.chi2 import chi2_test, sidak_alpha
 from core.errors import ParameterError
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import make_sampler
 
 pytestmark = pytest.mark.usefixtures("private_tables")

@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.errors import FileFormatError
 from core.geometry import degrees_to_dir
 from core.kernels import eval_batch
 from core.measured import load_measured, write_measured
-from core.model import make_brdf
 from core.rgl.export import ExportOptions, eval_table, tabulate
 from core.rgl.material import RGL, RGL_ANISOTROPIC, read_bsdf, rgl_brdf, write_bsdf
 from core.rgl.tensor_file import read_tensor_file, write_tensor_file

@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.fit import fit
 from core.geometry import degrees_to_dir
 from core.measured import load_measured
-from core.model import make_brdf
 from core.rgl.export import ExportOptions, tabulate
 from core.rgl.material import RGLTable, read_bsdf, rgl_brdf, write_bsdf
 from core.rgl.spectral import rgb_weights

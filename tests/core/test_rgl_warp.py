@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import LUMINANCE, make_brdf
 from core.geometry import degrees_to_dir
-from core.model import LUMINANCE, make_brdf
 from core.sampling import make_sampler
 from tests.core._rgl_checks import assert_warp_chi2
 

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import make_sampler, sampler_names
 from core.sampling.ris import ris_sample
 

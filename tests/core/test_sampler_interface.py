@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.brdf import make_brdf
 from core.errors import ParameterError, UnknownNameError
 from core.geometry import degrees_to_dir
-from core.model import make_brdf
 from core.sampling import SampleBatch, applicable_samplers, make_sampler, sampler_names
 
 BRDFS = [("lambert", None), ("phong", {"n": 30})]

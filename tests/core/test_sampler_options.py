@@ -9,9 +9,9 @@ from dataclasses import fields
 
 import pytest
 
+from core.brdf import make_brdf
 from core.budget import BudgetError
 from core.errors import FormerSamplerName, ParameterError
-from core.model import make_brdf
 from core.sampling import make_sampler, sampler_names
 from core.sampling.adaptive.records import TableOptions
 from core.sampling.base import check_sampler_options, current_sampler, sampler_option_set

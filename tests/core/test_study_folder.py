@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
+from core.brdf import make_brdf
 from core.errors import FileFormatError
-from core.model import make_brdf
 from core.rgl.export import ExportOptions, tabulate
 from core.rgl.material import write_bsdf
 from core.study import StudyConfig

@@ -10,9 +10,9 @@ from importlib import resources
 import numpy as np
 from numba import njit
 
+from core.brdf import make_brdf
 from core.dispatch import LAMBERT, MERL
 from core.merl import eval_merl, measured_brdf
-from core.model import make_brdf
 from renderer.stages.bsdf import COSINE, bsdf_stage
 from renderer.stages.primitives import BLOCK
 from renderer.stages.records import (

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.model import all_models
+from core.brdf import all_models
 from core.scene import PointLight
 from renderer.render import prepare
 from tests.renderer.scenes import make_scene, quad, sphere
@@ -100,7 +100,7 @@ def test_plane_renders_its_albedo(tmp_path: Path, model: str, params: dict, samp
     if model not in {m.name for m in all_models()} or sampler not in sampler_names():
         pytest.skip(f"model {model} or sampler {sampler} not in the library yet")
     from core.analysis import albedo
-    from core.model import make_brdf
+    from core.brdf import make_brdf
 
     opts = {"cache": str(tmp_path / "tables")} if sampler == "adaptive_exact" else {}
     job = prepare(_plane_scene(tmp_path, model, params, sampler, 60.0), sampler_options=opts)
@@ -224,7 +224,7 @@ HARD = [
 def test_hard_materials_give_finite_pixels(tmp_path: Path, model: str, params: dict) -> None:
     if model not in {m.name for m in all_models()}:
         pytest.skip(f"model {model} not in the library yet")
-    from core.model import get_model
+    from core.brdf import get_model
 
     m = get_model(model)
     names = {p.name for p in m.params}

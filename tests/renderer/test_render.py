@@ -113,7 +113,7 @@ def test_kernel_loading_stores_no_table_and_stops_when_asked(tmp_path: Path, mon
     """``load_kernels`` (the render process's idle warm-up) builds small adaptive tables only to load the
     builders' kernels: none reaches the table cache; it takes no step once ``stop()`` is True, and stops
     within a step at the next material."""
-    from renderer.warmup import load_kernels
+    from renderer.tracer_warmup import load_kernels
 
     monkeypatch.setenv("BRDF_STUDIO_CACHE", str(tmp_path / "tables"))
     done = []

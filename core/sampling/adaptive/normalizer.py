@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from core.model import BRDF
+from core.brdf import BRDF
 from core.sampling.adaptive.layout import (
     HALF_PI,
     ISOTROPIC,

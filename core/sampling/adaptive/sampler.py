@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from core.brdf import BRDF
 from core.cache import TableCache
 from core.dispatch import MERL
 from core.errors import ParameterError
 from core.kernels import eval_into
-from core.model import BRDF
 from core.sampling.adaptive.draw import (
     EXACT,
     MODES,

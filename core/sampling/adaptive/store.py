@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from core.brdf import BRDF
 from core.cache import TableCache, table_key
-from core.model import BRDF
 from core.sampling.adaptive.records import TABLE_FORMAT, AdaptiveTable, TableOptions, TableReport
 
 # ------------------------------------------------------------------------------------------ storage

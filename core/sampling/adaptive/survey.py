@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from core.model import BRDF
+from core.brdf import BRDF
 from core.sampling.adaptive.layout import FULL, HALF_PI, ISOTROPIC, MIRROR, TWO_PI, cell_edges, phi_nodes
 from core.sampling.adaptive.maps import EQUAL_AREA, HALF_VECTOR
 from core.sampling.adaptive.records import TableOptions

@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from core.model import BRDF
+from core.brdf import BRDF
 from core.sampling.adaptive.layout import INITIAL_THETAS_DEG, ISOTROPIC, THETA_END, cell_edges, phi_nodes
 from core.sampling.adaptive.maps import EQUAL_AREA, HALF_VECTOR, ORTHOGRAPHIC, RIM
 from core.sampling.adaptive.normalizer import build_normalizer, norm_table, normalizer_errors

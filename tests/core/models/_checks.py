@@ -21,10 +21,10 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import BRDF
 from core.chi2 import Variable, chi2_test, sampler_functions
 from core.geometry import degrees_to_dir, spherical_to_dir
 from core.kernels import pdf_batch, sample_batch
-from core.model import BRDF
 from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
 

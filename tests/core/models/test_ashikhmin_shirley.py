@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 from tests.core.models._checks import assert_sampler_exact, hard_case_grid_is_finite, sampler_sweep
 
 AS = get_model("ashikhmin_shirley")

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 from tests.core.models._checks import fresnel_reference
 
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
 from core.kernels import pdf_batch, sample_batch
-from core.model import get_model
 from core.models._kelemen_albedo import albedo_tables, interpolate
 
 MODEL = get_model("coupled")

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir, spherical_to_dir
-from core.model import get_model
 from core.models import disney
 from core.sampling import make_sampler
 from core.sampling.adaptive.layout import ISOTROPIC, MIRROR

@@ -11,8 +11,8 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import erfc
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 from core.models._he_series import (
     TABLE_A_MAX,
     TABLE_G_MAX,

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 
 MODEL = get_model("poulin_fournier")
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir, spherical_to_dir
 from core.kernels import pdf_batch, sample_batch
-from core.model import get_model
 
 
 def _layer(t, v, vp, w, r, p):

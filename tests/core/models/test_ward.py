@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
+from core.brdf import get_model
 from core.geometry import degrees_to_dir
-from core.model import get_model
 from core.sampling import make_sampler
 from tests.conftest import all_pairs, direction_grid
 from tests.core.models._checks import (

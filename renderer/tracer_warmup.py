@@ -1,4 +1,4 @@
-"""Compile the renderer's cached kernels once, at setup: ``python -m renderer.warmup`` (after
+"""Compile the renderer's cached kernels once, at setup: ``python -m renderer.tracer_warmup`` (after
 ``python -m core.warmup``, which compiles the models and samplers; see :mod:`core.warmup`).
 
 The kernels (:mod:`renderer.stages`, the environment map's in :mod:`renderer.envmap`) are compiled by
@@ -118,11 +118,11 @@ def load_kernels(
 WARM_UPS: list[WarmUp] = [
     WarmUp("renderer: path tracing kernels, environment map (a tiny demo render)", _demo_render),
 ]
-"""The groups ``python -m renderer.warmup`` compiles, in order."""
+"""The groups ``python -m renderer.tracer_warmup`` compiles, in order."""
 
 
 def main() -> int:
-    """``python -m renderer.warmup``: compile (or load) every group of :data:`WARM_UPS`."""
+    """``python -m renderer.tracer_warmup``: compile (or load) every group of :data:`WARM_UPS`."""
     run(WARM_UPS)
     return 0
 
