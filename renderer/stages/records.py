@@ -1,7 +1,7 @@
 """The records the compiled stages take: named structures of arrays, as pbrt-v4's wavefront work items.
 
-A stage reads a record's fields by name (``rays.o``, ``lights.area.cdf``) where it used to take each array as
-an argument of its own. Two kinds:
+A stage reads a record's fields by name (``rays.o``, ``lights.area.cdf``), so that it takes a few records,
+not each array as an argument of its own. Two kinds:
 
 - the scene's, built once per :class:`renderer.integrator.PathTracer` (:func:`triangles`, :func:`lights`,
   :class:`PinholeCamera`, :class:`Materials`, :class:`Estimator`) or once per pass (:class:`PassKeys`);
